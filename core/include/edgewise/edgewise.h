@@ -1,0 +1,132 @@
+/*
+ * edgewise.h — the one public C header of libedgewise.
+ *
+ * Model: OIDN's C API. Opaque handles, an explicit device, caller-owned image
+ * views, set parameters -> commit -> execute. Every fallible call returns an
+ * ew_result; the detailed message of the last failure is kept per device.
+ * The library never prints, never exits and has no global mutable state.
+ */
+#ifndef EDGEWISE_EDGEWISE_H
+#define EDGEWISE_EDGEWISE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32)
+#define EW_API __declspec(dllexport)
+#else
+#define EW_API __attribute__((visibility("default")))
+#endif
+
+#define EW_VERSION_MAJOR 0
+#define EW_VERSION_MINOR 1
+#define EW_VERSION_PATCH 0
+
+/* ---- results ---------------------------------------------------------- */
+typedef enum ew_result {
+    EW_OK = 0,
+    EW_ERR_INVALID_ARGUMENT = 1,  /* a null handle, a bad view, a value out of range   */
+    EW_ERR_OUT_OF_MEMORY = 2,
+    EW_ERR_UNSUPPORTED = 3,       /* a valid request this build cannot do             */
+    EW_ERR_BACKEND_UNAVAILABLE = 4,
+    EW_ERR_IO = 5,
+    EW_ERR_CANCELLED = 6,         /* the progress callback returned 0                 */
+    EW_ERR_INVALID_STATE = 7,     /* e.g. execute before commit, missing input image  */
+    EW_ERR_INVALID_DATA = 8       /* a weights file or other data failed validation   */
+} ew_result;
+
+/* Static text for a result code; never NULL. */
+EW_API const char *ew_result_string(ew_result r);
+
+/* ---- version ---------------------------------------------------------- */
+/* Version of the library actually loaded (may differ from the header's). */
+EW_API void ew_version(int *major, int *minor, int *patch);
+EW_API const char *ew_version_string(void);
+
+/* ---- device ----------------------------------------------------------- */
+typedef struct ew_device ew_device;
+
+typedef enum ew_device_type {
+    EW_DEVICE_DEFAULT = 0, /* the best available backend (CPU for now) */
+    EW_DEVICE_CPU = 1,
+    EW_DEVICE_CUDA = 2
+} ew_device_type;
+
+typedef struct ew_device_desc {
+    size_t size;           /* sizeof(ew_device_desc): lets the struct grow */
+    ew_device_type type;
+    int32_t num_threads;   /* CPU worker threads; 0 = one per online core  */
+} ew_device_desc;
+
+#define EW_DEVICE_DESC_INIT {sizeof(ew_device_desc), EW_DEVICE_DEFAULT, 0}
+
+EW_API ew_result ew_device_create(const ew_device_desc *desc, ew_device **out);
+EW_API void ew_device_destroy(ew_device *dev); /* NULL is a no-op */
+EW_API ew_device_type ew_device_get_type(const ew_device *dev);
+EW_API int32_t ew_device_get_num_threads(const ew_device *dev);
+/* Message of the last failed call on this device ("" if none). Valid until
+ * the next call on the device. Never NULL. */
+EW_API const char *ew_device_last_error(const ew_device *dev);
+
+/* ---- image views ------------------------------------------------------ */
+typedef enum ew_format {
+    EW_FORMAT_FLOAT = 1 /* 32-bit float per channel */
+} ew_format;
+
+/* A view of caller-owned pixels. Strides are in bytes; 0 means packed.
+ * row_stride may be negative (OFX hosts pass bottom-up images). */
+typedef struct ew_image {
+    void *data;
+    int32_t width, height, channels;
+    int64_t pixel_stride;
+    int64_t row_stride;
+    ew_format format;
+} ew_image;
+
+/* A packed float view of a caller buffer of width*height*channels floats. */
+EW_API ew_image ew_image_packed(float *data, int32_t width, int32_t height, int32_t channels);
+
+/* ---- progress --------------------------------------------------------- */
+/* Called with a fraction in [0,1]; return 0 to cancel, non-zero to go on.
+ * May be called from a worker thread, one call at a time. */
+typedef int (*ew_progress_fn)(void *user, double fraction);
+
+/* ---- denoiser --------------------------------------------------------- */
+/*
+ * Methods (name given at creation):
+ *   "bgrid"  bilateral grid with a hand-made guide: the mean of the
+ *            normalised auxiliary features (the baseline of Meng et al. 2020,
+ *            Fig. 7), or the luminance of the colour when no features are set.
+ *
+ * Images (ew_denoiser_set_image): "color" (3 ch, required), "albedo" (3 ch),
+ * "normal" (3 ch, in [-1,1]), "depth" (1 ch), "output" (3 ch, required; may
+ * alias "color" exactly).
+ *
+ * Parameters: see ew_denoiser_set_int / set_float and the documentation of
+ * each method in README.md. Non-finite colour samples (NaN, +-Inf) are treated
+ * as missing: they get no weight and their pixels are reconstructed from the
+ * neighbourhood, so the output is finite.
+ */
+typedef struct ew_denoiser ew_denoiser;
+
+EW_API ew_result ew_denoiser_create(ew_device *dev, const char *method, ew_denoiser **out);
+EW_API void ew_denoiser_destroy(ew_denoiser *d); /* NULL is a no-op */
+/* Pass NULL as view to unset an image. The view is copied, not the pixels. */
+EW_API ew_result ew_denoiser_set_image(ew_denoiser *d, const char *name, const ew_image *view);
+EW_API ew_result ew_denoiser_set_int(ew_denoiser *d, const char *name, int32_t value);
+EW_API ew_result ew_denoiser_set_float(ew_denoiser *d, const char *name, float value);
+EW_API ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, void *user);
+/* Validate images and parameters and allocate scratch memory. */
+EW_API ew_result ew_denoiser_commit(ew_denoiser *d);
+/* Run. Allocates nothing. */
+EW_API ew_result ew_denoiser_execute(ew_denoiser *d);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* EDGEWISE_EDGEWISE_H */

@@ -1,0 +1,27 @@
+/*
+ * compat.h — the common subset of C11 and CUDA C++ that per-pixel kernels
+ * are written in, so the CPU backend and the CUDA backend compile the same
+ * functions (the approach of Cycles' kernel/).
+ */
+#ifndef EW_KERNELS_COMPAT_H
+#define EW_KERNELS_COMPAT_H
+
+#ifdef __CUDACC__
+#define EW_HD __host__ __device__ inline
+#define EW_RESTRICT __restrict__
+#include <math.h>
+#else
+#include <math.h>
+#include <stdint.h>
+#define EW_HD static inline
+#define EW_RESTRICT restrict
+#endif
+
+EW_HD float ew_minf(float a, float b) { return a < b ? a : b; }
+EW_HD float ew_maxf(float a, float b) { return a > b ? a : b; }
+EW_HD float ew_clampf(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
+EW_HD int ew_mini(int a, int b) { return a < b ? a : b; }
+EW_HD int ew_maxi(int a, int b) { return a > b ? a : b; }
+EW_HD int ew_finitef(float v) { return isfinite(v) ? 1 : 0; }
+
+#endif

@@ -1,0 +1,79 @@
+/*
+ * denoise_px.h — per-pixel steps around the bilateral grid: albedo
+ * demodulation and remodulation, and the hand-made guide.
+ *
+ * Demodulation divides by (albedo + EW_ALBEDO_EPS) and remodulation
+ * multiplies by the same value, so a pixel that is not filtered comes back
+ * exactly, black albedo (emitters, background, black paint) amplifies noise
+ * at most 1/EPS times instead of blowing up, and there is no threshold to
+ * make seams.
+ */
+#ifndef EW_KERNELS_DENOISE_PX_H
+#define EW_KERNELS_DENOISE_PX_H
+
+#include "kernels/compat.h"
+
+#define EW_ALBEDO_EPS 0.01f
+
+/* Packed per-pixel buffers of one denoise. albedo, normal and depth may be
+ * NULL (feature absent). color/albedo/normal/out/sliced: 3 floats a pixel. */
+typedef struct ew_denoise_buffers {
+    int width, height;
+    const float *color;
+    const float *albedo;
+    const float *normal;   /* in [-1, 1] */
+    const float *depth;
+    float depth_scale;     /* 1 / (largest finite foreground depth) */
+    float *radiance;       /* demodulated colour */
+    float *guide;          /* in [0, 255] */
+    float *sliced;         /* filtered radiance */
+    float *out;
+} ew_denoise_buffers;
+
+EW_HD float ew_feature_or_zero(float v) { return ew_finitef(v) ? v : 0.0f; }
+
+EW_HD void ew_denoise_prepare_px(long j, const ew_denoise_buffers *b) {
+    const float *c = b->color + j * 3;
+    float *r = b->radiance + j * 3;
+    for (int k = 0; k < 3; k++) {
+        float a = b->albedo ? ew_maxf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f) : 1.0f;
+        float den = b->albedo ? a + EW_ALBEDO_EPS : 1.0f;
+        r[k] = c[k] / den; /* non-finite stays non-finite: the splat skips it */
+    }
+    /* Guide: the mean of the normalised features (Meng et al. Fig. 7
+     * baseline); without features, the gamma-encoded luminance. */
+    float sum = 0.0f;
+    int n = 0;
+    if (b->albedo) {
+        for (int k = 0; k < 3; k++) sum += ew_clampf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f, 1.0f);
+        n += 3;
+    }
+    if (b->normal) {
+        for (int k = 0; k < 3; k++)
+            sum += ew_clampf(0.5f * (ew_feature_or_zero(b->normal[j * 3 + k]) + 1.0f), 0.0f, 1.0f);
+        n += 3;
+    }
+    if (b->depth) {
+        sum += ew_clampf(ew_feature_or_zero(b->depth[j]) * b->depth_scale, 0.0f, 1.0f);
+        n += 1;
+    }
+    float g;
+    if (n > 0) {
+        g = sum / (float)n;
+    } else {
+        float lum = 0.2126f * ew_feature_or_zero(c[0]) + 0.7152f * ew_feature_or_zero(c[1]) +
+                    0.0722f * ew_feature_or_zero(c[2]);
+        g = powf(ew_clampf(lum, 0.0f, 1.0f), 1.0f / 2.2f);
+    }
+    b->guide[j] = 255.0f * g;
+}
+
+EW_HD void ew_denoise_finish_px(long j, const ew_denoise_buffers *b) {
+    for (int k = 0; k < 3; k++) {
+        float a = b->albedo ? ew_maxf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f) + EW_ALBEDO_EPS : 1.0f;
+        float v = b->sliced[j * 3 + k] * a;
+        b->out[j * 3 + k] = ew_finitef(v) ? v : 0.0f;
+    }
+}
+
+#endif

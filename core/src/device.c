@@ -1,0 +1,94 @@
+#include "src/backend.h"
+#include "src/internal.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#define EW_MAX_THREADS 1024
+
+ew_result ew__fail(ew_device *dev, ew_result r, const char *fmt, ...) {
+    if (dev) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(dev->last_error, sizeof dev->last_error, fmt, ap);
+        va_end(ap);
+    }
+    return r;
+}
+
+void ew__clear_error(ew_device *dev) {
+    if (dev) dev->last_error[0] = '\0';
+}
+
+ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
+    if (!out) return EW_ERR_INVALID_ARGUMENT;
+    *out = NULL;
+    ew_device_desc d = EW_DEVICE_DESC_INIT;
+    if (desc) {
+        /* an older, smaller desc is fine; a size we do not know is not */
+        if (desc->size < offsetof(ew_device_desc, num_threads) + sizeof(int32_t) ||
+            desc->size > sizeof(ew_device_desc))
+            return EW_ERR_INVALID_ARGUMENT;
+        d = *desc;
+    }
+    if (d.num_threads < 0 || d.num_threads > EW_MAX_THREADS) return EW_ERR_INVALID_ARGUMENT;
+    if (d.type == EW_DEVICE_CUDA) return EW_ERR_BACKEND_UNAVAILABLE;
+    if (d.type != EW_DEVICE_DEFAULT && d.type != EW_DEVICE_CPU) return EW_ERR_INVALID_ARGUMENT;
+
+    int threads = d.num_threads;
+    if (threads == 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = n > 0 ? (int)(n < EW_MAX_THREADS ? n : EW_MAX_THREADS) : 1;
+    }
+    ew_device *dev = (ew_device *)calloc(1, sizeof *dev);
+    if (!dev) return EW_ERR_OUT_OF_MEMORY;
+    dev->type = EW_DEVICE_CPU;
+    dev->num_threads = threads;
+    dev->backend = &ew_cpu_backend;
+    dev->pool = ew_pool_create(threads);
+    if (!dev->pool) {
+        free(dev);
+        return EW_ERR_OUT_OF_MEMORY;
+    }
+    *out = dev;
+    return EW_OK;
+}
+
+void ew_device_destroy(ew_device *dev) {
+    if (!dev) return;
+    ew_pool_destroy(dev->pool);
+    free(dev);
+}
+
+ew_device_type ew_device_get_type(const ew_device *dev) { return dev ? dev->type : EW_DEVICE_DEFAULT; }
+int32_t ew_device_get_num_threads(const ew_device *dev) { return dev ? dev->num_threads : 0; }
+const char *ew_device_last_error(const ew_device *dev) { return dev ? dev->last_error : ""; }
+
+const char *ew_result_string(ew_result r) {
+    switch (r) {
+    case EW_OK: return "success";
+    case EW_ERR_INVALID_ARGUMENT: return "invalid argument";
+    case EW_ERR_OUT_OF_MEMORY: return "out of memory";
+    case EW_ERR_UNSUPPORTED: return "unsupported";
+    case EW_ERR_BACKEND_UNAVAILABLE: return "backend unavailable";
+    case EW_ERR_IO: return "input/output error";
+    case EW_ERR_CANCELLED: return "cancelled";
+    case EW_ERR_INVALID_STATE: return "invalid state";
+    case EW_ERR_INVALID_DATA: return "invalid data";
+    }
+    return "unknown error";
+}
+
+void ew_version(int *major, int *minor, int *patch) {
+    if (major) *major = EW_VERSION_MAJOR;
+    if (minor) *minor = EW_VERSION_MINOR;
+    if (patch) *patch = EW_VERSION_PATCH;
+}
+
+#define EW_STR2(x) #x
+#define EW_STR(x) EW_STR2(x)
+const char *ew_version_string(void) {
+    return EW_STR(EW_VERSION_MAJOR) "." EW_STR(EW_VERSION_MINOR) "." EW_STR(EW_VERSION_PATCH);
+}

@@ -1,0 +1,181 @@
+/* The public C API through the shared library only. */
+#include "ew_test.h"
+
+#include "edgewise/edgewise.h"
+
+static ew_device *cpu(int threads) {
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.type = EW_DEVICE_CPU;
+    desc.num_threads = threads;
+    ew_device *dev = NULL;
+    return ew_device_create(&desc, &dev) == EW_OK ? dev : NULL;
+}
+
+TEST(version_matches_header) {
+    int a = -1, b = -1, c = -1;
+    ew_version(&a, &b, &c);
+    CHECK_EQ_INT(a, EW_VERSION_MAJOR);
+    CHECK_EQ_INT(b, EW_VERSION_MINOR);
+    CHECK_EQ_INT(c, EW_VERSION_PATCH);
+    char want[32];
+    snprintf(want, sizeof want, "%d.%d.%d", a, b, c);
+    CHECK(strcmp(ew_version_string(), want) == 0);
+}
+
+TEST(device_create_and_threads) {
+    ew_device *dev = cpu(3);
+    CHECK(dev);
+    CHECK_EQ_INT(ew_device_get_num_threads(dev), 3);
+    CHECK_EQ_INT(ew_device_get_type(dev), EW_DEVICE_CPU);
+    CHECK(strcmp(ew_device_last_error(dev), "") == 0);
+    ew_device_destroy(dev);
+    ew_device *def = NULL;
+    CHECK_EQ_INT(ew_device_create(NULL, &def), EW_OK);
+    CHECK(ew_device_get_num_threads(def) >= 1);
+    ew_device_destroy(def);
+    ew_device_destroy(NULL);
+    ew_denoiser_destroy(NULL);
+}
+
+TEST(device_bad_arguments) {
+    ew_device *dev = (ew_device *)1;
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = -1;
+    CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_ERR_INVALID_ARGUMENT);
+    CHECK(dev == NULL);
+    desc.num_threads = 0;
+    desc.size = 3;
+    CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_ERR_INVALID_ARGUMENT);
+    desc = (ew_device_desc)EW_DEVICE_DESC_INIT;
+    desc.type = EW_DEVICE_CUDA;
+    CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_ERR_BACKEND_UNAVAILABLE);
+    desc.type = (ew_device_type)42;
+    CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_device_create(NULL, NULL), EW_ERR_INVALID_ARGUMENT);
+}
+
+TEST(result_strings_are_never_null) {
+    for (int r = 0; r < 20; r++) CHECK(ew_result_string((ew_result)r) != NULL);
+    CHECK(strcmp(ew_result_string(EW_OK), "success") == 0);
+}
+
+TEST(denoiser_errors_name_the_problem) {
+    ew_device *dev = cpu(2);
+    ew_denoiser *d = NULL;
+    CHECK_EQ_INT(ew_denoiser_create(dev, "magic", &d), EW_ERR_UNSUPPORTED);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "magic");
+    CHECK(d == NULL);
+    CHECK_EQ_INT(ew_denoiser_create(NULL, "bgrid", &d), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_denoiser_create(dev, "bgrid", &d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_set_float(d, "spatial_rate", 0.0f), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "spatial_rate");
+    CHECK_EQ_INT(ew_denoiser_set_float(d, "spatial_rate", NAN), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_denoiser_set_float(d, "colour", 1.0f), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_ERR_INVALID_STATE);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "color");
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_ERR_INVALID_STATE);
+
+    float px[16 * 8 * 3] = {0}, small[4 * 4 * 3] = {0};
+    ew_image v = ew_image_packed(px, 16, 8, 3);
+    ew_image bad = v;
+    bad.width = 0;
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &bad), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "positive");
+    bad = v;
+    bad.height = -5;
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &bad), EW_ERR_INVALID_ARGUMENT);
+    bad = v;
+    bad.width = 100000;
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &bad), EW_ERR_INVALID_ARGUMENT);
+    bad = v;
+    bad.data = NULL;
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &bad), EW_ERR_INVALID_ARGUMENT);
+    bad = v;
+    bad.channels = 2;
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &bad), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "at least 3");
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "beauty", &v), EW_ERR_INVALID_ARGUMENT);
+
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &v), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "output", &v), EW_OK);
+    ew_image s = ew_image_packed(small, 4, 4, 3);
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "albedo", &s), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "albedo");
+    CHECK_EQ_INT(ew_denoiser_set_image(d, "albedo", NULL), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
+    CHECK(strcmp(ew_device_last_error(dev), "") == 0);
+    ew_denoiser_destroy(d);
+    ew_device_destroy(dev);
+}
+
+static int cancel_at_half(void *user, double f) {
+    (*(int *)user)++;
+    return f < 0.5;
+}
+
+TEST(progress_reports_and_cancels) {
+    ew_device *dev = cpu(2);
+    ew_denoiser *d = NULL;
+    CHECK_EQ_INT(ew_denoiser_create(dev, "bgrid", &d), EW_OK);
+    float px[32 * 32 * 3] = {0};
+    ew_image v = ew_image_packed(px, 32, 32, 3);
+    ew_denoiser_set_image(d, "color", &v);
+    ew_denoiser_set_image(d, "output", &v);
+    int calls = 0;
+    ew_denoiser_set_progress(d, cancel_at_half, &calls);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_ERR_CANCELLED);
+    CHECK(calls >= 2);
+    ew_denoiser_destroy(d);
+    ew_device_destroy(dev);
+}
+
+/* Strided RGBA input, a bottom-up output view with negative row stride,
+ * NaN/Inf/negative samples: result is finite and identical to the packed run. */
+TEST(views_with_strides_and_bad_samples) {
+    enum { W = 40, H = 30 };
+    static float rgba[H][W][4], packed[H][W][3], out_packed[H][W][3], out_flip[H][W][3];
+    unsigned s = 3;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 4; c++) {
+                s = s * 1664525u + 1013904223u;
+                float v = (float)(s >> 8) / 16777216.0f * (x < 20 ? 0.2f : 2.0f);
+                rgba[y][x][c] = v;
+                if (c < 3) packed[y][x][c] = v;
+            }
+    rgba[3][4][0] = packed[3][4][0] = NAN;
+    rgba[5][6][1] = packed[5][6][1] = INFINITY;
+    rgba[7][8][2] = packed[7][8][2] = -3.0f;
+    ew_device *dev = cpu(2);
+    ew_denoiser *d = NULL;
+    CHECK_EQ_INT(ew_denoiser_create(dev, "bgrid", &d), EW_OK);
+    ew_image in = ew_image_packed(&rgba[0][0][0], W, H, 4);
+    ew_image outv = ew_image_packed(&out_flip[H - 1][0][0], W, H, 3);
+    outv.row_stride = -(int64_t)(W * 3 * sizeof(float));
+    ew_denoiser_set_image(d, "color", &in);
+    ew_denoiser_set_image(d, "output", &outv);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
+    ew_image inp = ew_image_packed(&packed[0][0][0], W, H, 3);
+    ew_image outp = ew_image_packed(&out_packed[0][0][0], W, H, 3);
+    ew_denoiser_set_image(d, "color", &inp);
+    ew_denoiser_set_image(d, "output", &outp);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                CHECK(isfinite(out_packed[y][x][c]));
+                CHECK(out_flip[H - 1 - y][x][c] == out_packed[y][x][c]);
+            }
+    /* in place: output aliases colour exactly */
+    ew_denoiser_set_image(d, "output", &inp);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
+    CHECK(memcmp(packed, out_packed, sizeof packed) == 0);
+    ew_denoiser_destroy(d);
+    ew_device_destroy(dev);
+}
