@@ -11,7 +11,7 @@
 #ifndef EW_KERNELS_DENOISE_PX_H
 #define EW_KERNELS_DENOISE_PX_H
 
-#include "kernels/compat.h"
+#include "kernels/color.h"
 
 #define EW_ALBEDO_EPS 0.01f
 
@@ -61,11 +61,24 @@ EW_HD void ew_denoise_prepare_px(long j, const ew_denoise_buffers *b) {
     if (n > 0) {
         g = sum / (float)n;
     } else {
-        float lum = 0.2126f * ew_feature_or_zero(c[0]) + 0.7152f * ew_feature_or_zero(c[1]) +
-                    0.0722f * ew_feature_or_zero(c[2]);
+        float lum = ew_luminance(c);
+        if (!ew_finitef(lum)) lum = 0.0f;
         g = powf(ew_clampf(lum, 0.0f, 1.0f), 1.0f / 2.2f);
     }
     b->guide[j] = 255.0f * g;
+}
+
+/*
+ * Refined guide for a second pass: the feature guide mixed with the
+ * luminance of a first, lightly filtered estimate of the radiance, mapped by
+ * l / (l + mean) so the image's mean lands at the middle of the range.
+ * Features alone cannot see shading (soft shadows, light fall-off); the
+ * first-pass estimate can, without the noise of the raw colour.
+ */
+EW_HD void ew_denoise_refine_guide_px(long j, const ew_denoise_buffers *b, float mean_lum, float color_weight) {
+    float l = ew_maxf(ew_luminance(b->sliced + j * 3), 0.0f);
+    float t = ew_finitef(l) ? l / (l + mean_lum) : 1.0f;
+    b->guide[j] = (1.0f - color_weight) * b->guide[j] + color_weight * 255.0f * t;
 }
 
 EW_HD void ew_denoise_finish_px(long j, const ew_denoise_buffers *b) {

@@ -10,6 +10,7 @@
 
 #include "kernels/bgrid.h"
 #include "kernels/denoise_px.h"
+#include "kernels/outlier.h"
 
 typedef struct ew_device ew_device;
 
@@ -23,6 +24,11 @@ typedef struct ew_backend {
     void (*denoise_prepare)(ew_device *dev, const ew_denoise_buffers *b);
     /* remodulate: b->out = b->sliced * (albedo + eps) */
     void (*denoise_finish)(ew_device *dev, const ew_denoise_buffers *b);
+    /* second-pass guide from the first pass's b->sliced */
+    void (*denoise_refine_guide)(ew_device *dev, const ew_denoise_buffers *b, float mean_lum, float color_weight);
+    /* firefly suppression of an RGB image (out must not alias in) */
+    void (*outlier_clamp)(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out);
+
 } ew_backend;
 
 extern const ew_backend ew_cpu_backend;

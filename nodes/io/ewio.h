@@ -2,17 +2,31 @@
  * ewio.h — C interface to the OpenImageIO shim (ewio.cpp), the only place
  * that reads or writes image files.
  *
- * A file is loaded whole into memory: every channel as float32, plus the
- * header metadata, so it can be written back with some passes replaced or
- * added while all other layers, channels and metadata are kept.
+ * A file is loaded whole into memory: every channel as float32 (remembering
+ * the type it was stored with), plus the header metadata, so it can be
+ * written back with some passes replaced or added while all other layers,
+ * channels and metadata are kept.
  *
  * Channel naming follows Blender's multilayer EXR:
  *   "<layer>.<pass>.<component>", e.g. "ViewLayer.Denoising Albedo.R".
- * A plain file (PNG/TIFF/flat EXR with R,G,B[,A]) has one layer named ""
- * with one pass named "" whose components are R,G,B[,A].
+ * Split as Blender itself does (imb_exr_split_channel_name): the component
+ * is after the last '.', the pass is the token before it, the layer is
+ * everything before that — so layer names may contain dots and spaces
+ * ("ViewLayer.001.Combined.R" is layer "ViewLayer.001", Blender's default
+ * name for a second view layer), pass names may contain spaces but no dots.
+ * "Combined.R" is layer "" pass "Combined"; "R" is layer "" pass "".
+ * A plain file (PNG/TIFF/flat EXR with R,G,B[,A]) thus has one layer named ""
+ * with one pass named "" whose components are R,G,B[,A]. Integer images
+ * (PNG, 8/16-bit TIFF) read as 0..1; with an alpha channel, colour is
+ * associated (premultiplied), as in EXR, and un-premultiplied on PNG/TIFF
+ * output (OpenImageIO's convention).
  *
  * Every function returning int returns 0 on success and non-zero on failure,
- * with a one-line message (no trailing newline) in err (if err != NULL).
+ * with a one-line message (no trailing newline, truncated to errlen) in err
+ * (if err != NULL). Nothing is printed and no exception escapes — except
+ * that libpng itself prints "libpng error: ..." to stderr on a corrupt PNG
+ * (OpenImageIO 2.4 installs no libpng error callback); the call still fails
+ * cleanly. Different ewio_file objects may be used from different threads.
  */
 #ifndef EDGEWISE_EWIO_H
 #define EDGEWISE_EWIO_H
@@ -28,10 +42,16 @@ typedef struct ewio_file ewio_file;
 /* Read a whole image file (EXR, multilayer EXR, PNG, TIFF, anything OIIO
  * reads). Fails cleanly on missing, unreadable, truncated or non-image files,
  * on zero/negative dimensions and on images above 65536 px per side or 2^28
- * pixels. Multi-part EXRs: all parts of the same size are merged. */
+ * pixels (checked before any pixel memory is allocated). On failure *out is
+ * NULL: no partial image is ever returned. Non-finite values are kept as
+ * read. Multi-part EXRs: all parts of the same size and origin as the first
+ * are merged (others are skipped); a channel name already taken gets the
+ * part's name as prefix. Deep and 3D images are refused. */
 int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen);
 void ewio_free(ewio_file *f); /* NULL is a no-op */
 
+/* Accessors: 0 / NULL for a NULL file or an index out of range. Returned
+ * names stay valid until the next ewio_set_pass on the file or ewio_free. */
 int ewio_width(const ewio_file *f);
 int ewio_height(const ewio_file *f);
 int ewio_num_channels(const ewio_file *f);
@@ -44,18 +64,31 @@ const char *ewio_layer_name(const ewio_file *f, int i);
 /* Copy pass `pass` of `layer` into `dst` as interleaved float32,
  * width*height*strlen(comps) floats, components in the order of `comps`
  * (one letter each: "RGB", "XYZ", "Z", "RGBA"...). Returns non-zero with a
- * message naming what is missing if any component is absent. */
+ * message naming the missing layer/pass/components and listing the layers
+ * found if any component is absent (dst is then untouched). NULL layer or
+ * pass means "". */
 int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps,
                   float *dst, char *err, size_t errlen);
 /* 1 if all components of the pass exist. */
 int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps);
 
 /* Replace the pass's channels (or add them, after the layer's other channels)
- * from interleaved float32 data of the file's size. */
+ * from interleaved float32 data of the file's size. Existing channels are
+ * replaced in place and keep their stored type; new ones are inserted after
+ * the pass's last channel, else after the layer's last channel, else at the
+ * end, and are stored as half under EWIO_KEEP. Refused (file unchanged): a
+ * named layer with an empty pass, a pass name with a dot, repeated
+ * components — names that would not read back as the same layer/pass. */
 int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
                   const float *src, char *err, size_t errlen);
 
-/* Header metadata as text ("" if absent), e.g. "cycles.ViewLayer.samples". */
+/* Header metadata as text ("" if absent), e.g. "cycles.ViewLayer.samples",
+ * "compression" (EXR input only). The pointer stays valid until that
+ * attribute is set again or the file is freed. Names are case-sensitive.
+ * ewio_set_attribute: NULL value removes the attribute; an existing int or
+ * float attribute keeps its type if the text parses as one, anything else
+ * is stored as a string. Setting "compression" chooses the EXR compression
+ * ("zip", "piz", "dwaa", "none"...). */
 const char *ewio_get_attribute(const ewio_file *f, const char *name);
 int ewio_set_attribute(ewio_file *f, const char *name, const char *value);
 
@@ -65,17 +98,31 @@ typedef enum ewio_pixel_type {
     EWIO_FLOAT = 2
 } ewio_pixel_type;
 
-/* Write atomically: to a temporary file in the destination directory, then
- * rename over `path`. On failure nothing at `path` is touched and the
- * temporary is removed. The format follows the extension; EXR keeps the
- * input's compression and all channels and metadata; PNG/TIFF/JPEG write
- * only the given layer's pass `pass` (e.g. "Combined" or "") as RGB(A).
- * Refuses to write over the file the data was read from (same inode). */
+/* Write atomically: to a temporary file ".<name>.tmp-XXXXXXXX.<ext>" in the
+ * destination directory, which is read back whole to check it, then renamed
+ * over `path` (a symlink at `path` is replaced, not followed). On failure
+ * nothing at `path` is touched and the temporary is removed. An existing
+ * destination's permission bits are kept.
+ * The format follows the extension (.exr, .png, .tif/.tiff, .jpg/.jpeg):
+ * - EXR: one part with all channels in order and all metadata; compression
+ *   of the input EXR (or the "compression" attribute), zip otherwise;
+ *   `layer`/`pass` are ignored (may be NULL). `type` as below.
+ * - PNG/TIFF/JPEG: only pass `pass` of `layer` (NULL = ""), as R,G,B(,A)
+ *   (or X,Y,Z as R,G,B, or a single channel as grey); JPEG drops alpha.
+ *   PNG/JPEG are 8-bit (16-bit PNG if the pass was read as 16-bit and type
+ *   is EWIO_KEEP), TIFF is float (EWIO_KEEP: 8/16-bit if read so; EWIO_HALF:
+ *   half); integer output is clamped to 0..1 with NaN written as 0. Values
+ *   are written as they are: colour transforms are the caller's job. String
+ *   metadata without a "prefix:" is copied.
+ * Refuses to write over the file the data was read from (same device and
+ * inode now, or the same resolved path as at read time). */
 int ewio_write(const ewio_file *f, const char *path, ewio_pixel_type type,
                const char *layer, const char *pass, char *err, size_t errlen);
 
 /* Create an empty in-memory file of the given size (for tests and for
- * writing library outputs that did not come from a file). */
+ * writing library outputs that did not come from a file): no channels, no
+ * metadata; written as EXR it gets zip compression. Same size limits as
+ * ewio_read. */
 int ewio_create(int width, int height, ewio_file **out, char *err, size_t errlen);
 
 #ifdef __cplusplus

@@ -179,3 +179,63 @@ TEST(views_with_strides_and_bad_samples) {
     ew_denoiser_destroy(d);
     ew_device_destroy(dev);
 }
+
+TEST(psnr_and_ssim) {
+    enum { W = 32, H = 24 };
+    static float ref[H][W][3], noisy[H][W][3];
+    unsigned s = 7;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                s = s * 1664525u + 1013904223u;
+                ref[y][x][c] = 0.3f + 0.2f * (x > 15);
+                noisy[y][x][c] = ref[y][x][c] + 0.05f * ((float)(s >> 8) / 16777216.0f - 0.5f);
+            }
+    ew_device *dev = cpu(1);
+    ew_image r = ew_image_packed(&ref[0][0][0], W, H, 3), n = ew_image_packed(&noisy[0][0][0], W, H, 3);
+    double p = 0, q = 0;
+    CHECK_EQ_INT(ew_image_psnr(dev, &r, &r, &p), EW_OK);
+    CHECK(isinf(p));
+    CHECK_EQ_INT(ew_image_ssim(dev, &r, &r, &q), EW_OK);
+    CHECK_NEAR(q, 1.0, 1e-6);
+    /* independently: MSE of the tone-mapped difference */
+    double se = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                double d = pow(noisy[y][x][c], 1 / 2.2) - pow(ref[y][x][c], 1 / 2.2);
+                se += d * d;
+            }
+    CHECK_EQ_INT(ew_image_psnr(dev, &n, &r, &p), EW_OK);
+    CHECK_NEAR(p, 10 * log10(1.0 / (se / (W * H * 3))), 1e-3);
+    CHECK_EQ_INT(ew_image_ssim(dev, &n, &r, &q), EW_OK);
+    CHECK(q < 0.99 && q > 0.0);
+    ew_image small = ew_image_packed(&ref[0][0][0], 8, 8, 3);
+    CHECK_EQ_INT(ew_image_psnr(dev, &small, &r, &p), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "8x8");
+    ew_device_destroy(dev);
+}
+
+TEST(introspection_lists_methods_and_parameters) {
+    CHECK(ew_method_count("denoiser") >= 1);
+    CHECK_EQ_INT(ew_method_count("nonsense"), 0);
+    const char *name = NULL, *summary = NULL;
+    int32_t ni = 0, np = 0;
+    int found = 0;
+    for (int32_t i = 0; i < ew_method_count("denoiser"); i++) {
+        CHECK_EQ_INT(ew_method_get("denoiser", i, &name, &summary, &ni, &np), EW_OK);
+        if (strcmp(name, "bgrid") != 0) continue;
+        found = 1;
+        CHECK(ni >= 2 && np >= 2);
+        ew_param_info p;
+        CHECK_EQ_INT(ew_method_param("denoiser", "bgrid", 0, &p), EW_OK);
+        CHECK(strcmp(p.name, "spatial_rate") == 0);
+        CHECK(p.min_value <= p.default_value && p.default_value <= p.max_value);
+        ew_image_info im;
+        CHECK_EQ_INT(ew_method_image("denoiser", "bgrid", 0, &im), EW_OK);
+        CHECK(strcmp(im.name, "color") == 0 && im.required == 1);
+        CHECK_EQ_INT(ew_method_image("denoiser", "bgrid", ni, &im), EW_ERR_INVALID_ARGUMENT);
+    }
+    CHECK(found);
+    CHECK_EQ_INT(ew_method_get("denoiser", -1, &name, NULL, NULL, NULL), EW_ERR_INVALID_ARGUMENT);
+}

@@ -63,6 +63,48 @@ static void cpu_denoise_finish(ew_device *dev, const ew_denoise_buffers *b) {
     ew_pool_run(dev->pool, b->height, 0, finish_rows, &j);
 }
 
+typedef struct {
+    const ew_denoise_buffers *b;
+    float mean_lum, color_weight;
+} refine_job;
+
+static void refine_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const refine_job *r = (const refine_job *)ctx;
+    for (int64_t j = begin * r->b->width; j < end * r->b->width; j++)
+        ew_denoise_refine_guide_px((long)j, r->b, r->mean_lum, r->color_weight);
+}
+
+static void cpu_denoise_refine_guide(ew_device *dev, const ew_denoise_buffers *b, float mean_lum, float color_weight) {
+    refine_job r = {b, mean_lum, color_weight};
+    ew_pool_run(dev->pool, b->height, 0, refine_rows, &r);
+}
+
+typedef struct {
+    int width, height, radius;
+    float k;
+    const float *in;
+    float *out;
+} outlier_job;
+
+static void outlier_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const outlier_job *j = (const outlier_job *)ctx;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < j->width; x++) ew_outlier_clamp_px(x, (int)y, j->width, j->height, j->radius, j->k, j->in, j->out);
+}
+
+static void cpu_outlier_clamp(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out) {
+    outlier_job j = {width, height, radius, k, in, out};
+    ew_pool_run(dev->pool, height, 0, outlier_rows, &j);
+}
+
 const ew_backend ew_cpu_backend = {
-    "cpu", cpu_bgrid_splat, cpu_bgrid_slice, cpu_denoise_prepare, cpu_denoise_finish,
+    .name = "cpu",
+    .bgrid_splat = cpu_bgrid_splat,
+    .bgrid_slice = cpu_bgrid_slice,
+    .denoise_prepare = cpu_denoise_prepare,
+    .denoise_finish = cpu_denoise_finish,
+    .denoise_refine_guide = cpu_denoise_refine_guide,
+    .outlier_clamp = cpu_outlier_clamp,
 };

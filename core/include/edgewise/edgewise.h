@@ -125,6 +125,64 @@ EW_API ew_result ew_denoiser_commit(ew_denoiser *d);
 /* Run. Allocates nothing. */
 EW_API ew_result ew_denoiser_execute(ew_denoiser *d);
 
+/* ---- filters ---------------------------------------------------------- */
+/*
+ * Edge-aware filters share the denoiser's life cycle: create by type name,
+ * set images and parameters by name, commit, execute. Types and their
+ * images/parameters are listed by ew_method_* below and in README.md.
+ */
+typedef struct ew_filter ew_filter;
+
+EW_API ew_result ew_filter_create(ew_device *dev, const char *type, ew_filter **out);
+EW_API void ew_filter_destroy(ew_filter *f); /* NULL is a no-op */
+EW_API ew_result ew_filter_set_image(ew_filter *f, const char *name, const ew_image *view);
+EW_API ew_result ew_filter_set_int(ew_filter *f, const char *name, int32_t value);
+EW_API ew_result ew_filter_set_float(ew_filter *f, const char *name, float value);
+EW_API ew_result ew_filter_set_progress(ew_filter *f, ew_progress_fn fn, void *user);
+EW_API ew_result ew_filter_commit(ew_filter *f);
+EW_API ew_result ew_filter_execute(ew_filter *f);
+
+/* ---- introspection ---------------------------------------------------- */
+/*
+ * Every denoiser and filter, its images and parameters, from the same static
+ * descriptors the library validates against; front ends (nodes, OFX, Python,
+ * Blender) build their UIs from these. kind is "denoiser" or "filter".
+ * Strings are static. Index out of range returns EW_ERR_INVALID_ARGUMENT.
+ */
+typedef enum ew_param_type { EW_PARAM_FLOAT = 0, EW_PARAM_INT = 1, EW_PARAM_BOOL = 2 } ew_param_type;
+
+typedef struct ew_param_info {
+    const char *name;
+    ew_param_type type;
+    float default_value, min_value, max_value;
+    const char *hint;
+} ew_param_info;
+
+typedef struct ew_image_info {
+    const char *name;
+    int32_t min_channels;
+    int32_t required;   /* 1: commit fails without it */
+    const char *hint;
+} ew_image_info;
+
+EW_API int32_t ew_method_count(const char *kind);
+EW_API ew_result ew_method_get(const char *kind, int32_t index, const char **name, const char **summary,
+                               int32_t *num_images, int32_t *num_params);
+EW_API ew_result ew_method_image(const char *kind, const char *name, int32_t index, ew_image_info *out);
+EW_API ew_result ew_method_param(const char *kind, const char *name, int32_t index, ew_param_info *out);
+
+/* ---- metrics ---------------------------------------------------------- */
+/*
+ * Quality of `test` against `reference` over the first 3 channels (1 if an
+ * image has fewer), computed on the tone-mapped values clip(x, 0, 1)^(1/2.2)
+ * that a display shows — the convention of the denoising literature.
+ * Non-finite test samples count as the worst error (0 vs reference).
+ * PSNR in dB (+inf for identical images), SSIM with an 11x11 Gaussian
+ * window (sigma 1.5), averaged over channels.
+ */
+EW_API ew_result ew_image_psnr(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
+EW_API ew_result ew_image_ssim(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
+
 #ifdef __cplusplus
 }
 #endif

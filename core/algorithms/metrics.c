@@ -1,0 +1,111 @@
+/*
+ * metrics.c — PSNR and SSIM on tone-mapped images (Wang et al. 2004 SSIM:
+ * 11x11 Gaussian window, sigma 1.5, K1 = 0.01, K2 = 0.03, dynamic range 1).
+ */
+#include <math.h>
+#include <stdlib.h>
+
+#include "src/internal.h"
+
+static float tonemap(float v) {
+    if (!isfinite(v)) return 0.0f;
+    return powf(v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v), 1.0f / 2.2f);
+}
+
+static ew_result check_pair(ew_device *dev, const ew_image *a, const ew_image *b, double *out, int *channels) {
+    if (!dev) return EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(dev);
+    const char *why;
+    if (!out) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "metric output pointer is NULL");
+    if (!ew__image_valid(a, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "test image: %s", why);
+    if (!ew__image_valid(b, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "reference image: %s", why);
+    if (a->width != b->width || a->height != b->height)
+        return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "test image is %dx%d but reference is %dx%d", a->width,
+                        a->height, b->width, b->height);
+    int c = a->channels < b->channels ? a->channels : b->channels;
+    *channels = c < 3 ? 1 : 3;
+    return EW_OK;
+}
+
+ew_result ew_image_psnr(ew_device *dev, const ew_image *a, const ew_image *b, double *out) {
+    int C;
+    ew_result r = check_pair(dev, a, b, out, &C);
+    if (r != EW_OK) return r;
+    double se = 0.0;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            const float *pa = ew__pixel(a, x, y), *pb = ew__pixel(b, x, y);
+            for (int c = 0; c < C; c++) {
+                double d = (double)tonemap(pa[c]) - (double)tonemap(pb[c]);
+                se += d * d;
+            }
+        }
+    double mse = se / ((double)a->width * a->height * C);
+    *out = mse > 0.0 ? 10.0 * log10(1.0 / mse) : INFINITY;
+    return EW_OK;
+}
+
+/* Separable Gaussian blur of a w*h plane with clamped borders. */
+static void blur(const float *src, float *tmp, float *dst, int w, int h, const float *k, int r) {
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            float s = 0.0f;
+            for (int i = -r; i <= r; i++) {
+                int xx = x + i < 0 ? 0 : (x + i >= w ? w - 1 : x + i);
+                s += k[i + r] * src[(size_t)y * w + xx];
+            }
+            tmp[(size_t)y * w + x] = s;
+        }
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            float s = 0.0f;
+            for (int i = -r; i <= r; i++) {
+                int yy = y + i < 0 ? 0 : (y + i >= h ? h - 1 : y + i);
+                s += k[i + r] * tmp[(size_t)yy * w + x];
+            }
+            dst[(size_t)y * w + x] = s;
+        }
+}
+
+ew_result ew_image_ssim(ew_device *dev, const ew_image *a, const ew_image *b, double *out) {
+    int C;
+    ew_result r = check_pair(dev, a, b, out, &C);
+    if (r != EW_OK) return r;
+    const int w = a->width, h = a->height, R = 5;
+    const size_t n = (size_t)w * h;
+    float k[11], ks = 0.0f;
+    for (int i = -R; i <= R; i++) ks += k[i + R] = expf(-(float)(i * i) / (2.0f * 1.5f * 1.5f));
+    for (int i = 0; i < 2 * R + 1; i++) k[i] /= ks;
+    float *buf = (float *)malloc(sizeof(float) * n * 11);
+    if (!buf) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory computing SSIM of %dx%d", w, h);
+    float *X = buf, *Y = X + n, *XX = Y + n, *YY = XX + n, *XY = YY + n, *mx = XY + n, *my = mx + n,
+          *sxx = my + n, *syy = sxx + n, *sxy = syy + n, *tmp = sxy + n;
+    const double C1 = 0.01 * 0.01, C2 = 0.03 * 0.03;
+    double total = 0.0;
+    for (int c = 0; c < C; c++) {
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                size_t i = (size_t)y * w + x;
+                X[i] = tonemap(ew__pixel(a, x, y)[c]);
+                Y[i] = tonemap(ew__pixel(b, x, y)[c]);
+                XX[i] = X[i] * X[i];
+                YY[i] = Y[i] * Y[i];
+                XY[i] = X[i] * Y[i];
+            }
+        blur(X, tmp, mx, w, h, k, R);
+        blur(Y, tmp, my, w, h, k, R);
+        blur(XX, tmp, sxx, w, h, k, R);
+        blur(YY, tmp, syy, w, h, k, R);
+        blur(XY, tmp, sxy, w, h, k, R);
+        double s = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            double ux = mx[i], uy = my[i];
+            double vx = sxx[i] - ux * ux, vy = syy[i] - uy * uy, cxy = sxy[i] - ux * uy;
+            s += ((2 * ux * uy + C1) * (2 * cxy + C2)) / ((ux * ux + uy * uy + C1) * (vx + vy + C2));
+        }
+        total += s / (double)n;
+    }
+    free(buf);
+    *out = total / C;
+    return EW_OK;
+}

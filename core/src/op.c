@@ -1,0 +1,187 @@
+#include "src/op.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const ew_op_type *ew_op_type_find(const char *kind, const char *name) {
+    for (int i = 0; ew_op_types[i]; i++)
+        if (!strcmp(ew_op_types[i]->kind, kind) && name && !strcmp(ew_op_types[i]->name, name)) return ew_op_types[i];
+    return NULL;
+}
+
+static void list_names(const char *kind, char *buf, size_t len) {
+    size_t used = 0;
+    buf[0] = '\0';
+    for (int i = 0; ew_op_types[i]; i++) {
+        if (strcmp(ew_op_types[i]->kind, kind) != 0) continue;
+        int k = snprintf(buf + used, len - used, "%s%s", used ? ", " : "", ew_op_types[i]->name);
+        if (k < 0 || (size_t)k >= len - used) break;
+        used += (size_t)k;
+    }
+}
+
+ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op **out) {
+    if (!out) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "output handle pointer is NULL");
+    *out = NULL;
+    if (!dev) return EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(dev);
+    const ew_op_type *t = ew_op_type_find(kind, name);
+    if (!t) {
+        char names[256];
+        list_names(kind, names, sizeof names);
+        return ew__fail(dev, name ? EW_ERR_UNSUPPORTED : EW_ERR_INVALID_ARGUMENT, "unknown %s '%s' (available: %s)",
+                        kind, name ? name : "(null)", names);
+    }
+    ew_op *op = (ew_op *)calloc(1, sizeof *op);
+    if (!op) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
+    op->type = t;
+    op->dev = dev;
+    for (int i = 0; i < t->num_params; i++) op->params[i] = t->params[i].default_value;
+    *out = op;
+    return EW_OK;
+}
+
+static void release(ew_op *op) {
+    if (op->state && op->type->release) op->type->release(op);
+    op->state = NULL;
+    op->committed = 0;
+}
+
+void ew_op_destroy(ew_op *op) {
+    if (!op) return;
+    release(op);
+    free(op);
+}
+
+static void list_slots(const ew_op_type *t, char *buf, size_t len, int images) {
+    size_t used = 0;
+    buf[0] = '\0';
+    int n = images ? t->num_images : t->num_params;
+    for (int i = 0; i < n; i++) {
+        const char *nm = images ? t->images[i].name : t->params[i].name;
+        int k = snprintf(buf + used, len - used, "%s%s", i ? ", " : "", nm);
+        if (k < 0 || (size_t)k >= len - used) break;
+        used += (size_t)k;
+    }
+}
+
+ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    const ew_op_type *t = op->type;
+    for (int i = 0; name && i < t->num_images; i++) {
+        if (strcmp(name, t->images[i].name) != 0) continue;
+        if (view) {
+            const char *why;
+            if (!ew__image_valid(view, &why))
+                return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "image '%s': %s", name, why);
+            if (view->channels < t->images[i].min_channels)
+                return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "image '%s' needs at least %d channels, got %d",
+                                name, t->images[i].min_channels, view->channels);
+            op->images[i] = *view;
+        }
+        op->has_image[i] = view != NULL;
+        op->committed = 0;
+        return EW_OK;
+    }
+    char names[256];
+    list_slots(t, names, sizeof names, 1);
+    return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown image '%s' for %s '%s' (%s)", name ? name : "(null)",
+                    t->kind, t->name, names);
+}
+
+ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    const ew_op_type *t = op->type;
+    for (int i = 0; name && i < t->num_params; i++) {
+        const ew_param_desc *p = &t->params[i];
+        if (strcmp(name, p->name) != 0) continue;
+        if (p->type != EW_PARAM_FLOAT && !is_int)
+            return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "parameter '%s' of %s '%s' is an integer: use set_int",
+                            name, t->kind, t->name);
+        if (!(value >= p->min_value && value <= p->max_value))
+            return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "parameter '%s' = %g is outside [%g, %g]", name,
+                            (double)value, (double)p->min_value, (double)p->max_value);
+        op->params[i] = value;
+        op->committed = 0;
+        return EW_OK;
+    }
+    char names[256];
+    list_slots(t, names, sizeof names, 0);
+    return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown parameter '%s' for %s '%s' (%s)",
+                    name ? name : "(null)", t->kind, t->name, names);
+}
+
+const ew_image *ew_op_image(const ew_op *op, const char *name) {
+    for (int i = 0; i < op->type->num_images; i++)
+        if (!strcmp(op->type->images[i].name, name)) return op->has_image[i] ? &op->images[i] : NULL;
+    return NULL;
+}
+
+float ew_op_param(const ew_op *op, const char *name) {
+    for (int i = 0; i < op->type->num_params; i++)
+        if (!strcmp(op->type->params[i].name, name)) return op->params[i];
+    return 0.0f;
+}
+
+int ew_op_report(ew_op *op, double fraction) {
+    return op->progress ? op->progress(op->progress_user, fraction) : 1;
+}
+
+ew_result ew_op_commit(ew_op *op) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    ew_device *dev = op->dev;
+    ew__clear_error(dev);
+    const ew_op_type *t = op->type;
+    const ew_image *first = NULL;
+    const char *first_name = NULL;
+    for (int i = 0; i < t->num_images; i++) {
+        if (!op->has_image[i]) {
+            if (t->images[i].required)
+                return ew__fail(dev, EW_ERR_INVALID_STATE, "no '%s' image set (%s '%s' needs it)", t->images[i].name,
+                                t->kind, t->name);
+            continue;
+        }
+        const ew_image *im = &op->images[i];
+        if (!first) {
+            first = im;
+            first_name = t->images[i].name;
+        } else if (im->width != first->width || im->height != first->height) {
+            return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "image '%s' is %dx%d but '%s' is %dx%d", t->images[i].name,
+                            im->width, im->height, first_name, first->width, first->height);
+        }
+    }
+    op->committed = 0;
+    ew_result r = t->commit(op);
+    if (r == EW_OK) op->committed = 1;
+    return r;
+}
+
+ew_result ew_op_execute(ew_op *op) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    if (!op->committed)
+        return ew__fail(op->dev, EW_ERR_INVALID_STATE, "execute called before commit (or after a change)");
+    if (!ew_op_report(op, 0.0)) return ew__fail(op->dev, EW_ERR_CANCELLED, "cancelled");
+    ew_result r = op->type->execute(op);
+    if (r == EW_OK) ew_op_report(op, 1.0);
+    return r;
+}
+
+void ew_view_pack(const ew_image *img, int c, float *dst) {
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++) {
+            const float *p = ew__pixel(img, x, y);
+            for (int k = 0; k < c; k++) *dst++ = p[k];
+        }
+}
+
+void ew_view_unpack(const float *src, int c, const ew_image *img) {
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++) {
+            float *p = ew__pixel(img, x, y);
+            for (int k = 0; k < c; k++) p[k] = *src++;
+        }
+}

@@ -1,0 +1,74 @@
+/*
+ * op.h — what every denoiser and filter shares: named image slots and named
+ * parameters declared once in a static descriptor, the set -> commit ->
+ * execute life cycle, progress and cancellation. A method is an ew_op_type;
+ * ew_denoiser and ew_filter are the public faces of an ew_op.
+ *
+ * The descriptors are also what the node layer, the OFX plugin and the
+ * Blender add-on read to build their parameters (a parameter is declared
+ * once).
+ */
+#ifndef EW_OP_H
+#define EW_OP_H
+
+#include "src/internal.h"
+
+#define EW_OP_MAX_IMAGES 8
+#define EW_OP_MAX_PARAMS 24
+
+/* The public ew_param_info / ew_image_info are the descriptors. */
+typedef ew_param_info ew_param_desc;
+typedef ew_image_info ew_image_desc;
+
+typedef struct ew_op ew_op;
+
+typedef struct ew_op_type {
+    const char *kind; /* "denoiser" or "filter" */
+    const char *name;
+    const char *summary;
+    const ew_image_desc *images; /* the last one named "output" */
+    int num_images;
+    const ew_param_desc *params;
+    int num_params;
+    /* Validate the combination of images and parameters (sizes already
+     * checked equal to the first image's) and allocate scratch in op->state.
+     * Called again after any change. */
+    ew_result (*commit)(ew_op *op);
+    ew_result (*execute)(ew_op *op);
+    void (*release)(ew_op *op); /* free op->state */
+} ew_op_type;
+
+struct ew_op {
+    const ew_op_type *type;
+    ew_device *dev;
+    ew_image images[EW_OP_MAX_IMAGES];
+    int has_image[EW_OP_MAX_IMAGES];
+    float params[EW_OP_MAX_PARAMS];
+    ew_progress_fn progress;
+    void *progress_user;
+    int committed;
+    void *state;
+};
+
+/* Registry of every method, by kind. NULL-terminated. */
+extern const ew_op_type *const ew_op_types[];
+const ew_op_type *ew_op_type_find(const char *kind, const char *name);
+
+ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op **out);
+void ew_op_destroy(ew_op *op);
+ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view);
+ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int);
+ew_result ew_op_commit(ew_op *op);
+ew_result ew_op_execute(ew_op *op);
+
+/* For op implementations: the image of a slot (NULL if unset), a parameter
+ * value by index, and progress (returns 0 when the caller cancels). */
+const ew_image *ew_op_image(const ew_op *op, const char *name);
+float ew_op_param(const ew_op *op, const char *name);
+int ew_op_report(ew_op *op, double fraction);
+
+/* Pack the first c channels of a view into a dense buffer, and back. */
+void ew_view_pack(const ew_image *img, int c, float *dst);
+void ew_view_unpack(const float *src, int c, const ew_image *img);
+
+#endif

@@ -1,0 +1,158 @@
+#include "src/weights.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char magic[8] = {'E', 'W', 'W', 'E', 'I', 'G', 'H', 'T'};
+
+uint32_t ew_crc32(const void *data, size_t size) {
+    const unsigned char *p = (const unsigned char *)data;
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < size; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+typedef struct { const unsigned char *p; size_t size, at; } reader;
+
+static int rd_u32(reader *r, uint32_t *v) {
+    if (r->size - r->at < 4) return 0;
+    const unsigned char *b = r->p + r->at;
+    *v = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+    r->at += 4;
+    return 1;
+}
+
+static int rd_str(reader *r, char *dst, size_t cap) {
+    uint32_t n;
+    if (!rd_u32(r, &n) || n >= cap || r->size - r->at < n) return 0;
+    memcpy(dst, r->p + r->at, n);
+    dst[n] = '\0';
+    r->at += n;
+    return 1;
+}
+
+void ew_weights_free(ew_weights *w) {
+    if (!w) return;
+    for (uint32_t i = 0; w->tensors && i < w->num_tensors; i++) free(w->tensors[i].data);
+    free(w->tensors);
+    memset(w, 0, sizeof *w);
+}
+
+#define FAIL(...) do { snprintf(err, errlen, __VA_ARGS__); ew_weights_free(out); return 1; } while (0)
+
+int ew_weights_parse(const void *bytes, size_t size, ew_weights *out, char *err, size_t errlen) {
+    memset(out, 0, sizeof *out);
+    if (!bytes || size < sizeof magic + 8) FAIL("weights file is too small (%zu bytes)", size);
+    if (memcmp(bytes, magic, sizeof magic) != 0) FAIL("not an Edgewise weights file (bad magic)");
+    reader r = {(const unsigned char *)bytes, size - 4, sizeof magic};
+    uint32_t stored_crc = 0, version = 0;
+    reader tail = {(const unsigned char *)bytes, size, size - 4};
+    rd_u32(&tail, &stored_crc);
+    if (ew_crc32(bytes, size - 4) != stored_crc) FAIL("weights file is damaged (checksum mismatch)");
+    if (!rd_u32(&r, &version) || version != EW_WEIGHTS_VERSION)
+        FAIL("weights file version %u is not supported (this library reads version %u)", version, EW_WEIGHTS_VERSION);
+    if (!rd_str(&r, out->arch, sizeof out->arch)) FAIL("weights file: bad architecture string");
+    uint32_t n;
+    if (!rd_u32(&r, &n) || n == 0 || n > 4096) FAIL("weights file: bad tensor count");
+    out->tensors = (ew_tensor *)calloc(n, sizeof(ew_tensor));
+    if (!out->tensors) FAIL("out of memory reading weights");
+    out->num_tensors = n;
+    for (uint32_t i = 0; i < n; i++) {
+        ew_tensor *t = &out->tensors[i];
+        if (!rd_str(&r, t->name, sizeof t->name)) FAIL("weights file: bad name of tensor %u", i);
+        if (!rd_u32(&r, &t->rank) || t->rank < 1 || t->rank > EW_WEIGHTS_MAX_RANK)
+            FAIL("weights file: tensor '%s' has a bad rank", t->name);
+        size_t count = 1;
+        for (uint32_t k = 0; k < t->rank; k++) {
+            if (!rd_u32(&r, &t->dims[k]) || t->dims[k] == 0 || t->dims[k] > (1u << 20))
+                FAIL("weights file: tensor '%s' has a bad shape", t->name);
+            count *= t->dims[k];
+        }
+        if (count > ((size_t)1 << 26) || (r.size - r.at) / 4 < count)
+            FAIL("weights file: tensor '%s' is truncated", t->name);
+        t->count = count;
+        t->data = (float *)malloc(count * sizeof(float));
+        if (!t->data) FAIL("out of memory reading weights");
+        for (size_t k = 0; k < count; k++) {
+            uint32_t u = 0;
+            rd_u32(&r, &u);
+            memcpy(&t->data[k], &u, 4);
+            if (!isfinite(t->data[k])) FAIL("weights file: tensor '%s' holds a non-finite value", t->name);
+        }
+    }
+    if (r.at != r.size) FAIL("weights file: %zu unexpected trailing bytes", r.size - r.at);
+    return 0;
+}
+#undef FAIL
+
+const ew_tensor *ew_weights_find(const ew_weights *w, const char *name, uint32_t rank, const uint32_t *dims,
+                                 char *err, size_t errlen) {
+    for (uint32_t i = 0; i < w->num_tensors; i++) {
+        const ew_tensor *t = &w->tensors[i];
+        if (strcmp(t->name, name) != 0) continue;
+        int same = t->rank == rank;
+        for (uint32_t k = 0; same && k < rank; k++) same = t->dims[k] == dims[k];
+        if (!same) {
+            snprintf(err, errlen, "weights '%s': tensor '%s' has the wrong shape for this architecture", w->arch, name);
+            return NULL;
+        }
+        return t;
+    }
+    snprintf(err, errlen, "weights '%s': no tensor '%s'", w->arch, name);
+    return NULL;
+}
+
+typedef struct { unsigned char *p; size_t at; } writer;
+
+static void wr_u32(writer *w, uint32_t v) {
+    if (w->p) {
+        w->p[w->at] = (unsigned char)v;
+        w->p[w->at + 1] = (unsigned char)(v >> 8);
+        w->p[w->at + 2] = (unsigned char)(v >> 16);
+        w->p[w->at + 3] = (unsigned char)(v >> 24);
+    }
+    w->at += 4;
+}
+
+static void wr_bytes(writer *w, const void *src, size_t n) {
+    if (w->p) memcpy(w->p + w->at, src, n);
+    w->at += n;
+}
+
+static void emit(const ew_weights *wt, writer *w) {
+    wr_bytes(w, magic, sizeof magic);
+    wr_u32(w, EW_WEIGHTS_VERSION);
+    wr_u32(w, (uint32_t)strlen(wt->arch));
+    wr_bytes(w, wt->arch, strlen(wt->arch));
+    wr_u32(w, wt->num_tensors);
+    for (uint32_t i = 0; i < wt->num_tensors; i++) {
+        const ew_tensor *t = &wt->tensors[i];
+        wr_u32(w, (uint32_t)strlen(t->name));
+        wr_bytes(w, t->name, strlen(t->name));
+        wr_u32(w, t->rank);
+        for (uint32_t k = 0; k < t->rank; k++) wr_u32(w, t->dims[k]);
+        for (size_t k = 0; k < t->count; k++) {
+            uint32_t u;
+            memcpy(&u, &t->data[k], 4);
+            wr_u32(w, u);
+        }
+    }
+}
+
+int ew_weights_serialize(const ew_weights *wt, void **out, size_t *size) {
+    writer sizing = {NULL, 0};
+    emit(wt, &sizing);
+    unsigned char *buf = (unsigned char *)malloc(sizing.at + 4);
+    if (!buf) return 1;
+    writer w = {buf, 0};
+    emit(wt, &w);
+    wr_u32(&w, ew_crc32(buf, sizing.at));
+    *out = buf;
+    *size = w.at;
+    return 0;
+}

@@ -1,0 +1,29 @@
+#ifndef EW_CLI_H
+#define EW_CLI_H
+
+#include "edgewise/edgewise.h"
+#include "ewio.h"
+
+/* Exit codes: 0 success, 1 the work failed (bad input file, I/O), 2 the
+ * command line was wrong. */
+#define EW_EXIT_FAIL 1
+#define EW_EXIT_USAGE 2
+
+int cmd_denoise(int argc, char **argv);
+int cmd_info(int argc, char **argv);
+int cmd_compare(int argc, char **argv);
+
+/* Print "edgewise: <msg>" on stderr; returns EW_EXIT_FAIL. */
+int cli_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* Parse a positive int / float option value; print an error on failure. */
+int cli_parse_int(const char *opt, const char *s, int lo, int hi, int *out);
+int cli_parse_float(const char *opt, const char *s, float lo, float hi, float *out);
+/* Read the colour of a file's layer (or first layer with colour when layer
+ * is NULL) into a new buffer of w*h*3 floats. */
+float *cli_read_color(const ewio_file *f, const char *layer, char *err, size_t errlen);
+ew_device *cli_device(int threads);
+/* Fail early (one line, returns EW_EXIT_FAIL) when `path` cannot be
+ * written: its directory is missing or not writable, or it is a directory. */
+int cli_check_writable(const char *path);
+
+#endif

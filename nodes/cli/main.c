@@ -1,0 +1,43 @@
+/*
+ * edgewise — the command-line front end. Subcommands live in cmd_*.c; this
+ * file dispatches and owns --help / --version.
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli.h"
+#include "edgewise/edgewise.h"
+
+static const char usage[] =
+    "usage: edgewise <command> [options]\n"
+    "\n"
+    "Denoising and edge-aware filtering for Monte Carlo renders.\n"
+    "\n"
+    "commands:\n"
+    "  denoise IN -o OUT   denoise a render (Cycles multilayer EXR, or EXR/PNG/TIFF colour)\n"
+    "  info IN             list the layers, passes and metadata of an image file\n"
+    "  compare TEST REF    PSNR and SSIM of TEST against REF (tone-mapped)\n"
+    "\n"
+    "  edgewise <command> --help   options of a command\n"
+    "  edgewise --version          library version\n";
+
+int main(int argc, char **argv) {
+    if (argc < 2) {
+        fputs(usage, stderr);
+        return EW_EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+        fputs(usage, stdout);
+        return 0;
+    }
+    if (!strcmp(cmd, "--version")) {
+        printf("edgewise %s\n", ew_version_string());
+        return 0;
+    }
+    if (!strcmp(cmd, "denoise")) return cmd_denoise(argc - 1, argv + 1);
+    if (!strcmp(cmd, "info")) return cmd_info(argc - 1, argv + 1);
+    if (!strcmp(cmd, "compare")) return cmd_compare(argc - 1, argv + 1);
+    fprintf(stderr, "edgewise: unknown command '%s' (try 'edgewise --help')\n", cmd);
+    return EW_EXIT_USAGE;
+}

@@ -1,0 +1,1149 @@
+/*
+ * ewio.cpp — the OpenImageIO shim behind ewio.h.
+ *
+ * Everything in here is C++ only because OpenImageIO is; the interface is the
+ * plain C one in ewio.h. Rules kept throughout:
+ *   - no exception leaves an extern "C" function (each body is wrapped);
+ *   - nothing is printed, nothing exits;
+ *   - a failing call leaves its outputs untouched (ewio_read returns no
+ *     partial file, ewio_write leaves the destination as it was);
+ *   - no global mutable state.
+ */
+#include "ewio.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <memory>
+#include <new>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace {
+
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::ParamValue;
+using OIIO::ParamValueList;
+using OIIO::TypeDesc;
+
+constexpr long long kMaxSide = 65536;
+constexpr long long kMaxPixels = 1LL << 28;
+constexpr int kMaxChannels = 4096;
+/* Pixels are moved between OIIO and our planar storage in bands of rows of
+ * about this many floats, so no second whole-image copy is ever held. */
+constexpr size_t kBandFloats = size_t(4) << 20;
+
+struct Channel {
+    std::string name, layer, pass, comp;
+    TypeDesc type; /* the type it was read with (or half for new channels) */
+    std::vector<float> px; /* width*height, row-major */
+};
+
+} // namespace
+
+struct ewio_file {
+    int width = 0, height = 0;
+    /* Data/display window origin and display size, kept for EXR output. */
+    int x = 0, y = 0, full_x = 0, full_y = 0, full_width = 0, full_height = 0;
+    std::vector<Channel> ch;
+    std::vector<std::string> layers;
+    ParamValueList attribs;
+    std::map<std::string, std::string> attr_text; /* name -> text, for ewio_get_attribute */
+    std::string exr_compression; /* "" = default (zip) */
+    bool has_src = false;
+    dev_t src_dev = 0;
+    ino_t src_ino = 0;
+    std::string src_real; /* realpath() of the source, "" if unknown */
+};
+
+namespace {
+
+/* ---------------------------------------------------------------- errors */
+
+/* One line: newlines become "; ", trailing blanks dropped. */
+std::string one_line(const std::string &s) {
+    std::string o;
+    o.reserve(s.size());
+    for (char c : s) {
+        if (c == '\n' || c == '\r') {
+            while (!o.empty() && (o.back() == ' ' || o.back() == '\t')) o.pop_back();
+            if (!o.empty() && o.back() != ' ' && o.back() != ';') o += "; ";
+        } else {
+            o += c;
+        }
+    }
+    while (!o.empty() && (o.back() == ' ' || o.back() == ';' || o.back() == '\t')) o.pop_back();
+    return o;
+}
+
+/* First non-empty line of an OIIO message (write errors can repeat per block). */
+std::string first_line(const std::string &s) {
+    size_t b = 0;
+    while (b < s.size()) {
+        size_t e = s.find('\n', b);
+        if (e == std::string::npos) e = s.size();
+        std::string line = one_line(s.substr(b, e - b));
+        if (!line.empty()) return line;
+        b = e + 1;
+    }
+    return std::string();
+}
+
+void set_err(char *err, size_t errlen, const std::string &msg) noexcept {
+    if (!err || errlen == 0) return;
+    size_t n = std::min(msg.size(), errlen - 1);
+    memcpy(err, msg.data(), n);
+    err[n] = '\0';
+    for (size_t i = 0; i < n; i++)
+        if (err[i] == '\n' || err[i] == '\r') err[i] = ' ';
+}
+
+void clear_err(char *err, size_t errlen) noexcept {
+    if (err && errlen) err[0] = '\0';
+}
+
+std::string q(const std::string &s) { return "'" + s + "'"; }
+
+std::string errno_text(int e) {
+    switch (e) {
+    case ENOENT: return "no such file or directory";
+    case EACCES:
+    case EPERM: return "permission denied";
+    case EROFS: return "read-only file system";
+    case ENOSPC: return "no space left on device";
+    case EDQUOT: return "disk quota exceeded";
+    case ENOTDIR: return "a path component is not a directory";
+    case EISDIR: return "is a directory";
+    case EFBIG: return "file too large";
+    default: break;
+    }
+    char buf[256];
+    buf[0] = '\0';
+#ifdef _GNU_SOURCE /* GNU strerror_r may return a static string instead of filling buf */
+    const char *r = strerror_r(e, buf, sizeof buf);
+    return r ? std::string(r) : "error " + std::to_string(e);
+#else
+    if (strerror_r(e, buf, sizeof buf) != 0) return "error " + std::to_string(e);
+    return buf;
+#endif
+}
+
+/* Error reported by OIIO, prefixed; falls back to `fallback` if empty. */
+std::string oiio_msg(const std::string &m, const char *fallback) {
+    std::string l = first_line(m);
+    return l.empty() ? std::string(fallback) : l;
+}
+
+/* ------------------------------------------------------- channel naming */
+
+/* Blender's split (imb_exr_split_channel_name): the component follows the
+ * last '.', the pass is the token before it, the layer is everything before
+ * that. "ViewLayer.001.Combined.R" -> layer "ViewLayer.001" (Blender's name
+ * for a second view layer), pass "Combined", comp "R". "Combined.R" -> layer
+ * "", pass "Combined". "R" -> layer "", pass "". */
+void split_name(const std::string &name, std::string &layer, std::string &pass,
+                std::string &comp) {
+    size_t last = name.rfind('.');
+    if (last == std::string::npos) {
+        layer.clear();
+        pass.clear();
+        comp = name;
+        return;
+    }
+    comp = name.substr(last + 1);
+    std::string rest = name.substr(0, last);
+    size_t p = rest.rfind('.');
+    if (p == std::string::npos) {
+        layer.clear();
+        pass = rest;
+    } else {
+        layer = rest.substr(0, p);
+        pass = rest.substr(p + 1);
+    }
+}
+
+std::string join_name(const std::string &layer, const std::string &pass,
+                      const std::string &comp) {
+    std::string n;
+    if (!layer.empty()) n = layer + ".";
+    if (!pass.empty() || !layer.empty()) n += pass + ".";
+    return n + comp;
+}
+
+std::string display_pass(const std::string &layer, const std::string &pass) {
+    return "layer " + q(layer) + " pass " + q(pass);
+}
+
+void rebuild_layers(ewio_file &f) {
+    std::vector<std::string> l;
+    for (const Channel &c : f.ch)
+        if (std::find(l.begin(), l.end(), c.layer) == l.end()) l.push_back(c.layer);
+    f.layers.swap(l);
+}
+
+std::string layers_found(const ewio_file &f) {
+    if (f.layers.empty()) return "layers found: none (the file has no channels)";
+    std::string s = "layers found: ";
+    for (size_t i = 0; i < f.layers.size(); i++) {
+        if (i) s += ", ";
+        s += q(f.layers[i]);
+    }
+    return s;
+}
+
+std::string passes_of(const ewio_file &f, const std::string &layer) {
+    std::vector<std::string> p;
+    for (const Channel &c : f.ch)
+        if (c.layer == layer && std::find(p.begin(), p.end(), c.pass) == p.end())
+            p.push_back(c.pass);
+    std::string s;
+    for (size_t i = 0; i < p.size(); i++) {
+        if (i) s += ", ";
+        s += q(p[i]);
+    }
+    return s;
+}
+
+std::string comps_of(const ewio_file &f, const std::string &layer, const std::string &pass) {
+    std::string s;
+    for (const Channel &c : f.ch)
+        if (c.layer == layer && c.pass == pass) {
+            if (!s.empty()) s += ",";
+            s += c.comp;
+        }
+    return s;
+}
+
+int find_channel(const ewio_file &f, const std::string &layer, const std::string &pass,
+                 const std::string &comp) {
+    for (size_t i = 0; i < f.ch.size(); i++) {
+        const Channel &c = f.ch[i];
+        if (c.comp == comp && c.pass == pass && c.layer == layer) return int(i);
+    }
+    return -1;
+}
+
+bool has_layer(const ewio_file &f, const std::string &layer) {
+    return std::find(f.layers.begin(), f.layers.end(), layer) != f.layers.end();
+}
+
+bool has_any_pass(const ewio_file &f, const std::string &layer, const std::string &pass) {
+    for (const Channel &c : f.ch)
+        if (c.layer == layer && c.pass == pass) return true;
+    return false;
+}
+
+/* Message for a pass lacking components `missing` (all of `comps` if the
+ * pass is absent). Always names what is missing and lists the layers. */
+std::string missing_msg(const ewio_file &f, const std::string &layer, const std::string &pass,
+                        const std::string &comps, const std::string &missing) {
+    std::string m;
+    if (!has_layer(f, layer)) {
+        m = "missing " + display_pass(layer, pass) + " (components " + q(comps) + "): no layer " +
+            q(layer) + " in the file";
+    } else if (!has_any_pass(f, layer, pass)) {
+        m = "missing " + display_pass(layer, pass) + " (components " + q(comps) +
+            "): layer " + q(layer) + " has passes " + passes_of(f, layer);
+    } else {
+        m = "missing components " + q(missing) + " of " + display_pass(layer, pass) +
+            " (it has " + comps_of(f, layer, pass) + ")";
+    }
+    return m + "; " + layers_found(f);
+}
+
+/* ------------------------------------------------------------ dimensions */
+
+std::string check_dims(long long w, long long h) {
+    if (w <= 0 || h <= 0)
+        return "invalid image dimensions " + std::to_string(w) + "x" + std::to_string(h);
+    if (w > kMaxSide || h > kMaxSide || w * h > kMaxPixels)
+        return "image too large: " + std::to_string(w) + "x" + std::to_string(h) +
+               " (limits: 65536 per side, 2^28 pixels)";
+    return std::string();
+}
+
+/* ----------------------------------------------------------- attributes */
+
+void set_attr_text(ewio_file &f, const ParamValue &p) {
+    f.attr_text[p.name().string()] = p.get_string(4096);
+}
+
+void rebuild_attr_text(ewio_file &f) {
+    f.attr_text.clear();
+    for (const ParamValue &p : f.attribs) set_attr_text(f, p);
+}
+
+/* ------------------------------------------------------------ file paths */
+
+std::string dir_of(const std::string &path) {
+    size_t s = path.rfind('/');
+    if (s == std::string::npos) return ".";
+    if (s == 0) return "/";
+    return path.substr(0, s);
+}
+
+std::string base_of(const std::string &path) {
+    size_t s = path.rfind('/');
+    return s == std::string::npos ? path : path.substr(s + 1);
+}
+
+std::string lower_ext(const std::string &base) {
+    size_t d = base.rfind('.');
+    if (d == std::string::npos || d == 0 || d + 1 >= base.size()) return std::string();
+    std::string e = base.substr(d + 1);
+    for (char &c : e) c = char(tolower((unsigned char)c));
+    return e;
+}
+
+std::string real_path(const std::string &p) {
+    char *r = realpath(p.c_str(), nullptr);
+    if (!r) return std::string();
+    std::string s(r);
+    free(r);
+    return s;
+}
+
+/* Canonical form of a path that may not exist yet: realpath of its
+ * directory plus its base name. */
+std::string canonical_target(const std::string &path) {
+    std::string r = real_path(path);
+    if (!r.empty()) return r;
+    std::string d = real_path(dir_of(path));
+    if (d.empty()) return std::string();
+    return (d == "/" ? d : d + "/") + base_of(path);
+}
+
+/* Removes the temporary file unless released. */
+struct TempGuard {
+    std::string path;
+    bool armed = false;
+    ~TempGuard() {
+        if (armed) unlink(path.c_str());
+    }
+};
+
+/* ------------------------------------------------------------------ read */
+
+int read_impl(const char *path, ewio_file **out, std::string &msg) {
+    const std::string p(path);
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        int e = errno;
+        if (e == ENOENT || e == ENOTDIR)
+            msg = "cannot read " + q(p) + ": no such file";
+        else
+            msg = "cannot read " + q(p) + ": " + errno_text(e);
+        return 1;
+    }
+    if (S_ISDIR(st.st_mode)) {
+        msg = "cannot read " + q(p) + ": is a directory";
+        return 1;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        msg = "cannot read " + q(p) + ": not a regular file";
+        return 1;
+    }
+    if (access(path, R_OK) != 0) {
+        msg = "cannot read " + q(p) + ": " + errno_text(errno);
+        return 1;
+    }
+
+    auto in = ImageInput::open(p);
+    if (!in) {
+        msg = "cannot read " + q(p) + ": not an image file or unsupported format (" +
+              oiio_msg(OIIO::geterror(), "no reader accepted it") + ")";
+        return 1;
+    }
+
+    std::unique_ptr<ewio_file> f(new ewio_file);
+    const ImageSpec s0 = in->spec();
+    if (s0.deep) {
+        msg = "cannot read " + q(p) + ": deep images are not supported";
+        return 1;
+    }
+    if (s0.depth > 1) {
+        msg = "cannot read " + q(p) + ": volume (3D) images are not supported";
+        return 1;
+    }
+    std::string d = check_dims(s0.width, s0.height);
+    if (!d.empty()) {
+        msg = "cannot read " + q(p) + ": " + d;
+        return 1;
+    }
+    f->width = s0.width;
+    f->height = s0.height;
+    f->x = s0.x;
+    f->y = s0.y;
+    f->full_x = s0.full_x;
+    f->full_y = s0.full_y;
+    f->full_width = s0.full_width > 0 ? s0.full_width : s0.width;
+    f->full_height = s0.full_height > 0 ? s0.full_height : s0.height;
+    const size_t npix = size_t(s0.width) * size_t(s0.height);
+    const std::string fmt = in->format_name();
+
+    /* Subimages: multi-part EXR parts of the same size and origin are merged. */
+    int nparts = 0;
+    for (int sub = 0;; sub++, nparts++) {
+        if (sub > 0 && !in->seek_subimage(sub, 0)) break;
+        const ImageSpec s = in->spec();
+        if (sub > 0 && (s.deep || s.depth > 1 || s.width != s0.width ||
+                        s.height != s0.height || s.x != s0.x || s.y != s0.y))
+            continue;
+        if (s.nchannels <= 0) {
+            if (sub == 0) {
+                msg = "cannot read " + q(p) + ": the image has no channels";
+                return 1;
+            }
+            continue;
+        }
+        if (int(f->ch.size()) + s.nchannels > kMaxChannels) {
+            msg = "cannot read " + q(p) + ": too many channels (limit " +
+                  std::to_string(kMaxChannels) + ")";
+            return 1;
+        }
+        const int nch = s.nchannels;
+        const std::string partname = s.get_string_attribute("oiio:subimagename");
+        const size_t first = f->ch.size();
+        for (int c = 0; c < nch; c++) {
+            Channel ch;
+            ch.name = c < int(s.channelnames.size()) ? s.channelnames[size_t(c)] : std::string();
+            if (ch.name.empty()) ch.name = "channel" + std::to_string(c);
+            bool dup = false;
+            for (const Channel &o : f->ch) dup = dup || o.name == ch.name;
+            if (dup && sub > 0 && !partname.empty()) {
+                ch.name = partname + "." + ch.name;
+                dup = false;
+                for (const Channel &o : f->ch) dup = dup || o.name == ch.name;
+            }
+            if (dup) {
+                msg = "cannot read " + q(p) + ": duplicate channel name " + q(ch.name);
+                return 1;
+            }
+            split_name(ch.name, ch.layer, ch.pass, ch.comp);
+            ch.type = s.channelformat(c);
+            ch.px.resize(npix);
+            f->ch.push_back(std::move(ch));
+        }
+
+        const size_t w = size_t(s.width);
+        if (s.tile_width > 0) {
+            /* Tiled: one whole-image read (OIIO assembles the tiles). */
+            std::vector<float> buf(npix * size_t(nch));
+            if (!in->read_image(sub, 0, 0, nch, OIIO::TypeFloat, buf.data())) {
+                msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
+                      oiio_msg(in->geterror(), "read failed") + ")";
+                return 1;
+            }
+            for (size_t i = 0; i < npix; i++)
+                for (int c = 0; c < nch; c++)
+                    f->ch[first + size_t(c)].px[i] = buf[i * size_t(nch) + size_t(c)];
+        } else {
+            size_t rows = std::max<size_t>(1, kBandFloats / (w * size_t(nch)));
+            rows = std::min(rows, size_t(s.height));
+            std::vector<float> buf(rows * w * size_t(nch));
+            for (int y0 = 0; y0 < s.height; y0 += int(rows)) {
+                const int y1 = std::min(s.height, y0 + int(rows));
+                if (!in->read_scanlines(sub, 0, s.y + y0, s.y + y1, 0, 0, nch, OIIO::TypeFloat,
+                                        buf.data())) {
+                    msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
+                          oiio_msg(in->geterror(), "read failed") + ")";
+                    return 1;
+                }
+                const size_t base = size_t(y0) * w;
+                const size_t n = size_t(y1 - y0) * w;
+                for (int c = 0; c < nch; c++) {
+                    float *dst = f->ch[first + size_t(c)].px.data() + base;
+                    const float *src = buf.data() + c;
+                    for (size_t i = 0; i < n; i++) dst[i] = src[i * size_t(nch)];
+                }
+            }
+        }
+        if (in->has_error()) { /* e.g. libjpeg's "premature end" is only a warning */
+            msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
+                  oiio_msg(in->geterror(), "read failed") + ")";
+            return 1;
+        }
+    }
+    (void)in->geterror(); /* clear the "no such subimage" noise of the loop end */
+    in->close();
+
+    /* Header metadata, less what describes the file's layout rather than
+     * the image (the output is always one part, chunked by its writer). */
+    f->attribs = s0.extra_attribs;
+    f->attribs.remove("oiio:subimages");
+    f->attribs.remove("oiio:subimagename");
+    f->attribs.remove("openexr:chunkCount");
+    if (nparts > 1) f->attribs.remove("name"); /* EXR part name */
+    if (fmt == "openexr") f->exr_compression = s0.get_string_attribute("compression");
+    rebuild_attr_text(*f);
+    rebuild_layers(*f);
+
+    f->has_src = true;
+    f->src_dev = st.st_dev;
+    f->src_ino = st.st_ino;
+    f->src_real = real_path(p);
+    *out = f.release();
+    return 0;
+}
+
+/* ----------------------------------------------------------------- write */
+
+enum class Kind { EXR, PNG, TIFF, JPEG };
+
+/* EXR stores half, float and uint only. */
+TypeDesc exr_type(TypeDesc t) {
+    if (t == OIIO::TypeHalf || t == OIIO::TypeFloat) return t;
+    if (t.basetype == TypeDesc::UINT32) return TypeDesc(TypeDesc::UINT32);
+    if (t.basetype == TypeDesc::UINT8 || t.basetype == TypeDesc::INT8) return OIIO::TypeHalf;
+    return OIIO::TypeFloat;
+}
+
+/* Whether `path` opens as a w x h image with nch channels whose pixels all
+ * decode. Reads in bands of rows, so it needs little memory. */
+bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &why) {
+    auto in = ImageInput::open(path);
+    if (!in) {
+        why = oiio_msg(OIIO::geterror(), "cannot open it");
+        return false;
+    }
+    const ImageSpec s = in->spec();
+    if (s.width != w || s.height != h || s.nchannels != nch) {
+        why = "it reads as " + std::to_string(s.width) + "x" + std::to_string(s.height) + " with " +
+              std::to_string(s.nchannels) + " channels";
+        return false;
+    }
+    bool ok;
+    if (s.tile_width > 0) {
+        std::vector<float> buf(size_t(w) * size_t(h) * size_t(nch));
+        ok = in->read_image(0, 0, 0, nch, OIIO::TypeFloat, buf.data());
+    } else {
+        size_t rows = std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch)));
+        rows = std::min(rows, size_t(h));
+        std::vector<float> buf(rows * size_t(w) * size_t(nch));
+        ok = true;
+        for (int y0 = 0; ok && y0 < h; y0 += int(rows)) {
+            const int y1 = std::min(h, y0 + int(rows));
+            ok = in->read_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0, nch, OIIO::TypeFloat,
+                                    buf.data());
+        }
+    }
+    if (!ok) why = oiio_msg(in->geterror(), "cannot read its pixels");
+    return ok;
+}
+
+/* Random suffix for the temporary file name. */
+std::string random_suffix() {
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+    std::random_device rd;
+    std::string s;
+    for (int i = 0; i < 8; i++) s += al[rd() % (sizeof al - 1)];
+    return s;
+}
+
+int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, const char *clayer,
+               const char *cpass, std::string &msg) {
+    const std::string path(cpath);
+    const std::string base = base_of(path);
+    const std::string dir = dir_of(path);
+    const std::string what = "cannot write " + q(path) + ": ";
+    if (base.empty() || base == "." || base == "..") {
+        msg = what + "not a file name";
+        return 1;
+    }
+    if (type != EWIO_KEEP && type != EWIO_HALF && type != EWIO_FLOAT) {
+        msg = what + "invalid pixel type " + std::to_string(int(type));
+        return 1;
+    }
+    const std::string ext = lower_ext(base);
+    Kind kind;
+    if (ext == "exr")
+        kind = Kind::EXR;
+    else if (ext == "png")
+        kind = Kind::PNG;
+    else if (ext == "tif" || ext == "tiff")
+        kind = Kind::TIFF;
+    else if (ext == "jpg" || ext == "jpeg")
+        kind = Kind::JPEG;
+    else {
+        msg = what + (ext.empty() ? std::string("no file extension")
+                                  : "unsupported extension " + q("." + ext)) +
+              " (use .exr, .png, .tif, .tiff, .jpg or .jpeg)";
+        return 1;
+    }
+
+    /* The destination must not be the file the data came from. */
+    struct stat dst_st;
+    const bool dst_exists = stat(path.c_str(), &dst_st) == 0;
+    if (dst_exists && S_ISDIR(dst_st.st_mode)) {
+        msg = what + "is a directory";
+        return 1;
+    }
+    if (f.has_src) {
+        bool same = dst_exists && dst_st.st_dev == f.src_dev && dst_st.st_ino == f.src_ino;
+        if (!same && !f.src_real.empty()) same = canonical_target(path) == f.src_real;
+        if (same) {
+            msg = what + "refusing to overwrite the input file it was read from "
+                         "(write to another path)";
+            return 1;
+        }
+    }
+    struct stat dir_st;
+    if (stat(dir.c_str(), &dir_st) != 0) {
+        int e = errno;
+        msg = what + "directory " + q(dir) +
+              (e == ENOENT ? std::string(" does not exist") : ": " + errno_text(e));
+        return 1;
+    }
+    if (!S_ISDIR(dir_st.st_mode)) {
+        msg = what + q(dir) + " is not a directory";
+        return 1;
+    }
+
+    /* ---- what to write */
+    const int w = f.width, h = f.height;
+    std::vector<int> src;      /* channel index per output channel */
+    std::vector<TypeDesc> fmts; /* per output channel */
+    std::vector<std::string> names;
+    bool clamp01 = false;
+    if (kind == Kind::EXR) {
+        if (f.ch.empty()) {
+            msg = what + "the image has no channels";
+            return 1;
+        }
+        for (size_t i = 0; i < f.ch.size(); i++) {
+            src.push_back(int(i));
+            names.push_back(f.ch[i].name);
+            fmts.push_back(type == EWIO_HALF    ? OIIO::TypeHalf
+                           : type == EWIO_FLOAT ? OIIO::TypeFloat
+                                                : exr_type(f.ch[i].type));
+        }
+    } else {
+        const std::string layer = clayer ? clayer : "";
+        const std::string pass = cpass ? cpass : "";
+        auto idx = [&](const char *c) { return find_channel(f, layer, pass, c); };
+        std::vector<int> pick;
+        if (idx("R") >= 0 && idx("G") >= 0 && idx("B") >= 0) {
+            pick = {idx("R"), idx("G"), idx("B")};
+            if (kind != Kind::JPEG && idx("A") >= 0) pick.push_back(idx("A"));
+        } else if (idx("X") >= 0 && idx("Y") >= 0 && idx("Z") >= 0) {
+            pick = {idx("X"), idx("Y"), idx("Z")};
+        } else {
+            std::vector<int> all;
+            for (size_t i = 0; i < f.ch.size(); i++)
+                if (f.ch[i].layer == layer && f.ch[i].pass == pass) all.push_back(int(i));
+            if (all.size() == 1) pick = all; /* a single channel: greyscale */
+        }
+        if (pick.empty()) {
+            if (!has_any_pass(f, layer, pass))
+                msg = what + missing_msg(f, layer, pass, "RGB", "RGB");
+            else
+                msg = what + display_pass(layer, pass) + " has components " +
+                      comps_of(f, layer, pass) + ", which cannot be written as RGB(A)";
+            return 1;
+        }
+        bool all8 = true, all16 = true;
+        for (int i : pick) {
+            all8 = all8 && f.ch[size_t(i)].type.basetype == TypeDesc::UINT8;
+            all16 = all16 && f.ch[size_t(i)].type.basetype == TypeDesc::UINT16;
+        }
+        TypeDesc t = OIIO::TypeUInt8;
+        if (kind == Kind::PNG && type == EWIO_KEEP && all16) t = OIIO::TypeUInt16;
+        if (kind == Kind::TIFF) {
+            if (type == EWIO_HALF)
+                t = OIIO::TypeHalf;
+            else if (type == EWIO_FLOAT)
+                t = OIIO::TypeFloat;
+            else
+                t = all8 ? OIIO::TypeUInt8 : all16 ? OIIO::TypeUInt16 : OIIO::TypeFloat;
+        }
+        clamp01 = t == OIIO::TypeUInt8 || t == OIIO::TypeUInt16;
+        static const char *rgba[] = {"R", "G", "B", "A"};
+        for (size_t k = 0; k < pick.size(); k++) {
+            src.push_back(pick[k]);
+            fmts.push_back(t);
+            names.push_back(pick.size() == 1 ? std::string("Y") : std::string(rgba[k]));
+        }
+    }
+    const int nch = int(src.size());
+
+    TypeDesc widest = fmts[0];
+    bool mixed = false;
+    for (const TypeDesc &t : fmts) {
+        mixed = mixed || t != fmts[0];
+        if (t.size() > widest.size()) widest = t;
+    }
+    ImageSpec spec(w, h, nch, widest);
+    spec.channelnames = names;
+    if (mixed) spec.channelformats = fmts;
+    spec.alpha_channel = -1;
+    spec.z_channel = -1;
+    for (int c = 0; c < nch; c++) {
+        if (names[size_t(c)] == "A") spec.alpha_channel = c;
+    }
+    if (kind == Kind::EXR) {
+        spec.x = f.x;
+        spec.y = f.y;
+        spec.full_x = f.full_x;
+        spec.full_y = f.full_y;
+        spec.full_width = f.full_width;
+        spec.full_height = f.full_height;
+        for (const ParamValue &pv : f.attribs) {
+            const std::string n = pv.name().string();
+            if (n == "compression" || n == "oiio:subimages" || n == "oiio:subimagename")
+                continue;
+            spec.extra_attribs.add_or_replace(pv);
+        }
+        spec.attribute("compression",
+                       f.exr_compression.empty() ? std::string("zip") : f.exr_compression);
+    } else {
+        /* Plain text metadata only (Cycles' samples, camera, scene...). */
+        for (const ParamValue &pv : f.attribs) {
+            const std::string n = pv.name().string();
+            if (pv.type() != OIIO::TypeString || n == "compression" ||
+                n.find(':') != std::string::npos)
+                continue;
+            spec.extra_attribs.add_or_replace(pv);
+        }
+    }
+
+    /* JPEG is encoded into memory and written out by us: on a write error
+     * (disk full, file size limit) OIIO 2.4's JPEG writer leaves libjpeg's
+     * default handler in place, which prints and calls exit(). Declared
+     * before `out`, which may still write into it while being destroyed. */
+    std::unique_ptr<OIIO::Filesystem::IOVecOutput> mem;
+    auto out = ImageOutput::create(path); /* format chosen by the destination's extension */
+    if (!out) {
+        msg = what + "no writer for " + q("." + ext) + " (" +
+              oiio_msg(OIIO::geterror(), "OpenImageIO has no such format") + ")";
+        return 1;
+    }
+    if (kind == Kind::JPEG) {
+        mem.reset(new OIIO::Filesystem::IOVecOutput());
+        if (!out->supports("ioproxy") || !out->set_ioproxy(mem.get())) {
+            msg = what + "this OpenImageIO cannot encode JPEG to memory (no I/O proxy support)";
+            return 1;
+        }
+    }
+
+    /* ---- temporary file next to the destination */
+    TempGuard guard;
+    {
+        int fd = -1, e = 0;
+        for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
+            guard.path = (dir == "/" ? std::string("/") : dir + "/") + "." + base + ".tmp-" +
+                         random_suffix() + "." + ext;
+            fd = open(guard.path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+            e = errno;
+            if (fd < 0 && e != EEXIST) break;
+        }
+        if (fd < 0) {
+            if (e == EACCES || e == EPERM || e == EROFS)
+                msg = what + "directory " + q(dir) + " is not writable (" + errno_text(e) + ")";
+            else
+                msg = what + "cannot create a temporary file in " + q(dir) + " (" +
+                      errno_text(e) + ")";
+            return 1;
+        }
+        guard.armed = true;
+        if (dst_exists && S_ISREG(dst_st.st_mode))
+            (void)fchmod(fd, dst_st.st_mode & 07777); /* keep the destination's mode */
+        close(fd);
+    }
+
+    if (!out->open(guard.path, spec)) {
+        msg = what + oiio_msg(out->geterror(), "could not open the output");
+        return 1;
+    }
+    {
+        size_t rows = std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch)));
+        rows = std::min(rows, size_t(h));
+        std::vector<float> buf(rows * size_t(w) * size_t(nch));
+        for (int y0 = 0; y0 < h; y0 += int(rows)) {
+            const int y1 = std::min(h, y0 + int(rows));
+            const size_t b = size_t(y0) * size_t(w);
+            const size_t n = size_t(y1 - y0) * size_t(w);
+            for (int c = 0; c < nch; c++) {
+                const float *s = f.ch[size_t(src[size_t(c)])].px.data() + b;
+                float *d = buf.data() + c;
+                if (clamp01) {
+                    for (size_t i = 0; i < n; i++) {
+                        float v = s[i];
+                        v = std::isnan(v) ? 0.0f : v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
+                        d[i * size_t(nch)] = v;
+                    }
+                } else {
+                    for (size_t i = 0; i < n; i++) d[i * size_t(nch)] = s[i];
+                }
+            }
+            const bool ok = out->write_scanlines(spec.y + y0, spec.y + y1, 0, OIIO::TypeFloat,
+                                                 buf.data());
+            if (!ok || out->has_error()) {
+                msg = what + oiio_msg(out->geterror(), "writing pixels failed");
+                return 1;
+            }
+        }
+    }
+    /* close()'s own result decides here, not has_error(): OIIO 2.4's TIFF
+     * writer logs "failed TIFFWriteCustomDirectory() of the Exif data" on
+     * every close although the file is fine. The read-back below is what
+     * vouches for the file. */
+    if (!out->close()) {
+        msg = what + oiio_msg(out->geterror(), "closing the output failed");
+        return 1;
+    }
+    out.reset();
+    if (mem) {
+        const std::vector<unsigned char> &bytes = mem->buffer();
+        int fd = open(guard.path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+        size_t done = 0;
+        int e = fd < 0 ? errno : 0;
+        while (fd >= 0 && done < bytes.size()) {
+            ssize_t n = write(fd, bytes.data() + done, bytes.size() - done);
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) {
+                e = n < 0 ? errno : EIO;
+                break;
+            }
+            done += size_t(n);
+        }
+        if (fd >= 0 && close(fd) != 0 && e == 0) e = errno;
+        if (e != 0 || done != bytes.size()) {
+            msg = what + "writing the temporary file failed (" + errno_text(e ? e : EIO) + ")";
+            return 1;
+        }
+    }
+
+    /* Read the whole file back before it may replace anything: some writers
+     * report short writes late or not at all (buffered output, PNG). */
+    {
+        std::string verr;
+        if (!read_back_ok(guard.path, w, h, nch, verr)) {
+            msg = what + "the written file does not read back (" + verr + ")";
+            return 1;
+        }
+    }
+
+    /* Make the data durable before it replaces the destination. */
+    {
+        int fd = open(guard.path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0 || fsync(fd) != 0) {
+            int e = errno;
+            if (fd >= 0) close(fd);
+            msg = what + "flushing the temporary file failed (" + errno_text(e) + ")";
+            return 1;
+        }
+        struct stat tst;
+        const bool empty = fstat(fd, &tst) != 0 || tst.st_size == 0;
+        close(fd);
+        if (empty) {
+            msg = what + "the written file is empty";
+            return 1;
+        }
+    }
+    if (rename(guard.path.c_str(), path.c_str()) != 0) {
+        msg = what + "rename of the temporary file failed (" + errno_text(errno) + ")";
+        return 1;
+    }
+    guard.armed = false;
+    {
+        int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        if (dfd >= 0) {
+            (void)fsync(dfd);
+            close(dfd);
+        }
+    }
+    return 0;
+}
+
+} // namespace
+
+/* ================================================================ C API */
+
+extern "C" {
+
+int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (out) *out = nullptr;
+    if (!path || !*path || !out) {
+        set_err(err, errlen, "ewio_read: invalid argument (NULL or empty path, or NULL out)");
+        return 1;
+    }
+    try {
+        std::string msg;
+        int rc = read_impl(path, out, msg);
+        if (rc) set_err(err, errlen, msg);
+        return rc;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': out of memory");
+    } catch (const std::exception &e) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': " + one_line(e.what()));
+    } catch (...) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': unknown error");
+    }
+    return 1;
+}
+
+void ewio_free(ewio_file *f) { delete f; }
+
+int ewio_width(const ewio_file *f) { return f ? f->width : 0; }
+int ewio_height(const ewio_file *f) { return f ? f->height : 0; }
+int ewio_num_channels(const ewio_file *f) { return f ? int(f->ch.size()) : 0; }
+
+const char *ewio_channel_name(const ewio_file *f, int i) {
+    if (!f || i < 0 || size_t(i) >= f->ch.size()) return nullptr;
+    return f->ch[size_t(i)].name.c_str();
+}
+
+int ewio_num_layers(const ewio_file *f) { return f ? int(f->layers.size()) : 0; }
+
+const char *ewio_layer_name(const ewio_file *f, int i) {
+    if (!f || i < 0 || size_t(i) >= f->layers.size()) return nullptr;
+    return f->layers[size_t(i)].c_str();
+}
+
+int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps,
+                  float *dst, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!f || !comps || !*comps || !dst) {
+        set_err(err, errlen, "ewio_get_pass: invalid argument (NULL file/dst or empty comps)");
+        return 1;
+    }
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
+        std::vector<int> idx;
+        std::string missing;
+        for (char c : C) {
+            int i = find_channel(*f, L, P, std::string(1, c));
+            if (i < 0) missing += c;
+            idx.push_back(i);
+        }
+        if (!missing.empty()) {
+            set_err(err, errlen, missing_msg(*f, L, P, C, missing));
+            return 1;
+        }
+        const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
+        for (size_t k = 0; k < n; k++) {
+            const float *s = f->ch[size_t(idx[k])].px.data();
+            for (size_t i = 0; i < npix; i++) dst[i * n + k] = s[i];
+        }
+        return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "ewio_get_pass: out of memory");
+    } catch (...) {
+        set_err(err, errlen, "ewio_get_pass: unexpected error");
+    }
+    return 1;
+}
+
+int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
+    if (!f || !comps || !*comps) return 0;
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "";
+        for (const char *c = comps; *c; c++)
+            if (find_channel(*f, L, P, std::string(1, *c)) < 0) return 0;
+        return 1;
+    } catch (...) {
+        return 0;
+    }
+}
+
+int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
+                  const float *src, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!f || !comps || !*comps || !src) {
+        set_err(err, errlen, "ewio_set_pass: invalid argument (NULL file/src or empty comps)");
+        return 1;
+    }
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
+        if (!L.empty() && P.empty()) {
+            set_err(err, errlen,
+                    "ewio_set_pass: a pass name is required for layer " + q(L) +
+                        " (\"" + L + ".R\" would read back as pass " + q(L) + ")");
+            return 1;
+        }
+        for (size_t i = 0; i < C.size(); i++) {
+            std::string l2, p2, c2;
+            const std::string name = join_name(L, P, std::string(1, C[i]));
+            split_name(name, l2, p2, c2);
+            if (C.find(C[i]) != i || l2 != L || p2 != P || c2 != std::string(1, C[i])) {
+                set_err(err, errlen,
+                        "ewio_set_pass: " + display_pass(L, P) + " components " + q(C) +
+                            ": channel name " + q(name) +
+                            " is ambiguous (dots in the pass name or component, or a repeated "
+                            "component)");
+                return 1;
+            }
+        }
+        const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
+        /* Prepare everything that allocates before changing the file. */
+        std::vector<std::vector<float>> data(n);
+        size_t nnew = 0;
+        for (size_t k = 0; k < n; k++) {
+            data[k].resize(npix);
+            for (size_t i = 0; i < npix; i++) data[k][i] = src[i * n + k];
+            if (find_channel(*f, L, P, std::string(1, C[k])) < 0) nnew++;
+        }
+        std::vector<Channel> fresh;
+        fresh.reserve(nnew);
+        for (size_t k = 0; k < n; k++) {
+            if (find_channel(*f, L, P, std::string(1, C[k])) >= 0) continue;
+            Channel c;
+            c.layer = L;
+            c.pass = P;
+            c.comp = std::string(1, C[k]);
+            c.name = join_name(L, P, c.comp);
+            c.type = OIIO::TypeHalf;
+            fresh.push_back(std::move(c));
+        }
+        f->ch.reserve(f->ch.size() + nnew);
+        std::vector<std::string> layers = f->layers;
+        if (!has_layer(*f, L)) layers.push_back(L);
+        /* Commit: nothing below allocates. */
+        size_t fi = 0;
+        for (size_t k = 0; k < n; k++) {
+            int i = find_channel(*f, L, P, std::string(1, C[k]));
+            if (i >= 0) {
+                f->ch[size_t(i)].px.swap(data[k]);
+                continue;
+            }
+            /* After the pass's last channel, else the layer's, else at the end. */
+            size_t pos = f->ch.size();
+            int last_pass = -1, last_layer = -1;
+            for (size_t j = 0; j < f->ch.size(); j++) {
+                if (f->ch[j].layer != L) continue;
+                last_layer = int(j);
+                if (f->ch[j].pass == P) last_pass = int(j);
+            }
+            if (last_pass >= 0)
+                pos = size_t(last_pass) + 1;
+            else if (last_layer >= 0)
+                pos = size_t(last_layer) + 1;
+            Channel &c = fresh[fi++];
+            c.px.swap(data[k]);
+            f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(c));
+        }
+        f->layers.swap(layers);
+        return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "ewio_set_pass: out of memory");
+    } catch (...) {
+        set_err(err, errlen, "ewio_set_pass: unexpected error");
+    }
+    return 1;
+}
+
+const char *ewio_get_attribute(const ewio_file *f, const char *name) {
+    if (!f || !name) return "";
+    try {
+        auto it = f->attr_text.find(name);
+        return it == f->attr_text.end() ? "" : it->second.c_str();
+    } catch (...) {
+        return "";
+    }
+}
+
+int ewio_set_attribute(ewio_file *f, const char *name, const char *value) {
+    if (!f || !name || !*name) return 1;
+    try {
+        const std::string n = name;
+        if (!value) {
+            f->attribs.remove(n);
+            f->attr_text.erase(n);
+            if (n == "compression") f->exr_compression.clear();
+            return 0;
+        }
+        const std::string v = value;
+        const ParamValue *old = f->attribs.find_pv(n);
+        bool done = false;
+        if (old && old->type() == OIIO::TypeInt && !v.empty()) {
+            char *end = nullptr;
+            errno = 0;
+            long x = strtol(v.c_str(), &end, 10);
+            if (*end == '\0' && errno == 0 && x >= INT32_MIN && x <= INT32_MAX) {
+                f->attribs.attribute(n, int(x));
+                done = true;
+            }
+        } else if (old && old->type() == OIIO::TypeFloat && !v.empty()) {
+            char *end = nullptr;
+            float x = strtof(v.c_str(), &end);
+            if (*end == '\0') {
+                f->attribs.attribute(n, x);
+                done = true;
+            }
+        }
+        if (!done) f->attribs.attribute(n, OIIO::string_view(v));
+        if (n == "compression") f->exr_compression = v;
+        const ParamValue *pv = f->attribs.find_pv(n);
+        if (pv) set_attr_text(*f, *pv);
+        return 0;
+    } catch (...) {
+        return 1;
+    }
+}
+
+int ewio_write(const ewio_file *f, const char *path, ewio_pixel_type type, const char *layer,
+               const char *pass, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!f || !path || !*path) {
+        set_err(err, errlen, "ewio_write: invalid argument (NULL file or empty path)");
+        return 1;
+    }
+    try {
+        std::string msg;
+        int rc = write_impl(*f, path, type, layer, pass, msg);
+        if (rc) set_err(err, errlen, msg);
+        return rc;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, std::string("cannot write '") + path + "': out of memory");
+    } catch (const std::exception &e) {
+        set_err(err, errlen, std::string("cannot write '") + path + "': " + one_line(e.what()));
+    } catch (...) {
+        set_err(err, errlen, std::string("cannot write '") + path + "': unknown error");
+    }
+    return 1;
+}
+
+int ewio_create(int width, int height, ewio_file **out, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (out) *out = nullptr;
+    if (!out) {
+        set_err(err, errlen, "ewio_create: invalid argument (NULL out)");
+        return 1;
+    }
+    try {
+        std::string d = check_dims(width, height);
+        if (!d.empty()) {
+            set_err(err, errlen, "ewio_create: " + d);
+            return 1;
+        }
+        ewio_file *f = new ewio_file;
+        f->width = f->full_width = width;
+        f->height = f->full_height = height;
+        *out = f;
+        return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "ewio_create: out of memory");
+    } catch (...) {
+        set_err(err, errlen, "ewio_create: unexpected error");
+    }
+    return 1;
+}
+
+} // extern "C"

@@ -1,0 +1,91 @@
+/* Writes the small EXR files the CLI tests feed to `edgewise`:
+ *   make_fixtures DIR */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ewio.h"
+
+#define W 64
+#define H 48
+
+static float buf[W * H * 4];
+
+static void fill(int c, float base, float noise, unsigned seed) {
+    for (int i = 0; i < W * H; i++)
+        for (int k = 0; k < c; k++) {
+            seed = seed * 1664525u + 1013904223u;
+            buf[i * c + k] = base * ((i % W) < W / 2 ? 1.0f : 0.3f) + noise * ((float)(seed >> 8) / 16777216.0f - 0.5f);
+        }
+}
+
+static int put(ewio_file *f, const char *layer, const char *pass, const char *comps) {
+    char err[512];
+    if (ewio_set_pass(f, layer, pass, comps, buf, err, sizeof err) != 0) {
+        fprintf(stderr, "make_fixtures: %s\n", err);
+        return 1;
+    }
+    return 0;
+}
+
+static int cycles_layer(ewio_file *f, const char *layer, int features) {
+    int rc = 0;
+    fill(4, 0.5f, 0.4f, 1);
+    for (int i = 0; i < W * H; i++) buf[i * 4 + 3] = 1.0f;
+    rc |= put(f, layer, "Combined", "RGBA");
+    if (!features) return rc;
+    fill(3, 0.8f, 0.0f, 2);
+    rc |= put(f, layer, "Denoising Albedo", "RGB");
+    fill(3, 0.0f, 0.0f, 3);
+    for (int i = 0; i < W * H; i++) buf[i * 3 + 2] = 1.0f;
+    rc |= put(f, layer, "Denoising Normal", "XYZ");
+    fill(1, 5.0f, 0.0f, 4);
+    rc |= put(f, layer, "Denoising Depth", "Z");
+    return rc;
+}
+
+static int save(ewio_file *f, const char *dir, const char *name) {
+    char path[4096], err[512];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    int rc = ewio_write(f, path, EWIO_KEEP, NULL, NULL, err, sizeof err);
+    if (rc) fprintf(stderr, "make_fixtures: %s: %s\n", path, err);
+    ewio_free(f);
+    return rc;
+}
+
+int main(int argc, char **argv) {
+    if (argc != 2) { fprintf(stderr, "usage: make_fixtures DIR\n"); return 2; }
+    const char *dir = argv[1];
+    char err[512];
+    ewio_file *f;
+    int rc = 0;
+
+    /* features present; NaN, +-Inf and negative colour samples */
+    ewio_create(W, H, &f, err, sizeof err);
+    rc |= cycles_layer(f, "ViewLayer", 1);
+    fill(4, 0.5f, 0.4f, 1);
+    for (int i = 0; i < W * H; i++) buf[i * 4 + 3] = 1.0f;
+    buf[4 * 10] = NAN; buf[4 * 20 + 1] = INFINITY; buf[4 * 30 + 2] = -INFINITY; buf[4 * 40] = -2.0f;
+    rc |= put(f, "ViewLayer", "Combined", "RGBA");
+    ewio_set_attribute(f, "cycles.ViewLayer.samples", "4");
+    rc |= save(f, dir, "bad_samples.exr");
+
+    /* two view layers, one without features */
+    ewio_create(W, H, &f, err, sizeof err);
+    rc |= cycles_layer(f, "ViewLayer", 1);
+    rc |= cycles_layer(f, "Back Plate", 0);
+    rc |= save(f, dir, "two_layers.exr");
+
+    /* colour only */
+    ewio_create(W, H, &f, err, sizeof err);
+    rc |= cycles_layer(f, "Main", 0);
+    rc |= save(f, dir, "no_albedo.exr");
+
+    /* no colour at all: only a depth pass */
+    ewio_create(W, H, &f, err, sizeof err);
+    fill(1, 3.0f, 0.0f, 5);
+    rc |= put(f, "ViewLayer", "Depth", "Z");
+    rc |= save(f, dir, "depth_only.exr");
+    return rc ? 1 : 0;
+}

@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# The edgewise command line on good and bad input. Usage:
+#   test_cli.sh EDGEWISE_BIN MAKE_FIXTURES_BIN SAMPLE_DIR
+# Prints "N passed, N failed" and exits non-zero on any failure.
+set -u
+EW="$1"; FIX="$2"; SAMPLE="$3"
+T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
+pass=0; fail=0
+ok()  { pass=$((pass+1)); echo "ok   $1"; }
+bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+
+# expect NAME EXIT_CODE STDERR_SUBSTRING -- ARGS...   (one line on stderr for errors)
+expect() {
+  local name="$1" code="$2" want="$3"; shift 4
+  "$EW" "$@" >"$T/out" 2>"$T/err"; local got=$?
+  if [ "$got" -ne "$code" ]; then bad "$name (exit $got, expected $code)"; return; fi
+  if [ -n "$want" ] && ! grep -qF -- "$want" "$T/err"; then bad "$name (stderr lacks '$want')"; return; fi
+  if [ "$code" -ne 0 ] && [ "$(wc -l <"$T/err")" -ne 1 ]; then bad "$name (expected one line on stderr)"; return; fi
+  ok "$name"
+}
+no_file() { if [ -e "$1" ]; then bad "$2: $1 exists"; else ok "$2"; fi; }
+no_temps() { if ls -A "$1" | grep -q 'tmp'; then bad "$2: temporary left in $1"; else ok "$2"; fi; }
+
+"$FIX" "$T" || { echo "0 passed, 1 failed"; exit 1; }
+
+# ---- help, version, usage errors
+"$EW" --help | grep -q "denoise IN -o OUT" && ok help || bad help
+"$EW" denoise --help | grep -q -- "--layer NAME" && ok denoise_help || bad denoise_help
+"$EW" --version | grep -Eq '^edgewise [0-9]+\.[0-9]+\.[0-9]+$' && ok version || bad version
+expect usage_no_args 2 "needs an input" -- denoise
+expect usage_no_output 2 "-o OUT" -- denoise "$T/two_layers.exr"
+expect usage_bad_option 2 "unknown option '--frobnicate'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --frobnicate
+expect usage_bad_threads 2 "--threads expects an integer" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --threads -3
+expect usage_bad_rate 2 "--spatial-rate expects a number" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --spatial-rate 0
+expect usage_bad_method 2 "unknown method 'oidn'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --method oidn
+expect unknown_command 2 "unknown command" -- frobnicate
+no_file "$T/o.exr" usage_errors_write_nothing
+
+# ---- bad input files
+expect missing_file 1 "no such file" -- denoise "$T/nope.exr" -o "$T/o.exr"
+echo "this is not an image" >"$T/text.exr"
+expect not_an_image 1 "cannot read '$T/text.exr'" -- denoise "$T/text.exr" -o "$T/o.exr"
+head -c 2000 "$T/two_layers.exr" >"$T/truncated.exr"
+expect truncated_exr 1 "cannot read '$T/truncated.exr'" -- denoise "$T/truncated.exr" -o "$T/o.exr"
+expect no_colour_pass 1 "no colour pass" -- denoise "$T/depth_only.exr" -o "$T/o.exr"
+expect no_colour_lists_layers 1 "'ViewLayer'" -- denoise "$T/depth_only.exr" -o "$T/o.exr"
+expect missing_albedo 1 "has no albedo pass" -- denoise "$T/no_albedo.exr" -o "$T/o.exr" --method bgrid
+expect missing_albedo_names_layers 1 "layers found: 'Main'" -- denoise "$T/no_albedo.exr" -o "$T/o.exr" --method bgrid
+expect unknown_layer 1 "'Back Plate'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --layer Nope
+if command -v oiiotool >/dev/null; then
+  oiiotool --create 70000x1 3 -o "$T/wide.exr" 2>/dev/null
+  expect huge_image 1 "cannot read" -- denoise "$T/wide.exr" -o "$T/o.exr"
+fi
+no_file "$T/o.exr" bad_inputs_write_nothing
+
+# ---- output safety
+cp "$T/two_layers.exr" "$T/in.exr"; sum=$(md5sum <"$T/in.exr")
+expect output_is_input 1 "refusing to write the output over the input" -- denoise "$T/in.exr" -o "$T/in.exr"
+ln -s "$T/in.exr" "$T/link.exr"
+expect output_is_input_via_link 1 "refusing" -- denoise "$T/in.exr" -o "$T/link.exr"
+[ "$(md5sum <"$T/in.exr")" = "$sum" ] && ok input_untouched || bad input_untouched
+mkdir -p "$T/ro"; chmod 555 "$T/ro"
+if [ "$(id -u)" -ne 0 ]; then
+  expect unwritable_output 1 "cannot write" -- denoise "$T/in.exr" -o "$T/ro/o.exr"
+fi
+expect missing_output_dir 1 "cannot write" -- denoise "$T/in.exr" -o "$T/no/such/dir/o.exr"
+echo "precious" >"$T/keep.exr"
+expect failed_write_keeps_old_file 1 "" -- denoise "$T/truncated.exr" -o "$T/keep.exr"
+grep -q precious "$T/keep.exr" && ok old_output_kept || bad old_output_kept
+no_temps "$T" no_temporaries_left
+
+# ---- good input
+expect two_layers 0 "layer 'Back Plate'" -- denoise "$T/two_layers.exr" -o "$T/two_out.exr"
+"$EW" info "$T/two_out.exr" >"$T/info" 2>&1
+grep -q "layer 'ViewLayer': colour 'Noisy Image'" "$T/info" && grep -q "layer 'Back Plate'" "$T/info" \
+  && ok both_layers_written_with_noisy_kept || bad both_layers_written_with_noisy_kept
+grep -q "ViewLayer.Denoising Albedo.R" "$T/info" && ok other_passes_kept || bad other_passes_kept
+expect bad_samples 0 "" -- denoise "$T/bad_samples.exr" -o "$T/bs.exr" --float
+"$EW" compare "$T/bs.exr" "$T/two_layers.exr" >"$T/cmp" 2>&1 && grep -q "PSNR" "$T/cmp" && ! grep -qi "nan\|inf" "$T/cmp" \
+  && ok bad_samples_output_finite || bad bad_samples_output_finite
+expect colour_only_png 0 "" -- denoise "$T/no_albedo.exr" -o "$T/o.png"
+[ -s "$T/o.png" ] && ok png_written || bad png_written
+expect reads_png 0 "" -- denoise "$T/o.png" -o "$T/o2.tif"
+[ -s "$T/o2.tif" ] && ok tiff_written || bad tiff_written
+
+# ---- the bundled sample: denoising must raise PSNR by at least 6 dB
+if [ -f "$SAMPLE/cornell/f0001_spp0004.exr" ]; then
+  "$EW" denoise "$SAMPLE/cornell/f0001_spp0004.exr" -o "$T/sample.exr" \
+      --reference "$SAMPLE/cornell/f0001_ref1024.exr" >"$T/q" 2>"$T/err"
+  gain=$(sed -n 's/.*(\([+-][0-9.]*\) dB).*/\1/p' "$T/q")
+  echo "     sample: $(cat "$T/q")"
+  if [ -n "$gain" ] && awk "BEGIN{exit !($gain >= 6.0)}"; then ok sample_gains_6db; else bad "sample_gains_6db (gain '$gain')"; fi
+  "$EW" info "$T/sample.exr" | grep -q "samples: 4" && ok sample_metadata_kept || bad sample_metadata_kept
+else
+  bad "sample missing: $SAMPLE/cornell"
+fi
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
