@@ -137,5 +137,5 @@ const ew_op_type ew_denoise_bgrid = {
     "bilateral grid guided by a hand-made guide: the mean of the normalised albedo, normal and depth "
     "(the colour's luminance when no features are given)",
     images, (int)(sizeof images / sizeof images[0]), params, (int)(sizeof params / sizeof params[0]),
-    commit, execute, release,
+    commit, execute, release, NULL, NULL,
 };

@@ -18,6 +18,9 @@ ew_result ew_denoiser_set_int(ew_denoiser *d, const char *name, int32_t value) {
 ew_result ew_denoiser_set_float(ew_denoiser *d, const char *name, float value) {
     return ew_op_set_param((ew_op *)d, name, value, 0);
 }
+ew_result ew_denoiser_set_data(ew_denoiser *d, const char *name, const void *data, size_t size) {
+    return ew_op_set_data((ew_op *)d, name, data, size);
+}
 ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, void *user) {
     if (!d) return EW_ERR_INVALID_ARGUMENT;
     d->op.progress = fn;
@@ -41,6 +44,9 @@ ew_result ew_filter_set_int(ew_filter *f, const char *name, int32_t value) {
 }
 ew_result ew_filter_set_float(ew_filter *f, const char *name, float value) {
     return ew_op_set_param((ew_op *)f, name, value, 0);
+}
+ew_result ew_filter_set_data(ew_filter *f, const char *name, const void *data, size_t size) {
+    return ew_op_set_data((ew_op *)f, name, data, size);
 }
 ew_result ew_filter_set_progress(ew_filter *f, ew_progress_fn fn, void *user) {
     if (!f) return EW_ERR_INVALID_ARGUMENT;

@@ -51,6 +51,7 @@ static void release(ew_op *op) {
 void ew_op_destroy(ew_op *op) {
     if (!op) return;
     release(op);
+    if (op->data_state && op->type->release_data) op->type->release_data(op);
     free(op);
 }
 
@@ -112,6 +113,19 @@ ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int) 
     list_slots(t, names, sizeof names, 0);
     return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown parameter '%s' for %s '%s' (%s)",
                     name ? name : "(null)", t->kind, t->name, names);
+}
+
+ew_result ew_op_set_data(ew_op *op, const char *name, const void *data, size_t size) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    if (!op->type->set_data)
+        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "%s '%s' takes no data ('%s')", op->type->kind,
+                        op->type->name, name ? name : "(null)");
+    if (!name) return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "data name is NULL");
+    if (!data != !size) return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "data '%s': pointer and size disagree", name);
+    ew_result r = op->type->set_data(op, name, data, size);
+    if (r == EW_OK) op->committed = 0;
+    return r;
 }
 
 const ew_image *ew_op_image(const ew_op *op, const char *name) {

@@ -36,6 +36,10 @@ typedef struct ew_op_type {
     ew_result (*commit)(ew_op *op);
     ew_result (*execute)(ew_op *op);
     void (*release)(ew_op *op); /* free op->state */
+    /* Optional: accept named data (e.g. "weights"), validating it now and
+     * keeping what it needs in op->data_state (freed by release_data). */
+    ew_result (*set_data)(ew_op *op, const char *name, const void *data, size_t size);
+    void (*release_data)(ew_op *op);
 } ew_op_type;
 
 struct ew_op {
@@ -48,6 +52,7 @@ struct ew_op {
     void *progress_user;
     int committed;
     void *state;
+    void *data_state;
 };
 
 /* Registry of every method, by kind. NULL-terminated. */
@@ -58,6 +63,7 @@ ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op
 void ew_op_destroy(ew_op *op);
 ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view);
 ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int);
+ew_result ew_op_set_data(ew_op *op, const char *name, const void *data, size_t size);
 ew_result ew_op_commit(ew_op *op);
 ew_result ew_op_execute(ew_op *op);
 

@@ -8,6 +8,7 @@ struct ew_thread_pool {
     int threads;
     pthread_t *workers;
     pthread_mutex_t lock;
+    pthread_mutex_t run_lock; /* one job at a time when callers share a device */
     pthread_cond_t wake, done;
     /* the job in flight; generation changes once per job */
     unsigned long generation;
@@ -56,6 +57,7 @@ ew_thread_pool *ew_pool_create(int threads) {
     if (!p) return NULL;
     p->threads = threads;
     if (pthread_mutex_init(&p->lock, NULL) != 0) { free(p); return NULL; }
+    pthread_mutex_init(&p->run_lock, NULL);
     pthread_cond_init(&p->wake, NULL);
     pthread_cond_init(&p->done, NULL);
     atomic_init(&p->next, 0);
@@ -89,6 +91,7 @@ void ew_pool_destroy(ew_thread_pool *p) {
     pthread_cond_destroy(&p->wake);
     pthread_cond_destroy(&p->done);
     pthread_mutex_destroy(&p->lock);
+    pthread_mutex_destroy(&p->run_lock);
     free(p);
 }
 
@@ -105,6 +108,7 @@ void ew_pool_run(ew_thread_pool *p, int64_t n, int64_t grain, ew_range_fn fn, vo
         fn(ctx, 0, n, 0);
         return;
     }
+    pthread_mutex_lock(&p->run_lock);
     pthread_mutex_lock(&p->lock);
     p->fn = fn;
     p->ctx = ctx;
@@ -121,4 +125,5 @@ void ew_pool_run(ew_thread_pool *p, int64_t n, int64_t grain, ew_range_fn fn, vo
     pthread_mutex_lock(&p->lock);
     while (p->busy > 0) pthread_cond_wait(&p->done, &p->lock);
     pthread_mutex_unlock(&p->lock);
+    pthread_mutex_unlock(&p->run_lock);
 }

@@ -35,3 +35,33 @@ TEST(every_item_exactly_once_4_threads) { CHECK(covers_once(4, 1000, 0)); }
 TEST(every_item_exactly_once_odd_grain) { CHECK(covers_once(3, 997, 7)); }
 TEST(fewer_items_than_threads) { CHECK(covers_once(8, 3, 1)); }
 TEST(zero_items_is_a_no_op) { CHECK(covers_once(2, 0, 1)); }
+
+/* Two caller threads sharing one pool: jobs are serialised, none is lost. */
+#include <pthread.h>
+typedef struct { ew_thread_pool *pool; int ok; } caller_arg;
+static void *caller(void *arg) {
+    caller_arg *a = (caller_arg *)arg;
+    atomic_int *hits = calloc(500, sizeof(atomic_int));
+    ctx_t c = {hits, 0};
+    a->ok = 1;
+    for (int rep = 0; rep < 200; rep++) {
+        for (int i = 0; i < 500; i++) atomic_store(&hits[i], 0);
+        ew_pool_run(a->pool, 500, 3, mark, &c);
+        for (int i = 0; i < 500; i++) a->ok &= atomic_load(&hits[i]) == 1;
+    }
+    free(hits);
+    return NULL;
+}
+
+TEST(shared_by_two_callers) {
+    ew_thread_pool *p = ew_pool_create(3);
+    CHECK(p);
+    caller_arg a = {p, 0}, b = {p, 0};
+    pthread_t ta, tb;
+    pthread_create(&ta, NULL, caller, &a);
+    pthread_create(&tb, NULL, caller, &b);
+    pthread_join(ta, NULL);
+    pthread_join(tb, NULL);
+    ew_pool_destroy(p);
+    CHECK(a.ok && b.ok);
+}

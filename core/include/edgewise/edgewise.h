@@ -119,6 +119,9 @@ EW_API void ew_denoiser_destroy(ew_denoiser *d); /* NULL is a no-op */
 EW_API ew_result ew_denoiser_set_image(ew_denoiser *d, const char *name, const ew_image *view);
 EW_API ew_result ew_denoiser_set_int(ew_denoiser *d, const char *name, int32_t value);
 EW_API ew_result ew_denoiser_set_float(ew_denoiser *d, const char *name, float value);
+/* Opaque data by name, e.g. "weights": the bytes of a weights file (see
+ * models/README.md). Copied and validated at once; NULL/0 unsets. */
+EW_API ew_result ew_denoiser_set_data(ew_denoiser *d, const char *name, const void *data, size_t size);
 EW_API ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, void *user);
 /* Validate images and parameters and allocate scratch memory. */
 EW_API ew_result ew_denoiser_commit(ew_denoiser *d);
@@ -138,6 +141,7 @@ EW_API void ew_filter_destroy(ew_filter *f); /* NULL is a no-op */
 EW_API ew_result ew_filter_set_image(ew_filter *f, const char *name, const ew_image *view);
 EW_API ew_result ew_filter_set_int(ew_filter *f, const char *name, int32_t value);
 EW_API ew_result ew_filter_set_float(ew_filter *f, const char *name, float value);
+EW_API ew_result ew_filter_set_data(ew_filter *f, const char *name, const void *data, size_t size);
 EW_API ew_result ew_filter_set_progress(ew_filter *f, ew_progress_fn fn, void *user);
 EW_API ew_result ew_filter_commit(ew_filter *f);
 EW_API ew_result ew_filter_execute(ew_filter *f);
