@@ -11,6 +11,7 @@
 #include "kernels/bgrid.h"
 #include "kernels/denoise_px.h"
 #include "kernels/outlier.h"
+#include "kernels/temporal.h"
 
 typedef struct ew_device ew_device;
 
@@ -28,6 +29,8 @@ typedef struct ew_backend {
     void (*denoise_refine_guide)(ew_device *dev, const ew_denoise_buffers *b, float mean_lum, float color_weight);
     /* firefly suppression of an RGB image (out must not alias in) */
     void (*outlier_clamp)(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out);
+    /* temporal accumulation of one frame into b->out_* */
+    void (*temporal)(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b);
 
 } ew_backend;
 

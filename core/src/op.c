@@ -140,6 +140,11 @@ float ew_op_param(const ew_op *op, const char *name) {
     return 0.0f;
 }
 
+void ew_op_param_put(ew_op *op, const char *name, float value) {
+    for (int i = 0; i < op->type->num_params; i++)
+        if (!strcmp(op->type->params[i].name, name)) op->params[i] = value;
+}
+
 int ew_op_report(ew_op *op, double fraction) {
     return op->progress ? op->progress(op->progress_user, fraction) : 1;
 }

@@ -71,6 +71,8 @@ ew_result ew_op_execute(ew_op *op);
  * value by index, and progress (returns 0 when the caller cancels). */
 const ew_image *ew_op_image(const ew_op *op, const char *name);
 float ew_op_param(const ew_op *op, const char *name);
+/* Overwrite a parameter from inside the op (e.g. a one-shot trigger). */
+void ew_op_param_put(ew_op *op, const char *name, float value);
 int ew_op_report(ew_op *op, double fraction);
 
 /* Pack the first c channels of a view into a dense buffer, and back. */

@@ -2,8 +2,10 @@
 #include "src/op.h"
 
 extern const ew_op_type ew_denoise_bgrid;
+extern const ew_op_type ew_filter_temporal;
 
 const ew_op_type *const ew_op_types[] = {
     &ew_denoise_bgrid,
+    &ew_filter_temporal,
     NULL,
 };

@@ -99,6 +99,23 @@ static void cpu_outlier_clamp(ew_device *dev, int width, int height, int radius,
     ew_pool_run(dev->pool, height, 0, outlier_rows, &j);
 }
 
+typedef struct {
+    const ew_temporal_params *p;
+    const ew_temporal_buffers *b;
+} temporal_job;
+
+static void temporal_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const temporal_job *j = (const temporal_job *)ctx;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < j->p->width; x++) ew_temporal_px(x, (int)y, j->p, j->b);
+}
+
+static void cpu_temporal(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b) {
+    temporal_job j = {p, b};
+    ew_pool_run(dev->pool, p->height, 0, temporal_rows, &j);
+}
+
 const ew_backend ew_cpu_backend = {
     .name = "cpu",
     .bgrid_splat = cpu_bgrid_splat,
@@ -107,4 +124,5 @@ const ew_backend ew_cpu_backend = {
     .denoise_finish = cpu_denoise_finish,
     .denoise_refine_guide = cpu_denoise_refine_guide,
     .outlier_clamp = cpu_outlier_clamp,
+    .temporal = cpu_temporal,
 };
