@@ -109,3 +109,34 @@ ew_result ew_image_ssim(ew_device *dev, const ew_image *a, const ew_image *b, do
     *out = total / C;
     return EW_OK;
 }
+
+typedef double (*pair_metric)(double t, double r);
+static double relmse_term(double t, double r) { return (t - r) * (t - r) / (r * r + 0.01); }
+static double smape_term(double t, double r) { return fabs(t - r) / (fabs(t) + fabs(r) + 0.01); }
+
+/* Mean of a per-sample term over the first C channels; a non-finite test
+ * sample counts as 0 (as in PSNR). */
+static ew_result mean_term(ew_device *dev, const ew_image *a, const ew_image *b, double *out, pair_metric term) {
+    int C;
+    ew_result r = check_pair(dev, a, b, out, &C);
+    if (r != EW_OK) return r;
+    double sum = 0.0;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            const float *pa = ew__pixel(a, x, y), *pb = ew__pixel(b, x, y);
+            for (int c = 0; c < C; c++) {
+                double t = isfinite(pa[c]) ? pa[c] : 0.0, ref = isfinite(pb[c]) ? pb[c] : 0.0;
+                sum += term(t, ref);
+            }
+        }
+    *out = sum / ((double)a->width * a->height * C);
+    return EW_OK;
+}
+
+ew_result ew_image_relmse(ew_device *dev, const ew_image *a, const ew_image *b, double *out) {
+    return mean_term(dev, a, b, out, relmse_term);
+}
+
+ew_result ew_image_smape(ew_device *dev, const ew_image *a, const ew_image *b, double *out) {
+    return mean_term(dev, a, b, out, smape_term);
+}

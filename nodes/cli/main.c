@@ -17,6 +17,7 @@ static const char usage[] =
     "  denoise IN -o OUT   denoise a render (Cycles multilayer EXR, or EXR/PNG/TIFF colour)\n"
     "  info IN             list the layers, passes and metadata of an image file\n"
     "  compare TEST REF    PSNR and SSIM of TEST against REF (tone-mapped)\n"
+    "  bench DIR -o OUT    every method on a directory of renders: quality and time (CSV)\n"
     "\n"
     "  edgewise <command> --help   options of a command\n"
     "  edgewise --version          library version\n";
@@ -38,6 +39,7 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "denoise")) return cmd_denoise(argc - 1, argv + 1);
     if (!strcmp(cmd, "info")) return cmd_info(argc - 1, argv + 1);
     if (!strcmp(cmd, "compare")) return cmd_compare(argc - 1, argv + 1);
+    if (!strcmp(cmd, "bench")) return cmd_bench(argc - 1, argv + 1);
     fprintf(stderr, "edgewise: unknown command '%s' (try 'edgewise --help')\n", cmd);
     return EW_EXIT_USAGE;
 }

@@ -210,6 +210,20 @@ TEST(psnr_and_ssim) {
     CHECK_NEAR(p, 10 * log10(1.0 / (se / (W * H * 3))), 1e-3);
     CHECK_EQ_INT(ew_image_ssim(dev, &n, &r, &q), EW_OK);
     CHECK(q < 0.99 && q > 0.0);
+    double rel = -1, sm = -1, want_rel = 0, want_sm = 0;
+    CHECK_EQ_INT(ew_image_relmse(dev, &r, &r, &rel), EW_OK);
+    CHECK_NEAR(rel, 0.0, 0.0);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) {
+                double t = noisy[y][x][c], v = ref[y][x][c];
+                want_rel += (t - v) * (t - v) / (v * v + 0.01);
+                want_sm += fabs(t - v) / (fabs(t) + fabs(v) + 0.01);
+            }
+    CHECK_EQ_INT(ew_image_relmse(dev, &n, &r, &rel), EW_OK);
+    CHECK_NEAR(rel, want_rel / (W * H * 3), 1e-9);
+    CHECK_EQ_INT(ew_image_smape(dev, &n, &r, &sm), EW_OK);
+    CHECK_NEAR(sm, want_sm / (W * H * 3), 1e-9);
     ew_image small = ew_image_packed(&ref[0][0][0], 8, 8, 3);
     CHECK_EQ_INT(ew_image_psnr(dev, &small, &r, &p), EW_ERR_INVALID_ARGUMENT);
     CHECK_STR_CONTAINS(ew_device_last_error(dev), "8x8");

@@ -186,6 +186,11 @@ EW_API ew_result ew_method_param(const char *kind, const char *name, int32_t ind
  */
 EW_API ew_result ew_image_psnr(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
 EW_API ew_result ew_image_ssim(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
+/* On linear values (no tone mapping), the MC denoising papers' HDR metrics:
+ * relative MSE  mean((t - r)^2 / (r^2 + 0.01)),
+ * SMAPE         mean(|t - r| / (|t| + |r| + 0.01)). */
+EW_API ew_result ew_image_relmse(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
+EW_API ew_result ew_image_smape(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
 
 #ifdef __cplusplus
 }

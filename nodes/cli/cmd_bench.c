@@ -1,0 +1,279 @@
+/*
+ * edgewise bench — every method over a directory of Cycles renders with
+ * references: PSNR, SSIM, relMSE, SMAPE and ms per frame, as CSV (and PNG
+ * images for the report page). tools/bench_report.py draws the charts.
+ */
+#include <dirent.h>
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <math.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "cli.h"
+#include "method_run.h"
+
+static const char help[] =
+    "usage: edgewise bench DATA_DIR -o OUT_DIR [options]\n"
+    "\n"
+    "Run every method over the renders in DATA_DIR (one folder per scene holding\n"
+    "fNNNN_sppSSSS.exr inputs and an fNNNN_refRRRR.exr reference, as written by\n"
+    "tools/blender/render_scene.py) and write OUT_DIR/results.csv with scene, spp,\n"
+    "method, PSNR, SSIM (tone-mapped), relMSE, SMAPE (linear) and ms per frame\n"
+    "(the fastest of --repeat runs, file I/O excluded). Then run\n"
+    "tools/bench_report.py OUT_DIR for the charts and the HTML page.\n"
+    "\n"
+    "options:\n"
+    "  -o, --output DIR     where results go (created)\n"
+    "  --spp LIST           sample counts to use, e.g. 1,4 (default: 1,4,16,64)\n"
+    "  --scenes LIST        only scene folders whose name contains one of these\n"
+    "  --frames N           frames per scene (default 1)\n"
+    "  --methods LIST       only these methods (labels as listed by --list)\n"
+    "  --repeat N           timing runs per method (default 3)\n"
+    "  --threads N          worker threads, 0 = all cores (default 0)\n"
+    "  --images             also write PNGs (input, outputs, reference, error maps)\n"
+    "  --list               print the methods and exit\n";
+
+#define MAX_METHODS 32
+
+static int n_specs;
+static ew_method_spec specs[MAX_METHODS];
+
+static ew_method_spec *add(const char *label, const char *kind, const char *name, int demod) {
+    if (n_specs >= MAX_METHODS) return NULL;
+    ew_method_spec *s = &specs[n_specs++];
+    memset(s, 0, sizeof *s);
+    s->label = label;
+    s->kind = kind;
+    s->name = name;
+    s->demodulate = demod;
+    return s;
+}
+
+static void param(ew_method_spec *s, const char *name, float v) {
+    if (!s || s->num_params >= EW_RUN_MAX_PARAMS) return;
+    s->param_names[s->num_params] = name;
+    s->param_values[s->num_params++] = v;
+}
+
+static int has_method(const char *kind, const char *name) {
+    for (int32_t i = 0; i < ew_method_count(kind); i++) {
+        const char *nm;
+        ew_method_get(kind, i, &nm, NULL, NULL, NULL);
+        if (!strcmp(nm, name)) return 1;
+    }
+    return 0;
+}
+
+/* The methods compared: whatever this build of the library offers. */
+static void build_specs(void) {
+    add("input", NULL, NULL, 0);
+    ew_method_spec *s = add("bgrid-features", "denoiser", "bgrid", 0);
+    param(s, "color_weight", 0.0f);
+    add("bgrid", "denoiser", "bgrid", 0);
+    if (has_method("denoiser", "nbg")) add("nbg", "denoiser", "nbg", 0);
+    if (has_method("denoiser", "auto")) add("auto", "denoiser", "auto", 0);
+    if (has_method("filter", "atrous")) add("atrous", "filter", "atrous", 1);
+    if (has_method("filter", "pyramid")) {
+        s = add("pyramid-gi", "filter", "pyramid", 1);
+        param(s, "model", 1.0f);
+    }
+    if (has_method("filter", "bilateral")) {
+        s = add("bilateral-gi", "filter", "bilateral", 1);
+        param(s, "model", 1.0f);
+    }
+}
+
+static int in_list(const char *list, const char *name, int substring) {
+    if (!list) return 1;
+    char buf[1024];
+    snprintf(buf, sizeof buf, "%s", list);
+    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ","))
+        if (substring ? strstr(name, tok) != NULL : !strcmp(name, tok)) return 1;
+    return 0;
+}
+
+/* snprintf for paths: a path too long for the buffer is an error, not a
+ * silently shortened name (vsnprintf also keeps gcc's truncation analysis,
+ * which cannot know directory-name lengths, quiet). */
+static int fmt_path(char *dst, size_t n, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int fmt_path(char *dst, size_t n, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    int k = vsnprintf(dst, n, fmt, ap);
+    va_end(ap);
+    return k >= 0 && (size_t)k < n;
+}
+
+static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
+
+/* The reference of frame `frame` in dir: fNNNN_ref*.exr (first match). */
+static int find_ref(const char *dir, int frame, char *out, size_t len) {
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    char prefix[32];
+    snprintf(prefix, sizeof prefix, "f%04d_ref", frame);
+    struct dirent *e;
+    int found = 0;
+    while (!found && (e = readdir(d)))
+        if (!strncmp(e->d_name, prefix, strlen(prefix)) && strstr(e->d_name, ".exr")) {
+            fmt_path(out, len, "%s/%s", dir, e->d_name);
+            found = 1;
+        }
+    closedir(d);
+    return found;
+}
+
+static float tm(float v) { return v > 0.0f ? (v < 1.0f ? powf(v, 1.0f / 2.2f) : 1.0f) : 0.0f; }
+
+static void write_png(const char *path, const float *rgb, const float *ref, int w, int h) {
+    char err[512];
+    ewio_file *f;
+    if (ewio_create(w, h, &f, err, sizeof err) != 0) return;
+    float *buf = (float *)malloc(sizeof(float) * w * h * 3);
+    if (!buf) { ewio_free(f); return; }
+    for (int i = 0; i < w * h * 3; i++) {
+        float v = isfinite(rgb[i]) ? rgb[i] : 0.0f;
+        buf[i] = ref ? fminf(4.0f * fabsf(tm(v) - tm(ref[i])), 1.0f) : tm(v);
+    }
+    if (ewio_set_pass(f, "", "", "RGB", buf, err, sizeof err) != 0 || ewio_write(f, path, EWIO_KEEP, "", "", err, sizeof err) != 0)
+        fprintf(stderr, "edgewise: %s\n", err);
+    free(buf);
+    ewio_free(f);
+}
+
+int cmd_bench(int argc, char **argv) {
+    const char *data = NULL, *outdir = NULL, *spp_list = "1,4,16,64", *scenes = NULL, *methods = NULL;
+    int repeat = 3, threads = 0, images = 0, list = 0, frames = 1;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(help, stdout); return 0; }
+        else if (!strcmp(a, "--images")) images = 1;
+        else if (!strcmp(a, "--list")) list = 1;
+        else if (!v && a[0] == '-') { fprintf(stderr, "edgewise: %s needs a value\n", a); return EW_EXIT_USAGE; }
+        else if (!strcmp(a, "-o") || !strcmp(a, "--output")) outdir = argv[++i];
+        else if (!strcmp(a, "--spp")) spp_list = argv[++i];
+        else if (!strcmp(a, "--scenes")) scenes = argv[++i];
+        else if (!strcmp(a, "--methods")) methods = argv[++i];
+        else if (!strcmp(a, "--repeat")) { if (!cli_parse_int(a, argv[++i], 1, 100, &repeat)) return EW_EXIT_USAGE; }
+        else if (!strcmp(a, "--frames")) { if (!cli_parse_int(a, argv[++i], 1, 100000, &frames)) return EW_EXIT_USAGE; }
+        else if (!strcmp(a, "--threads")) { if (!cli_parse_int(a, argv[++i], 0, 1024, &threads)) return EW_EXIT_USAGE; }
+        else if (a[0] == '-') { fprintf(stderr, "edgewise: unknown option '%s' (see 'edgewise bench --help')\n", a); return EW_EXIT_USAGE; }
+        else if (!data) data = a;
+        else { fprintf(stderr, "edgewise: unexpected argument '%s'\n", a); return EW_EXIT_USAGE; }
+    }
+    build_specs();
+    if (list) {
+        for (int m = 0; m < n_specs; m++) printf("%s\n", specs[m].label);
+        return 0;
+    }
+    if (!data || !outdir) { fprintf(stderr, "usage: edgewise bench DATA_DIR -o OUT_DIR (see --help)\n"); return EW_EXIT_USAGE; }
+    if (strlen(data) > 2048 || strlen(outdir) > 2048) return cli_fail("path too long");
+    if (mkdir(outdir, 0777) != 0 && errno != EEXIST) return cli_fail("cannot create '%s': %s", outdir, strerror(errno));
+    char path[4096];
+    if (images) {
+        fmt_path(path, sizeof path, "%s/img", outdir);
+        if (mkdir(path, 0777) != 0 && errno != EEXIST) return cli_fail("cannot create '%s': %s", path, strerror(errno));
+    }
+
+    DIR *d = opendir(data);
+    if (!d) return cli_fail("cannot read the directory '%s': %s", data, strerror(errno));
+    char *names[4096];
+    int n_names = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) && n_names < 4096)
+        if (e->d_name[0] != '.' && in_list(scenes, e->d_name, 1)) names[n_names++] = strdup(e->d_name);
+    closedir(d);
+    qsort(names, (size_t)n_names, sizeof names[0], cmp_str);
+
+    fmt_path(path, sizeof path, "%s/results.csv", outdir);
+    FILE *csv = fopen(path, "w");
+    if (!csv) return cli_fail("cannot write '%s': %s", path, strerror(errno));
+    fprintf(csv, "scene,frame,spp,method,psnr,ssim,relmse,smape,ms,width,height,threads\n");
+    ew_device *dev = cli_device(threads);
+    if (!dev) { fclose(csv); return EW_EXIT_FAIL; }
+    int rows = 0, failures = 0;
+    for (int s = 0; s < n_names; s++) {
+        char dir[4096];
+        fmt_path(dir, sizeof dir, "%s/%s", data, names[s]);
+        for (int frame = 1; frame <= frames; frame++) {
+            char refpath[4096], err[1024] = "";
+            if (!find_ref(dir, frame, refpath, sizeof refpath)) continue;
+            ewio_file *rf = NULL;
+            if (ewio_read(refpath, &rf, err, sizeof err) != 0) { fprintf(stderr, "edgewise: skipping: %s\n", err); continue; }
+            float *ref = cli_read_color(rf, NULL, err, sizeof err);
+            int w = ewio_width(rf), h = ewio_height(rf);
+            ewio_free(rf);
+            if (!ref) { fprintf(stderr, "edgewise: skipping %s: %s\n", refpath, err); continue; }
+            if (images) {
+                fmt_path(path, sizeof path, "%s/img/%s_f%04d_ref.png", outdir, names[s], frame);
+                write_png(path, ref, NULL, w, h);
+            }
+            char spps[256];
+            snprintf(spps, sizeof spps, "%s", spp_list);
+            for (char *tok = strtok(spps, ","); tok; tok = strtok(NULL, ",")) {
+                int spp = atoi(tok);
+                char in[4096];
+                fmt_path(in, sizeof in, "%s/f%04d_spp%04d.exr", dir, frame, spp);
+                struct stat st;
+                if (stat(in, &st) != 0) continue;
+                ewio_file *f = NULL;
+                ew_layer_passes lp;
+                ew_layer_data ld;
+                if (ewio_read(in, &f, err, sizeof err) != 0 || ewio_width(f) != w || ewio_height(f) != h ||
+                    ew_find_layer_passes(f, ewio_layer_name(f, 0), &lp, err, sizeof err) != 0 ||
+                    ew_layer_data_read(f, &lp, &ld, err, sizeof err) != 0) {
+                    fprintf(stderr, "edgewise: skipping %s: %s\n", in, err[0] ? err : "size differs from the reference");
+                    ewio_free(f);
+                    continue;
+                }
+                ewio_free(f);
+                float *out = (float *)malloc(sizeof(float) * w * h * 3);
+                for (int m = 0; out && m < n_specs; m++) {
+                    if (!in_list(methods, specs[m].label, 0)) continue;
+                    double best = 1e30, ms = 0;
+                    int ok = 1;
+                    for (int k = 0; k < repeat && ok; k++) {
+                        err[0] = '\0';
+                        ok = ew_method_run(dev, &specs[m], &ld, out, &ms, err, sizeof err) == 0;
+                        if (ms < best) best = ms;
+                    }
+                    if (!ok) {
+                        fprintf(stderr, "edgewise: %s %d spp: %s\n", names[s], spp, err);
+                        failures++;
+                        continue;
+                    }
+                    ew_image vo = ew_image_packed(out, w, h, 3), vr = ew_image_packed(ref, w, h, 3);
+                    double psnr, ssim, rel, smape;
+                    ew_image_psnr(dev, &vo, &vr, &psnr);
+                    ew_image_ssim(dev, &vo, &vr, &ssim);
+                    ew_image_relmse(dev, &vo, &vr, &rel);
+                    ew_image_smape(dev, &vo, &vr, &smape);
+                    fprintf(csv, "%s,%d,%d,%s,%.4f,%.5f,%.6g,%.6g,%.3f,%d,%d,%d\n", names[s], frame, spp, specs[m].label,
+                            psnr, ssim, rel, smape, specs[m].kind ? best : 0.0, w, h, ew_device_get_num_threads(dev));
+                    fflush(csv);
+                    rows++;
+                    fprintf(stderr, "[%d/%d] %-28s %3d spp %-16s PSNR %6.2f SSIM %.4f %8.2f ms\n", s + 1, n_names,
+                            names[s], spp, specs[m].label, psnr, ssim, specs[m].kind ? best : 0.0);
+                    if (images) {
+                        fmt_path(path, sizeof path, "%s/img/%s_f%04d_spp%04d_%s.png", outdir, names[s], frame, spp, specs[m].label);
+                        write_png(path, out, NULL, w, h);
+                        fmt_path(path, sizeof path, "%s/img/%s_f%04d_spp%04d_%s_err.png", outdir, names[s], frame, spp, specs[m].label);
+                        write_png(path, out, ref, w, h);
+                    }
+                }
+                free(out);
+                ew_layer_data_free(&ld);
+            }
+            free(ref);
+        }
+    }
+    for (int s = 0; s < n_names; s++) free(names[s]);
+    fclose(csv);
+    ew_device_destroy(dev);
+    if (rows == 0) return cli_fail("no renders with references found in '%s' (expected <scene>/f0001_spp0001.exr and f0001_ref*.exr)", data);
+    fprintf(stderr, "edgewise: %d rows in %s/results.csv%s\n", rows, outdir, failures ? " (some methods failed, see above)" : "");
+    return 0;
+}

@@ -1,0 +1,153 @@
+#include "method_run.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define ALBEDO_EPS 0.01f /* the same epsilon as the denoisers' demodulation */
+
+void ew_layer_data_free(ew_layer_data *d) {
+    free(d->color);
+    free(d->albedo);
+    free(d->normal);
+    free(d->depth);
+    free(d->vector);
+    memset(d, 0, sizeof *d);
+}
+
+static float *read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
+                        size_t errlen, int *fail) {
+    if (!pass || *fail) return NULL;
+    size_t n = (size_t)ewio_width(f) * ewio_height(f) * strlen(comps);
+    float *buf = (float *)malloc(n * sizeof(float));
+    if (!buf) {
+        snprintf(err, errlen, "out of memory");
+        *fail = 1;
+        return NULL;
+    }
+    if (ewio_get_pass(f, layer, pass, comps, buf, err, errlen) != 0) {
+        free(buf);
+        *fail = 1;
+        return NULL;
+    }
+    return buf;
+}
+
+int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen) {
+    memset(out, 0, sizeof *out);
+    out->width = ewio_width(f);
+    out->height = ewio_height(f);
+    int fail = 0;
+    out->color = read_pass(f, lp->layer, lp->color, "RGB", err, errlen, &fail);
+    out->albedo = read_pass(f, lp->layer, lp->albedo, "RGB", err, errlen, &fail);
+    out->normal = read_pass(f, lp->layer, lp->normal, "XYZ", err, errlen, &fail);
+    out->depth = read_pass(f, lp->layer, lp->depth, "Z", err, errlen, &fail);
+    if (!fail && ewio_has_pass(f, lp->layer, "Vector", "XY"))
+        out->vector = read_pass(f, lp->layer, "Vector", "XY", err, errlen, &fail);
+    if (fail) ew_layer_data_free(out);
+    return fail;
+}
+
+static double now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return 1e3 * (double)ts.tv_sec + 1e-6 * (double)ts.tv_nsec;
+}
+
+/* The layer's buffer for an image slot name, with its channel count. */
+static float *slot_buffer(const ew_layer_data *in, const char *slot, float *color, int *channels) {
+    if (!strcmp(slot, "color")) { *channels = 3; return color; }
+    if (!strcmp(slot, "albedo")) { *channels = 3; return in->albedo; }
+    if (!strcmp(slot, "normal")) { *channels = 3; return in->normal; }
+    if (!strcmp(slot, "depth")) { *channels = 1; return in->depth; }
+    if (!strcmp(slot, "vector")) { *channels = 2; return in->vector; }
+    return NULL;
+}
+
+/* The denoiser and filter faces of the same calls. */
+static ew_result set_image(int f, void *op, const char *nm, const ew_image *v) {
+    return f ? ew_filter_set_image((ew_filter *)op, nm, v) : ew_denoiser_set_image((ew_denoiser *)op, nm, v);
+}
+static ew_result set_float(int f, void *op, const char *nm, float v) {
+    return f ? ew_filter_set_float((ew_filter *)op, nm, v) : ew_denoiser_set_float((ew_denoiser *)op, nm, v);
+}
+static ew_result set_int(int f, void *op, const char *nm, int32_t v) {
+    return f ? ew_filter_set_int((ew_filter *)op, nm, v) : ew_denoiser_set_int((ew_denoiser *)op, nm, v);
+}
+static ew_result commit(int f, void *op) {
+    return f ? ew_filter_commit((ew_filter *)op) : ew_denoiser_commit((ew_denoiser *)op);
+}
+static ew_result execute(int f, void *op) {
+    return f ? ew_filter_execute((ew_filter *)op) : ew_denoiser_execute((ew_denoiser *)op);
+}
+
+int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_data *in, float *out, double *ms,
+                  char *err, size_t errlen) {
+    const int w = in->width, h = in->height;
+    const size_t n = (size_t)w * h;
+    *ms = 0.0;
+    if (!spec->kind) { /* identity: the noisy input */
+        memcpy(out, in->color, n * 3 * sizeof(float));
+        return 0;
+    }
+    const int is_filter = !strcmp(spec->kind, "filter");
+    const int demod = is_filter && spec->demodulate && in->albedo;
+    if (is_filter && spec->demodulate && !in->albedo) {
+        snprintf(err, errlen, "%s: needs an albedo pass to demodulate", spec->label);
+        return 1;
+    }
+    float *color = in->color;
+    if (demod) {
+        color = out; /* demodulate into out, filter in place */
+        for (size_t i = 0; i < n * 3; i++) out[i] = in->color[i] / (in->albedo[i] + ALBEDO_EPS);
+    }
+    ew_filter *fop = NULL;
+    ew_denoiser *dop = NULL;
+    ew_result r = is_filter ? ew_filter_create(dev, spec->name, &fop) : ew_denoiser_create(dev, spec->name, &dop);
+    void *op = is_filter ? (void *)fop : (void *)dop;
+    if (r != EW_OK) {
+        snprintf(err, errlen, "%s: %s", spec->label, ew_device_last_error(dev));
+        return 1;
+    }
+
+    int32_t num_images = 0;
+    for (int32_t i = 0; i < ew_method_count(spec->kind); i++) {
+        const char *nm;
+        int32_t ni;
+        ew_method_get(spec->kind, i, &nm, NULL, &ni, NULL);
+        if (!strcmp(nm, spec->name)) num_images = ni;
+    }
+    ew_image views[8];
+    for (int32_t i = 0; r == EW_OK && i < num_images && i < 8; i++) {
+        ew_image_info info;
+        ew_method_image(spec->kind, spec->name, i, &info);
+        int ch = 0;
+        float *buf = !strcmp(info.name, "output") ? out : slot_buffer(in, info.name, color, &ch);
+        if (!strcmp(info.name, "output")) ch = 3;
+        if (!buf) {
+            if (info.required) {
+                snprintf(err, errlen, "%s: the layer has no pass for the required image '%s'", spec->label, info.name);
+                r = EW_ERR_INVALID_ARGUMENT;
+            }
+            continue;
+        }
+        views[i] = ew_image_packed(buf, w, h, ch);
+        r = set_image(is_filter, op, info.name, &views[i]);
+    }
+    for (int k = 0; r == EW_OK && k < spec->num_params; k++) {
+        r = set_float(is_filter, op, spec->param_names[k], spec->param_values[k]);
+        if (r == EW_ERR_INVALID_ARGUMENT && strstr(ew_device_last_error(dev), "set_int"))
+            r = set_int(is_filter, op, spec->param_names[k], (int32_t)spec->param_values[k]);
+    }
+    double t0 = now_ms();
+    if (r == EW_OK) r = commit(is_filter, op);
+    if (r == EW_OK) r = execute(is_filter, op);
+    *ms = now_ms() - t0;
+    if (r != EW_OK && !err[0]) snprintf(err, errlen, "%s: %s", spec->label, ew_device_last_error(dev));
+    ew_filter_destroy(fop);
+    ew_denoiser_destroy(dop);
+    if (r == EW_OK && demod)
+        for (size_t i = 0; i < n * 3; i++) out[i] *= in->albedo[i] + ALBEDO_EPS;
+    return r != EW_OK;
+}

@@ -1,0 +1,46 @@
+/*
+ * method_run.h — run any library denoiser or filter on one layer of a
+ * render: the method's image slots are bound to the layer's passes by name
+ * (color, albedo, normal, depth, vector), parameters are set by name, and
+ * for filters the colour can be albedo-demodulated around the filter (how
+ * GI filters such as à-trous or the pyramid filter are used on renders).
+ */
+#ifndef EW_METHOD_RUN_H
+#define EW_METHOD_RUN_H
+
+#include "cycles_passes.h"
+#include "edgewise/edgewise.h"
+
+#define EW_RUN_MAX_PARAMS 16
+
+typedef struct ew_method_spec {
+    const char *label;        /* for reports, e.g. "pyramid-gi" */
+    const char *kind;         /* "denoiser" or "filter"; NULL: identity (the input itself) */
+    const char *name;
+    int demodulate;           /* filters: divide by albedo + 0.01 before, multiply after */
+    int num_params;
+    const char *param_names[EW_RUN_MAX_PARAMS];
+    float param_values[EW_RUN_MAX_PARAMS];
+} ew_method_spec;
+
+/* Inputs of one layer, read once, reused across methods. */
+typedef struct ew_layer_data {
+    int width, height;
+    float *color;   /* 3 per pixel */
+    float *albedo;  /* 3 per pixel or NULL */
+    float *normal;  /* 3 per pixel or NULL */
+    float *depth;   /* 1 per pixel or NULL */
+    float *vector;  /* 2 per pixel or NULL */
+} ew_layer_data;
+
+int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);
+void ew_layer_data_free(ew_layer_data *d);
+
+/* Run `spec` on the layer into out (3 per pixel). *ms: wall time of commit +
+ * execute (the work a user waits for), excluding file I/O. Returns 0, or
+ * non-zero with the reason in err (unknown method, missing required pass,
+ * library error). */
+int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_data *in, float *out, double *ms,
+                  char *err, size_t errlen);
+
+#endif
