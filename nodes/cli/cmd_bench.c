@@ -90,7 +90,8 @@ static int in_list(const char *list, const char *name, int substring) {
     if (!list) return 1;
     char buf[1024];
     snprintf(buf, sizeof buf, "%s", list);
-    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ","))
+    char *save = NULL;
+    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save))
         if (substring ? strstr(name, tok) != NULL : !strcmp(name, tok)) return 1;
     return 0;
 }
@@ -213,7 +214,8 @@ int cmd_bench(int argc, char **argv) {
             }
             char spps[256];
             snprintf(spps, sizeof spps, "%s", spp_list);
-            for (char *tok = strtok(spps, ","); tok; tok = strtok(NULL, ",")) {
+            char *save = NULL;
+            for (char *tok = strtok_r(spps, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
                 int spp = atoi(tok);
                 char in[4096];
                 fmt_path(in, sizeof in, "%s/f%04d_spp%04d.exr", dir, frame, spp);
