@@ -1,5 +1,6 @@
 #include "method_run.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,6 +49,10 @@ int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_d
     if (fail) ew_layer_data_free(out);
     return fail;
 }
+
+/* As the denoisers demodulate (kernels/denoise_px.h): a damaged or negative
+ * albedo counts as black, so it cannot turn a pixel into NaN. */
+static float albedo_factor(float a) { return (isfinite(a) && a > 0.0f ? a : 0.0f) + ALBEDO_EPS; }
 
 static double now_ms(void) {
     struct timespec ts;
@@ -100,7 +105,7 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     float *color = in->color;
     if (demod) {
         color = out; /* demodulate into out, filter in place */
-        for (size_t i = 0; i < n * 3; i++) out[i] = in->color[i] / (in->albedo[i] + ALBEDO_EPS);
+        for (size_t i = 0; i < n * 3; i++) out[i] = in->color[i] / albedo_factor(in->albedo[i]);
     }
     ew_filter *fop = NULL;
     ew_denoiser *dop = NULL;
@@ -148,6 +153,6 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     ew_filter_destroy(fop);
     ew_denoiser_destroy(dop);
     if (r == EW_OK && demod)
-        for (size_t i = 0; i < n * 3; i++) out[i] *= in->albedo[i] + ALBEDO_EPS;
+        for (size_t i = 0; i < n * 3; i++) out[i] *= albedo_factor(in->albedo[i]);
     return r != EW_OK;
 }
