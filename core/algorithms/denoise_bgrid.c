@@ -28,36 +28,64 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f, "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off"},
 };
 
+/*
+ * Memory (issue 8, docs/backends.md): every buffer the backend touches is
+ * device memory from one ew_dev_alloc at commit, reused by every execute;
+ * execute moves only the input views in and the output view out. The two
+ * scalars the host needs (the depth normalisation and the first pass's mean
+ * luminance) come back as per-row sums, 2 doubles a row. Host memory: the
+ * state, the row sums read back and, when the device has memory of its own,
+ * one staging buffer of n x 3 floats that every view is packed through.
+ */
 typedef struct {
     ew_bgrid_params grid_params, prepass_params;
-    ew_denoise_buffers buf;
-    float *grid;
-    float *clamped; /* radiance after firefly suppression */
-    float mem[]; /* every buffer, one allocation */
+    ew_denoise_buffers buf; /* device buffers */
+    float *grid;            /* device */
+    float *clamped;         /* device: radiance after firefly suppression */
+    double *row_out;        /* device: reduce_rows output, 2 x height */
+    void *dmem;             /* the one device allocation */
+    double *rows;           /* host: row_out read back */
+    float *stage;           /* host staging, or NULL when views need none */
+    double host[];          /* rows, then stage */
 } state;
 
+static void release(ew_op *op) {
+    state *s = (state *)op->state;
+    if (s) ew_dev_free(op->dev, s->dmem);
+    free(s);
+    op->state = NULL;
+}
+
 static ew_result commit(ew_op *op) {
+    ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
     const int w = color->width, h = color->height;
     ew_bgrid_params gp, pre;
     if (!ew_bgrid_params_init(&gp, w, h, ew_op_param(op, "spatial_rate"), ew_op_param(op, "range_rate"), 3) ||
         !ew_bgrid_params_init(&pre, w, h, ew_op_param(op, "prepass_rate"), ew_op_param(op, "range_rate"), 3))
-        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "invalid grid parameters");
+        return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "invalid grid parameters");
     size_t grid_floats = ew_bgrid_floats(&gp);
     if (ew_bgrid_floats(&pre) > grid_floats) grid_floats = ew_bgrid_floats(&pre);
     const int has_a = ew_op_image(op, "albedo") != NULL, has_n = ew_op_image(op, "normal") != NULL,
               has_d = ew_op_image(op, "depth") != NULL;
-    /* packed inputs (views may have any stride and the output may alias the
-     * colour), radiance, guide, sliced, output, grid */
+    /* device: the row sums (first: doubles want 8-byte alignment), packed
+     * inputs (views may have any stride and the output may alias the
+     * colour), radiance, guide, sliced, output, clamped, grid */
     const size_t n = (size_t)w * (size_t)h;
-    size_t need = n * 3 * 5 + n + (has_a ? n * 3 : 0) + (has_n ? n * 3 : 0) + (has_d ? n : 0) + grid_floats;
-    if (op->state) op->type->release(op);
-    state *s = (state *)malloc(sizeof(state) + need * sizeof(float));
+    const size_t need = n * 3 * 5 + n + (has_a ? n * 3 : 0) + (has_n ? n * 3 : 0) + (has_d ? n : 0) + grid_floats;
+    const size_t row_bytes = (size_t)h * 2 * sizeof(double);
+    const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
+    if (op->state) release(op);
+    state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
     op->state = s;
-    if (!s)
-        return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory: denoising %dx%d needs %.1f MiB", w, h,
-                        (double)need * sizeof(float) / 1048576.0);
-    float *m = s->mem;
+    if (s) s->dmem = ew_dev_alloc(dev, row_bytes + need * sizeof(float));
+    if (!s || !s->dmem)
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: denoising %dx%d needs %.1f MiB",
+                        s ? dev->backend->name : "host", w, h, (double)need * sizeof(float) / 1048576.0);
+    s->rows = s->host;
+    s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
+    s->row_out = (double *)s->dmem;
+    float *m = (float *)(void *)((char *)s->dmem + row_bytes);
     ew_denoise_buffers *b = &s->buf;
     memset(b, 0, sizeof *b);
     b->width = w;
@@ -77,36 +105,43 @@ static ew_result commit(ew_op *op) {
     return EW_OK;
 }
 
-/* Background pixels have Depth 1e10 (Depth pass) or 0 (Denoising Depth):
- * normalise by the largest depth below 1e9 so the scene uses the range. */
-static float depth_scale(const float *depth, size_t n) {
-    float mx = 0.0f;
-    for (size_t i = 0; i < n; i++)
-        if (isfinite(depth[i]) && depth[i] < 1e9f && depth[i] > mx) mx = depth[i];
-    return mx > 0.0f ? 1.0f / mx : 1.0f;
-}
-
-static float mean_luminance(const float *rgb, size_t n) {
-    double sum = 0.0;
-    size_t k = 0;
-    for (size_t i = 0; i < n; i++) {
-        float l = ew_luminance(rgb + i * 3);
-        if (isfinite(l) && l > 0.0f) { sum += l; k++; }
+/* Sum the per-row pairs of a reduction (computed on the device, read back). */
+static ew_result reduce(ew_device *dev, state *s, int kind, const float *src, double *a, double *b) {
+    const int h = s->buf.height;
+    dev->backend->reduce_rows(dev, kind, s->buf.width, h, src, s->row_out);
+    ew_result r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)h * 2 * sizeof(double));
+    if (r != EW_OK) return r;
+    double sa = 0.0, sb = 0.0;
+    for (int y = 0; y < h; y++) {
+        if (kind == EW_REDUCE_DEPTH_MAX) {
+            if (s->rows[2 * y] > sa) sa = s->rows[2 * y];
+        } else {
+            sa += s->rows[2 * y];
+        }
+        sb += s->rows[2 * y + 1];
     }
-    return k && sum > 0.0 ? (float)(sum / (double)k) : 1.0f;
+    *a = sa;
+    *b = sb;
+    return EW_OK;
 }
 
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    ew_view_pack(ew_op_image(op, "color"), 3, (float *)b->color);
-    if (b->albedo) ew_view_pack(ew_op_image(op, "albedo"), 3, (float *)b->albedo);
-    if (b->normal) ew_view_pack(ew_op_image(op, "normal"), 3, (float *)b->normal);
-    if (b->depth) {
-        ew_view_pack(ew_op_image(op, "depth"), 1, (float *)b->depth);
-        b->depth_scale = depth_scale(b->depth, (size_t)b->width * b->height);
+    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
+    if (r == EW_OK && b->albedo) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
+    if (r == EW_OK && b->normal) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
+    if (r == EW_OK && b->depth) {
+        r = ew_dev_put_view(dev, ew_op_image(op, "depth"), 1, (float *)b->depth, s->stage);
+        /* Background pixels have Depth 1e10 (Depth pass) or 0 (Denoising
+         * Depth): normalise by the largest depth below 1e9 (reduce.h) so the
+         * scene uses the range. */
+        double mx = 0.0, unused;
+        if (r == EW_OK) r = reduce(dev, s, EW_REDUCE_DEPTH_MAX, b->depth, &mx, &unused);
+        b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
     }
+    if (r != EW_OK) return r;
     dev->backend->denoise_prepare(dev, b);
     if (!ew_op_report(op, 0.2)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     const float k = ew_op_param(op, "firefly_k");
@@ -119,18 +154,20 @@ static ew_result execute(ew_op *op) {
     if (cw > 0.0f) {
         ew_bgrid_splat(dev, &s->prepass_params, radiance, b->guide, s->grid);
         ew_bgrid_slice(dev, &s->prepass_params, s->grid, b->guide, b->sliced);
-        dev->backend->denoise_refine_guide(dev, b, mean_luminance(b->sliced, (size_t)b->width * b->height), cw);
+        /* mean of the finite, positive luminances (1 when there are none) */
+        double sum = 0.0, count = 0.0;
+        r = reduce(dev, s, EW_REDUCE_LUM_SUM, b->sliced, &sum, &count);
+        if (r != EW_OK) return r;
+        const float mean = count > 0.0 && sum > 0.0 ? (float)(sum / count) : 1.0f;
+        dev->backend->denoise_refine_guide(dev, b, mean, cw);
         if (!ew_op_report(op, 0.4)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
     ew_bgrid_splat(dev, &s->grid_params, radiance, b->guide, s->grid);
     if (!ew_op_report(op, 0.6)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     ew_bgrid_slice(dev, &s->grid_params, s->grid, b->guide, b->sliced);
     dev->backend->denoise_finish(dev, b);
-    ew_view_unpack(b->out, 3, ew_op_image(op, "output"));
-    return EW_OK;
+    return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
 }
-
-static void release(ew_op *op) { free(op->state); }
 
 const ew_op_type ew_denoise_bgrid = {
     "denoiser", "bgrid",
@@ -138,4 +175,5 @@ const ew_op_type ew_denoise_bgrid = {
     "(the colour's luminance when no features are given)",
     images, (int)(sizeof images / sizeof images[0]), params, (int)(sizeof params / sizeof params[0]),
     commit, execute, release, NULL, NULL,
+    1, /* device_memory: runs on CUDA (issue 8) */
 };

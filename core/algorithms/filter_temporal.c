@@ -119,4 +119,5 @@ const ew_op_type ew_filter_temporal = {
     "history between executes",
     images, (int)(sizeof images / sizeof images[0]), params, (int)(sizeof params / sizeof params[0]),
     commit, execute, release, NULL, NULL,
+    0, /* device_memory (issue 8): not ported yet, CPU devices only */
 };

@@ -12,11 +12,23 @@
 #include "kernels/denoise_px.h"
 #include "kernels/outlier.h"
 #include "kernels/temporal.h"
+/* edge-aware filters (issue 4) */
+#include "kernels/atrous.h"
+#include "kernels/dof.h"
+#include "kernels/pyramid.h"
+/* neural bilateral grid (issue 3) */
+#include "kernels/conv.h"
+#include "kernels/guidenet.h"
+/* device memory and the CUDA module (issue 8) */
+#include <stddef.h>
+#include "edgewise/edgewise.h"
+#include "kernels/reduce.h"
+#include "kernels/view.h"
 
 typedef struct ew_device ew_device;
 
 typedef struct ew_backend {
-    const char *name;
+    const char *name; /* every member after this is a function pointer (issue 8: ew_backend_first_missing) */
     void (*bgrid_splat)(ew_device *dev, const ew_bgrid_params *p, const float *image,
                         const float *guide, float *grid);
     void (*bgrid_slice)(ew_device *dev, const ew_bgrid_params *p, const float *grid,
@@ -32,8 +44,132 @@ typedef struct ew_backend {
     /* temporal accumulation of one frame into b->out_* */
     void (*temporal)(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b);
 
+    /* ---- edge-aware filters (issue 4): core/backends/cpu/cpu_filters.c ---- */
+    /* brute-force joint bilateral filter (Eq. 1) of every pixel */
+    void (*bf_brute)(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b);
+    /* one 1-D pass (axis 0: x, 1: y) of the separable bilateral filter */
+    void (*bf_separable)(ew_device *dev, const ew_bf_model *m, int axis, const ew_bf_buffers *b);
+    /* pyramid filter: one downsampling / upsampling pass */
+    void (*pyr_down)(ew_device *dev, const ew_pyr_down_args *a);
+    void (*pyr_up)(ew_device *dev, const ew_pyr_up_args *a);
+    /* one iteration of the edge-avoiding a-trous filter */
+    void (*atrous_pass)(ew_device *dev, const ew_atrous_args *a);
+    /* depth of field: CoC and (D, C) attributes from depth */
+    void (*dof_attributes)(ew_device *dev, const ew_dof_args *a);
+
+    /* ---- neural bilateral grid (issue 3): core/algorithms/guidenet_cpu.c, nbg.c ---- */
+    /* one 5x5 GuideNet convolution (kernels/conv.h) */
+    void (*conv5)(ew_device *dev, const ew_conv_args *a);
+    /* GuideNet input features of a band of rows (kernels/guidenet.h) */
+    void (*gn_input)(ew_device *dev, const ew_gn_input_args *a);
+    /* outputs[0..ngrids) *= 255: sigmoid outputs -> guides */
+    void (*nbg_guides)(ew_device *dev, long n, int ngrids, float *outputs);
+    /* blend one sliced grid into the running sum */
+    void (*nbg_blend)(ew_device *dev, const ew_nbg_blend_args *a);
+
+    /* ---- device memory (issue 8): CPU in core/backends/cpu/cpu_memory.c,
+     * CUDA in core/backends/cuda/. Keep this block last. Every buffer an
+     * algorithm hands to the entries above comes from mem_alloc (allocated at
+     * commit, reused across frames); only inputs and outputs cross between
+     * host and device (docs/backends.md). On a backend with its own memory
+     * (dev->device_memory) the host must not touch these buffers directly.
+     * Entries returning ew_result also report queued kernels' failures and
+     * have then written the detail to dev->last_error. ---- */
+    void *(*mem_alloc)(ew_device *dev, size_t bytes); /* NULL when out of memory */
+    void (*mem_free)(ew_device *dev, void *ptr);      /* NULL is a no-op */
+    /* host -> device; the host buffer may be reused as soon as it returns */
+    ew_result (*mem_upload)(ew_device *dev, void *dst, const void *src, size_t bytes);
+    /* device -> host; waits for the work queued before it */
+    ew_result (*mem_download)(ew_device *dev, void *dst, const void *src, size_t bytes);
+    /* device -> device, and clearing, queued after the work before them */
+    ew_result (*mem_copy)(ew_device *dev, void *dst, const void *src, size_t bytes);
+    ew_result (*mem_zero)(ew_device *dev, void *ptr, size_t bytes);
+    /* the first failure since the last sync; wait: 1 waits for the queued
+     * work first (0 reports only failures known now, without blocking) */
+    ew_result (*sync)(ew_device *dev, int wait);
+    /* out[2y], out[2y+1] for every row y of src (kernels/reduce.h) */
+    void (*reduce_rows)(ew_device *dev, int op, int width, int height, const float *src, double *out);
+    /* a caller's strided view <-> a packed buffer, where the view's pixels
+     * live (device_images devices); the first c channels */
+    void (*view_pack)(ew_device *dev, const ew_view_desc *v, int c, float *dst);
+    void (*view_unpack)(ew_device *dev, const float *src, int c, const ew_view_desc *v);
+    /* free dev->backend_ctx when the device is destroyed */
+    void (*device_release)(ew_device *dev);
 } ew_backend;
 
 extern const ew_backend ew_cpu_backend;
+
+/* CPU implementations of the edge-aware filter entries (cpu_filters.c) */
+void ew_cpu_bf_brute(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b);
+void ew_cpu_bf_separable(ew_device *dev, const ew_bf_model *m, int axis, const ew_bf_buffers *b);
+void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a);
+void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a);
+void ew_cpu_atrous_pass(ew_device *dev, const ew_atrous_args *a);
+void ew_cpu_dof_attributes(ew_device *dev, const ew_dof_args *a);
+
+/* CPU implementations of the neural bilateral grid entries (issue 3) */
+void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a);
+void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a);
+void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs);
+void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a);
+
+/* ---- device memory (issue 8) ---------------------------------------------
+ * CPU implementations of the memory entries (cpu_memory.c). */
+void *ew_cpu_mem_alloc(ew_device *dev, size_t bytes);
+void ew_cpu_mem_free(ew_device *dev, void *ptr);
+ew_result ew_cpu_mem_upload(ew_device *dev, void *dst, const void *src, size_t bytes);
+ew_result ew_cpu_mem_download(ew_device *dev, void *dst, const void *src, size_t bytes);
+ew_result ew_cpu_mem_copy(ew_device *dev, void *dst, const void *src, size_t bytes);
+ew_result ew_cpu_mem_zero(ew_device *dev, void *ptr, size_t bytes);
+ew_result ew_cpu_sync(ew_device *dev, int wait);
+void ew_cpu_reduce_rows(ew_device *dev, int op, int width, int height, const float *src, double *out);
+void ew_cpu_view_pack(ew_device *dev, const ew_view_desc *v, int c, float *dst);
+void ew_cpu_view_unpack(ew_device *dev, const float *src, int c, const ew_view_desc *v);
+void ew_cpu_device_release(ew_device *dev);
+
+/* What algorithms call (backend_mem.c), so that one code path serves host
+ * and device memory. */
+void *ew_dev_alloc(ew_device *dev, size_t bytes);
+void ew_dev_free(ew_device *dev, void *ptr);
+/* Host staging floats an op must allocate at commit to move views of n
+ * pixels x c channels: 0 when the device reads host memory or the views
+ * are device pointers. */
+size_t ew_dev_stage_floats(const ew_device *dev, size_t n, int c);
+/* The first c channels of a caller's view into the packed device buffer
+ * dst, and back; stage: ew_dev_stage_floats(dev, n, c) floats, or NULL when
+ * that is 0. get waits for the result unless the view is on the device. */
+ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst, float *stage);
+ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage);
+
+/* The CUDA module's entry point (libedgewise_cuda.so, loaded by
+ * backend_loader.c). Sizes are checked at load so a module built from
+ * another tree is refused instead of crashing. */
+#define EW_MODULE_ABI 1
+#define EW_CUDA_MODULE_FILE "libedgewise_cuda.so"
+#define EW_CUDA_MODULE_ENTRY "ew_cuda_module_v1"
+typedef struct ew_module_api {
+    unsigned abi;            /* EW_MODULE_ABI */
+    unsigned sizeof_backend; /* sizeof(ew_backend) */
+    unsigned sizeof_device;  /* sizeof(struct ew_device) */
+    const char *version;     /* the library version it was built for */
+    const ew_backend *backend;
+    /* Usable devices; 0 with the reason in why[0..len) when none. */
+    int (*probe)(char *why, size_t len);
+    /* Set up dev->backend_ctx on device `ordinal`, queueing on `stream`
+     * (a cudaStream_t, NULL: a stream of its own). */
+    ew_result (*device_init)(ew_device *dev, int ordinal, void *stream, char *why, size_t len);
+} ew_module_api;
+typedef const ew_module_api *(*ew_module_entry_fn)(void);
+/* The loaded module when a GPU is usable, else NULL (backend_loader.c;
+ * probes once per process). *devices: how many GPUs. */
+const ew_module_api *ew__cuda_module(int *devices);
+/* A CUDA device for ew_device_create: EW_ERR_BACKEND_UNAVAILABLE without a
+ * usable GPU, EW_ERR_INVALID_ARGUMENT for an ordinal beyond the GPUs. */
+ew_result ew__cuda_device_create(const ew_device_desc *d, ew_device **out);
+
+/* Index of the first NULL entry of a table, or -1 when complete. Every
+ * member after `name` is a function pointer; the loader refuses an
+ * incomplete module table rather than crash on a missing kernel. */
+int ew_backend_first_missing(const ew_backend *b);
 
 #endif

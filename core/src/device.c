@@ -4,6 +4,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #define EW_MAX_THREADS 1024
@@ -31,11 +32,19 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
         if (desc->size < offsetof(ew_device_desc, num_threads) + sizeof(int32_t) ||
             desc->size > sizeof(ew_device_desc))
             return EW_ERR_INVALID_ARGUMENT;
-        d = *desc;
+        /* issue 8: copy only what the caller's (maybe older) desc holds;
+         * the fields it predates keep their defaults */
+        memcpy(&d, desc, desc->size);
     }
     if (d.num_threads < 0 || d.num_threads > EW_MAX_THREADS) return EW_ERR_INVALID_ARGUMENT;
-    if (d.type == EW_DEVICE_CUDA) return EW_ERR_BACKEND_UNAVAILABLE;
-    if (d.type != EW_DEVICE_DEFAULT && d.type != EW_DEVICE_CPU) return EW_ERR_INVALID_ARGUMENT;
+    if (d.type != EW_DEVICE_DEFAULT && d.type != EW_DEVICE_CPU && d.type != EW_DEVICE_CUDA)
+        return EW_ERR_INVALID_ARGUMENT;
+    /* CUDA only when asked for (backend_loader.c): DEFAULT stays on the CPU
+     * while most methods run on the CPU backend only, so a GPU machine does
+     * not get a device that refuses them. A caller passing device pointers
+     * must know they are CUDA's. */
+    if (d.cuda_device < 0 || (d.device_images && d.type != EW_DEVICE_CUDA)) return EW_ERR_INVALID_ARGUMENT;
+    if (d.type == EW_DEVICE_CUDA) return ew__cuda_device_create(&d, out);
 
     int threads = d.num_threads;
     if (threads == 0) {
@@ -58,6 +67,7 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
 
 void ew_device_destroy(ew_device *dev) {
     if (!dev) return;
+    if (dev->backend->device_release) dev->backend->device_release(dev); /* issue 8 */
     ew_pool_destroy(dev->pool);
     free(dev);
 }

@@ -33,6 +33,10 @@ ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op
         return ew__fail(dev, name ? EW_ERR_UNSUPPORTED : EW_ERR_INVALID_ARGUMENT, "unknown %s '%s' (available: %s)",
                         kind, name ? name : "(null)", names);
     }
+    /* issue 8: an op still handing the backend host pointers would crash a GPU */
+    if (dev->device_memory && !t->device_memory)
+        return ew__fail(dev, EW_ERR_UNSUPPORTED, "%s '%s' does not run on CUDA devices yet: use an EW_DEVICE_CPU device",
+                        kind, name);
     ew_op *op = (ew_op *)calloc(1, sizeof *op);
     if (!op) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
     op->type = t;

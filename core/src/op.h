@@ -40,6 +40,11 @@ typedef struct ew_op_type {
      * keeping what it needs in op->data_state (freed by release_data). */
     ew_result (*set_data)(ew_op *op, const char *name, const void *data, size_t size);
     void (*release_data)(ew_op *op);
+    /* issue 8: 1 when every buffer it hands the backend comes from
+     * ew_dev_alloc and views move only through ew_dev_put_view/get_view
+     * (docs/backends.md); only then may it run on a device with memory of
+     * its own (CUDA): ew_op_create refuses it there otherwise. */
+    int device_memory;
 } ew_op_type;
 
 struct ew_op {

@@ -13,6 +13,21 @@ int cmd_denoise(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+/* edge-aware filters (issue 4): cmd_filter.c, cmd_dof.c */
+int cmd_filter(int argc, char **argv);
+int cmd_dof(int argc, char **argv);
+/* node graphs (issue 5): cmd_graph.c, cmd_nodes.c */
+int cmd_graph(int argc, char **argv);
+int cmd_nodes(int argc, char **argv);
+/* helpers of cmd_filter.c shared with cmd_dof.c: the components of a pass
+ * ("RGBA", "RGB", "XYZ", "Z", ...; NULL if absent), a pass read into a new
+ * buffer, --weights (trained / analytic: *set_int = 1 / 0; a file: loaded
+ * with set_data, *set_int = -1), and a count of non-finite floats */
+const char *cli_pass_comps(const ewio_file *f, const char *layer, const char *pass);
+float *cli_read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
+                     size_t errlen);
+int cli_set_weights(ew_filter *flt, ew_device *dev, const char *spec, int *set_int);
+long cli_count_nonfinite(const float *v, size_t n);
 
 /* Print "edgewise: <msg>" on stderr; returns EW_EXIT_FAIL. */
 int cli_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));

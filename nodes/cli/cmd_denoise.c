@@ -2,6 +2,7 @@
  * edgewise denoise — denoise every view layer (or one) of a render and write
  * the result atomically, keeping every other layer, pass and the metadata.
  */
+#include <errno.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,9 +28,15 @@ static const char help[] =
     "options:\n"
     "  -o, --output FILE     output file (required)\n"
     "  --layer NAME          denoise only this view layer\n"
-    "  --method NAME         auto (default): bgrid when the layer has albedo, else bgrid-color\n"
+    "  --method NAME         auto (default): nbg when the layer has albedo, normal and depth,\n"
+    "                        else bgrid when it has albedo, else bgrid-color\n"
+    "                        nbg: neural bilateral grid, guides learned by a small CNN (needs\n"
+    "                        albedo, normal and depth; see docs/nbg.md)\n"
     "                        bgrid: bilateral grid guided by albedo/normal/depth (needs albedo)\n"
     "                        bgrid-color: bilateral grid guided by the colour alone\n"
+    "  --model NAME|PATH     nbg's weights: a built-in model, 2layer-3grid (default, real time),\n"
+    "                        2layer-1grid (fastest) or 7layer-3grid (offline), or a weights file\n"
+    "                        written by train_nbg (models/nbg/README.md)\n"
     "  --threads N           worker threads, 0 = all cores (default 0)\n"
     "  --half | --float      EXR pixel type of the written passes (default: as read)\n"
     "  --reference REF       also print PSNR/SSIM of input and output against REF\n"
@@ -46,6 +53,10 @@ static const char help[] =
 
 typedef struct {
     const char *in, *out, *layer, *method, *reference;
+    const char *model;    /* --model: a built-in name or a weights file (issue 3) */
+    int model_index;      /* the built-in's "model" parameter, or -1 for a file */
+    void *model_bytes;    /* the file's bytes */
+    size_t model_size;
     int threads, quiet;
     ewio_pixel_type type;
     int num_set; /* method parameters given on the command line */
@@ -89,6 +100,9 @@ static void print_help(void) {
     printf(help, params);
 }
 
+/* nbg's built-in models, by its "model" parameter (README.md, docs/nbg.md) */
+static const char *const builtin[] = {"2layer-3grid", "2layer-1grid", "7layer-3grid"};
+
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
     o->method = "auto";
@@ -104,6 +118,7 @@ static int parse(int argc, char **argv, options *o) {
         else if (!strcmp(a, "-o") || !strcmp(a, "--output")) { NEED_VALUE(); o->out = val; }
         else if (!strcmp(a, "--layer")) { NEED_VALUE(); o->layer = val; }
         else if (!strcmp(a, "--method")) { NEED_VALUE(); o->method = val; }
+        else if (!strcmp(a, "--model")) { NEED_VALUE(); o->model = val; }
         else if (!strcmp(a, "--reference")) { NEED_VALUE(); o->reference = val; }
         else if (!strcmp(a, "--threads")) { NEED_VALUE(); if (!cli_parse_int(a, val, 0, 1024, &o->threads)) return 0; }
         else if (!strcmp(a, "--half")) o->type = EWIO_HALF;
@@ -130,11 +145,40 @@ static int parse(int argc, char **argv, options *o) {
     }
     if (!o->in) { fprintf(stderr, "edgewise: denoise needs an input file (see 'edgewise denoise --help')\n"); return 0; }
     if (!o->out) { fprintf(stderr, "edgewise: denoise needs an output file: -o OUT\n"); return 0; }
-    if (strcmp(o->method, "auto") && strcmp(o->method, "bgrid") && strcmp(o->method, "bgrid-color")) {
-        fprintf(stderr, "edgewise: unknown method '%s' (auto, bgrid, bgrid-color)\n", o->method);
+    if (strcmp(o->method, "auto") && strcmp(o->method, "nbg") && strcmp(o->method, "bgrid") &&
+        strcmp(o->method, "bgrid-color")) {
+        fprintf(stderr, "edgewise: unknown method '%s' (auto, nbg, bgrid, bgrid-color)\n", o->method);
         return 0;
     }
+    if (o->model && strcmp(o->method, "auto") && strcmp(o->method, "nbg")) {
+        fprintf(stderr, "edgewise: --model is for --method nbg, not '%s'\n", o->method);
+        return 0;
+    }
+    /* --model: a built-in model's name, else a weights file (read later) */
+    o->model_index = 0;
+    for (int k = 0; o->model && k < 3; k++)
+        if (!strcmp(o->model, builtin[k])) o->model_index = k;
+    if (o->model && strcmp(o->model, builtin[o->model_index]) != 0) o->model_index = -1;
     return 1;
+}
+
+/* The bytes of a weights file for --model PATH (its validation is the
+ * library's, at ew_denoiser_set_data). */
+static int read_model(options *o) {
+    FILE *f = fopen(o->model, "rb");
+    if (!f) return cli_fail("cannot read model '%s': %s (built-in models: 2layer-3grid, 2layer-1grid, 7layer-3grid)",
+                            o->model, strerror(errno));
+    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    if (n <= 0 || n > (1L << 28) || fseek(f, 0, SEEK_SET) != 0) {
+        fclose(f);
+        return cli_fail("cannot read model '%s': not a weights file (size %ld)", o->model, n);
+    }
+    o->model_bytes = malloc((size_t)n);
+    o->model_size = (size_t)n;
+    int bad = !o->model_bytes || fread(o->model_bytes, 1, (size_t)n, f) != (size_t)n;
+    fclose(f);
+    if (bad) return cli_fail("cannot read model '%s'", o->model);
+    return 0;
 }
 
 /* Same file, by inode when both exist, else by resolved path. */
@@ -165,13 +209,19 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     char layers[512];
     ew_list_layers(j->f, layers, sizeof layers);
     const char *method = j->o->method;
-    if (!strcmp(method, "auto")) method = lp->albedo ? "bgrid" : "bgrid-color";
+    const int auto_method = !strcmp(method, "auto");
+    if (auto_method) method = lp->albedo && lp->normal && lp->depth ? "nbg" : lp->albedo ? "bgrid" : "bgrid-color";
+    if (!strcmp(method, "nbg") && (!lp->albedo || !lp->normal || !lp->depth))
+        return cli_fail("layer '%s' lacks the %s pass that --method nbg needs (it reads Denoising Albedo, Normal "
+                        "and Depth); layers found: %s. Enable Denoising Data in Blender's view layer passes, or "
+                        "use --method bgrid",
+                        layer, !lp->albedo ? "albedo" : !lp->normal ? "normal" : "depth", layers);
     if (!strcmp(method, "bgrid") && !lp->albedo)
         return cli_fail("layer '%s' has no albedo pass (looked for 'Denoising Albedo' and 'DiffCol'), which "
                         "--method bgrid needs; layers found: %s. Enable Denoising Data in Blender's view layer "
                         "passes, or use --method bgrid-color",
                         layer, layers);
-    int use_features = !strcmp(method, "bgrid");
+    int use_features = !strcmp(method, "bgrid") || !strcmp(method, "nbg");
 
     int nc = (int)strlen(lp->color_comps);
     float *orig = (float *)malloc((size_t)w * h * nc * sizeof(float));
@@ -183,7 +233,11 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     ew_image color = ew_image_packed(orig, w, h, nc);
     ew_image out = ew_image_packed(j->out, w, h, 3);
     ew_denoiser *d = NULL;
-    ew_result r = ew_denoiser_create(j->dev, "bgrid", &d);
+    const int nbg = !strcmp(method, "nbg");
+    ew_result r = ew_denoiser_create(j->dev, nbg ? "nbg" : "bgrid", &d);
+    if (r == EW_OK && nbg && j->o->model_index >= 0) r = ew_denoiser_set_int(d, "model", j->o->model_index);
+    if (r == EW_OK && nbg && j->o->model_index < 0)
+        r = ew_denoiser_set_data(d, "weights", j->o->model_bytes, j->o->model_size);
     if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &color);
     if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &out);
     if (r == EW_OK && use_features) {
@@ -204,6 +258,19 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     }
     for (int k = 0; r == EW_OK && k < j->o->num_set; k++)
         r = ew_denoiser_set_float(d, j->o->set_name[k], j->o->set_value[k]);
+    if (r == EW_OK && nbg && auto_method && !j->o->model) {
+        /* auto without built-in weights in this build: the hand-made guide */
+        r = ew_denoiser_commit(d);
+        if (r == EW_ERR_UNSUPPORTED) {
+            ew_denoiser_destroy(d);
+            free(orig);
+            options fallback = *j->o;
+            fallback.method = "bgrid";
+            job jb = *j;
+            jb.o = &fallback;
+            return denoise_layer(&jb, lp);
+        }
+    }
     double t0 = now_s();
     if (r == EW_OK) r = ew_denoiser_commit(d);
     if (r == EW_OK) r = ew_denoiser_execute(d);
@@ -213,6 +280,11 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(orig);
         return cli_fail("denoising layer '%s' failed: %s", layer, ew_device_last_error(j->dev));
     }
+    char what[300];
+    if (nbg)
+        snprintf(what, sizeof what, "nbg %s", j->o->model_index >= 0 ? builtin[j->o->model_index] : j->o->model);
+    else
+        snprintf(what, sizeof what, "%s", method);
     /* Keep the noisy original beside the result, as Blender does. */
     int put = 0;
     if (strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0')
@@ -222,7 +294,7 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     free(orig);
     if (put != 0) return cli_fail("%s", j->err);
     if (!j->o->quiet)
-        fprintf(stderr, "edgewise: layer '%s': %s (%s%s%s) %dx%d in %.3f s\n", layer[0] ? layer : "(image)", method,
+        fprintf(stderr, "edgewise: layer '%s': %s (%s%s%s) %dx%d in %.3f s\n", layer[0] ? layer : "(image)", what,
                 lp->color, use_features ? " guided by albedo" : "",
                 use_features ? (lp->normal && lp->depth ? ", normal, depth" : lp->normal ? ", normal" : lp->depth ? ", depth" : "") : "",
                 w, h, dt);
@@ -266,6 +338,7 @@ static int print_quality(job *j, const ew_layer_passes *lp, const float *noisy_r
 int cmd_denoise(int argc, char **argv) {
     options o;
     if (!parse(argc, argv, &o)) return EW_EXIT_USAGE;
+    if (o.model && o.model_index < 0 && read_model(&o) != 0) return EW_EXIT_FAIL;
     if (same_file(o.in, o.out))
         return cli_fail("refusing to write the output over the input '%s': choose another -o", o.in);
 
@@ -335,5 +408,6 @@ done:
     free(j.depth);
     free(j.out);
     free(noisy_first);
+    free(o.model_bytes);
     return rc;
 }

@@ -17,7 +17,11 @@ static const char usage[] =
     "  denoise IN -o OUT   denoise a render (Cycles multilayer EXR, or EXR/PNG/TIFF colour)\n"
     "  info IN             list the layers, passes and metadata of an image file\n"
     "  compare TEST REF    PSNR and SSIM of TEST against REF (tone-mapped)\n"
+    "  filter IN -o OUT    edge-aware filter of a pass: pyramid, bilateral, separable, atrous\n"
+    "  dof IN -o OUT       depth of field from the depth pass and Blender camera values\n"
     "  bench DIR -o OUT    every method on a directory of renders: quality and time (CSV)\n"
+    "  graph run FILE      run a node graph file (JSON; docs/graphs.md)\n"
+    "  nodes               list every node type with its ports and parameters\n"
     "\n"
     "  edgewise <command> --help   options of a command\n"
     "  edgewise --version          library version\n";
@@ -39,7 +43,11 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "denoise")) return cmd_denoise(argc - 1, argv + 1);
     if (!strcmp(cmd, "info")) return cmd_info(argc - 1, argv + 1);
     if (!strcmp(cmd, "compare")) return cmd_compare(argc - 1, argv + 1);
+    if (!strcmp(cmd, "filter")) return cmd_filter(argc - 1, argv + 1);
+    if (!strcmp(cmd, "dof")) return cmd_dof(argc - 1, argv + 1);
     if (!strcmp(cmd, "bench")) return cmd_bench(argc - 1, argv + 1);
+    if (!strcmp(cmd, "graph")) return cmd_graph(argc - 1, argv + 1);
+    if (!strcmp(cmd, "nodes")) return cmd_nodes(argc - 1, argv + 1);
     fprintf(stderr, "edgewise: unknown command '%s' (try 'edgewise --help')\n", cmd);
     return EW_EXIT_USAGE;
 }

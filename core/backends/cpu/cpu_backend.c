@@ -125,4 +125,28 @@ const ew_backend ew_cpu_backend = {
     .denoise_refine_guide = cpu_denoise_refine_guide,
     .outlier_clamp = cpu_outlier_clamp,
     .temporal = cpu_temporal,
+    /* edge-aware filters (cpu_filters.c) */
+    .bf_brute = ew_cpu_bf_brute,
+    .bf_separable = ew_cpu_bf_separable,
+    .pyr_down = ew_cpu_pyr_down,
+    .pyr_up = ew_cpu_pyr_up,
+    .atrous_pass = ew_cpu_atrous_pass,
+    .dof_attributes = ew_cpu_dof_attributes,
+    /* neural bilateral grid (issue 3; core/algorithms/guidenet_cpu.c, nbg.c) */
+    .conv5 = ew_cpu_conv5,
+    .gn_input = ew_cpu_gn_input,
+    .nbg_guides = ew_cpu_nbg_guides,
+    .nbg_blend = ew_cpu_nbg_blend,
+    /* device memory (issue 8, cpu_memory.c) */
+    .mem_alloc = ew_cpu_mem_alloc,
+    .mem_free = ew_cpu_mem_free,
+    .mem_upload = ew_cpu_mem_upload,
+    .mem_download = ew_cpu_mem_download,
+    .mem_copy = ew_cpu_mem_copy,
+    .mem_zero = ew_cpu_mem_zero,
+    .sync = ew_cpu_sync,
+    .reduce_rows = ew_cpu_reduce_rows,
+    .view_pack = ew_cpu_view_pack,
+    .view_unpack = ew_cpu_view_unpack,
+    .device_release = ew_cpu_device_release,
 };

@@ -4,7 +4,8 @@
  * Model: OIDN's C API. Opaque handles, an explicit device, caller-owned image
  * views, set parameters -> commit -> execute. Every fallible call returns an
  * ew_result; the detailed message of the last failure is kept per device.
- * The library never prints, never exits and has no global mutable state.
+ * The library never prints, never exits and has no global mutable state
+ * (beyond the once-written CUDA probe of ew_backend_unavailable_reason).
  */
 #ifndef EDGEWISE_EDGEWISE_H
 #define EDGEWISE_EDGEWISE_H
@@ -51,7 +52,8 @@ EW_API const char *ew_version_string(void);
 typedef struct ew_device ew_device;
 
 typedef enum ew_device_type {
-    EW_DEVICE_DEFAULT = 0, /* the best available backend (CPU for now) */
+    EW_DEVICE_DEFAULT = 0, /* the CPU for now: only some methods run on CUDA yet
+                              (ew_device_get_type tells which was made) */
     EW_DEVICE_CPU = 1,
     EW_DEVICE_CUDA = 2
 } ew_device_type;
@@ -60,11 +62,32 @@ typedef struct ew_device_desc {
     size_t size;           /* sizeof(ew_device_desc): lets the struct grow */
     ew_device_type type;
     int32_t num_threads;   /* CPU worker threads; 0 = one per online core  */
+    /* CUDA devices only (a CPU device ignores them); a desc whose size ends
+     * before them gets these defaults. */
+    int32_t cuda_device;   /* device ordinal; 0 = the first GPU */
+    void *cuda_stream;     /* a cudaStream_t to queue all work on (an OFX host's);
+                              NULL = a stream of the device's own */
+    int32_t device_images; /* 1: every image view's data is a CUDA device pointer:
+                              pixels never cross to the host, and execute only
+                              queues work on the stream (it never synchronises the
+                              device; see each method for the small reads back it
+                              needs). Requires type EW_DEVICE_CUDA. */
 } ew_device_desc;
 
-#define EW_DEVICE_DESC_INIT {sizeof(ew_device_desc), EW_DEVICE_DEFAULT, 0}
+#define EW_DEVICE_DESC_INIT {sizeof(ew_device_desc), EW_DEVICE_DEFAULT, 0, 0, NULL, 0}
 
+/* EW_DEVICE_CUDA on a machine without a usable GPU, driver or CUDA module
+ * returns EW_ERR_BACKEND_UNAVAILABLE. EW_DEVICE_DEFAULT gives a CPU device. */
 EW_API ew_result ew_device_create(const ew_device_desc *desc, ew_device **out);
+/* Why ew_device_create(type) cannot give that backend on this machine, e.g.
+ * "libedgewise_cuda.so: no CUDA driver (libcuda.so.1) ...", or "" when it
+ * can. For EW_DEVICE_DEFAULT: why it is the CPU. Static text, never NULL,
+ * thread-safe. No device is needed (there is none to hold a message when
+ * creation fails): the first call for CUDA (or the first CUDA
+ * ew_device_create) probes once — loads the module,
+ * counts GPUs — and the answer holds for the life of the process. That
+ * once-written probe is the library's only global state. */
+EW_API const char *ew_backend_unavailable_reason(ew_device_type type);
 EW_API void ew_device_destroy(ew_device *dev); /* NULL is a no-op */
 EW_API ew_device_type ew_device_get_type(const ew_device *dev);
 EW_API int32_t ew_device_get_num_threads(const ew_device *dev);

@@ -1,0 +1,196 @@
+/*
+ * bilateral_op.c — commit/execute shared by the filters "bilateral" (brute
+ * force, exact), "separable" and "pyramid".
+ */
+#include "algorithms/bilateral_op.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "src/backend.h"
+
+typedef struct {
+    ew_bf_method method;
+    ew_bf_model model;
+    int w, h, guide_is_color, depth_from_color;
+    float *image, *attr, *out, *tmp;
+    ew_pyr_plan plan;
+    ew_pyr_table table;
+    float mem[];
+} state;
+
+ew_result ew_pyr_op_set_data(ew_op *op, const char *name, const void *data, size_t size) {
+    if (strcmp(name, "weights") != 0)
+        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown data '%s' for %s '%s' (weights)", name,
+                        op->type->kind, op->type->name);
+    ew_pyr_op_release_data(op);
+    if (!data) return EW_OK;
+    ew_pyr_table *t = (ew_pyr_table *)malloc(sizeof *t);
+    if (!t) return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
+    char why[200];
+    if (ew_pyr_table_parse(data, size, t, why, sizeof why) != EW_OK) {
+        free(t);
+        return ew__fail(op->dev, EW_ERR_INVALID_DATA, "data 'weights': %s", why);
+    }
+    op->data_state = t;
+    return EW_OK;
+}
+
+void ew_pyr_op_release_data(ew_op *op) {
+    free(op->data_state);
+    op->data_state = NULL;
+}
+
+ew_result ew_bf_op_table(ew_op *op, int trained, ew_pyr_table *table, const ew_pyr_table **out) {
+    *out = NULL;
+    if (op->data_state) {
+        *table = *(const ew_pyr_table *)op->data_state;
+        *out = table;
+        return EW_OK;
+    }
+    if (!trained) return EW_OK;
+    char why[256];
+    if (ew_pyr_builtin_table(table, why, sizeof why) != EW_OK)
+        return ew__fail(op->dev, EW_ERR_INVALID_DATA, "parameter 'weights' = 1 (trained): %s; use 'weights' = 0", why);
+    *out = table;
+    return EW_OK;
+}
+
+ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
+    ew_device *dev = op->dev;
+    const ew_image *color = ew_op_image(op, "color"), *output = ew_op_image(op, "output");
+    const ew_image *guide = ew_op_image(op, "guide"), *normal = ew_op_image(op, "normal");
+    const ew_image *depth = ew_op_image(op, "depth");
+    const int w = color->width, h = color->height, C = color->channels;
+    if (C > EW_BF_MAX_CH)
+        return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "image 'color' has %d channels; at most %d are supported", C,
+                        EW_BF_MAX_CH);
+    if (output->channels < C)
+        return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "image 'output' has %d channels but 'color' has %d",
+                        output->channels, C);
+    ew_bf_model m;
+    memset(&m, 0, sizeof m);
+    static const int kinds[] = {EW_RANGE_COLOR, EW_RANGE_GI, EW_RANGE_DEPTH, EW_RANGE_NONE}; /* "model" 0..3 */
+    m.kind = kinds[(int)ew_op_param(op, "model")];
+    m.channels = C;
+    m.radius = (int)ew_op_param(op, "radius");
+    float ss = ew_op_param(op, "sigma_spatial");
+    m.sigma = ss > 0.0f ? ss : (float)m.radius / 3.0f;
+    float sr = ew_op_param(op, "sigma_range");
+    m.inv_2sr2 = 1.0f / (2.0f * sr * sr);
+    m.sigma_alpha = (float)(m.radius > 0 ? m.radius - 1 : 0);
+    m.sigma_n = ew_op_param(op, "sigma_normal");
+    m.sigma_z = ew_op_param(op, "sigma_depth");
+    m.use_roughness = ew_op_image(op, "roughness") != NULL;
+    if (m.kind == EW_RANGE_GI && !normal && !depth)
+        return ew__fail(dev, EW_ERR_INVALID_STATE,
+                        "parameter 'model' = 1 (GI denoising) needs a 'normal' and/or a 'depth' image");
+    if (m.kind == EW_RANGE_GI && m.radius == 0) m.sigma_alpha = 0.0f;
+    m.attrs = ew_bf_attrs(m.kind);
+    /* radius 0 means no filtering at all, whatever the model */
+    if (m.radius == 0) {
+        m.sigma = 0.0f;
+        m.sigma_alpha = 0.0f;
+    }
+
+    int levels = 0;
+    ew_pyr_table tbl;
+    const ew_pyr_table *table = NULL;
+    const int uniform = m.kind != EW_RANGE_GI;
+    if (method == EW_BF_PYRAMID) {
+        ew_result r = ew_bf_op_table(op, (int)ew_op_param(op, "weights"), &tbl, &table);
+        if (r != EW_OK) return r;
+        levels = m.radius == 0 ? 0 : ew_pyr_levels(ew_pyr_sigma_max(&m), w, h);
+    }
+    const size_t n = (size_t)w * (size_t)h;
+    size_t need = n * (size_t)(2 * EW_BF_CH + m.attrs);
+    if (method == EW_BF_SEPARABLE) need += n * (size_t)EW_BF_CH;
+    if (method == EW_BF_PYRAMID) need += ew_pyr_scratch_floats(&m, w, h, levels, uniform);
+    if (op->state) ew_bf_op_release(op);
+    state *s = (state *)malloc(sizeof(state) + need * sizeof(float));
+    op->state = s;
+    if (!s)
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: filtering %dx%d needs %.1f MiB", w, h,
+                        (double)need * sizeof(float) / 1048576.0);
+    s->method = method;
+    s->model = m;
+    s->w = w;
+    s->h = h;
+    s->guide_is_color = m.kind == EW_RANGE_COLOR && !guide;
+    s->depth_from_color = m.kind == EW_RANGE_DEPTH && !depth;
+    float *p = s->mem;
+    s->image = p;
+    p += n * (size_t)EW_BF_CH;
+    s->out = p;
+    p += n * (size_t)EW_BF_CH;
+    s->attr = p;
+    p += n * (size_t)m.attrs;
+    s->tmp = NULL;
+    if (method == EW_BF_SEPARABLE) {
+        s->tmp = p;
+        p += n * (size_t)EW_BF_CH;
+    }
+    if (method == EW_BF_PYRAMID) {
+        if (table) {
+            s->table = tbl;
+            table = &s->table;
+        }
+        ew_pyr_plan_init(&s->plan, &m, w, h, levels, uniform, table, 1.0f, p);
+        /* the paper's analytic setting uses gamma = 0 for diffuse GI */
+        if (!table && m.kind == EW_RANGE_GI && !m.use_roughness)
+            ew_pyr_plan_init(&s->plan, &m, w, h, levels, uniform, NULL, 0.0f, p);
+    }
+    return EW_OK;
+}
+
+static int report(void *user, double f) { return ew_op_report((ew_op *)user, f); }
+
+ew_result ew_bf_op_execute(ew_op *op) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    const ew_bf_model *m = &s->model;
+    const ew_image *color = ew_op_image(op, "color");
+    ew_bf_pack_image(color, m->channels, s->image);
+    long bad = 0;
+    switch (m->kind) {
+    case EW_RANGE_COLOR:
+        ew_bf_pack_channels(s->guide_is_color ? color : ew_op_image(op, "guide"), 4, s->attr, &bad);
+        break;
+    case EW_RANGE_GI:
+        ew_bf_pack_gi(ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), s->attr,
+                      &bad);
+        break;
+    case EW_RANGE_DEPTH:
+        ew_bf_pack_channels(s->depth_from_color ? color : ew_op_image(op, "depth"), 1, s->attr, &bad);
+        break;
+    default:
+        break;
+    }
+    switch (s->method) {
+    case EW_BF_BRUTE: {
+        /* bands of rows, so a long run reports progress and can stop */
+        const int band = 16;
+        for (int y = 0; y < s->h; y += band) {
+            ew_bf_buffers b = {s->w, s->h, s->image, s->attr, s->out, y, y + band < s->h ? y + band : s->h};
+            ew_bilateral_brute_rows(dev, m, &b);
+            if (!ew_op_report(op, (double)b.y1 / s->h * 0.99))
+                return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        }
+        break;
+    }
+    case EW_BF_SEPARABLE:
+        ew_bilateral_separable(dev, m, s->w, s->h, s->image, s->attr, s->tmp, s->out);
+        break;
+    case EW_BF_PYRAMID:
+        if (!ew_pyr_run(dev, &s->plan, s->image, s->attr, s->out, report, op))
+            return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        break;
+    }
+    ew_bf_unpack_image(s->out, m->channels, ew_op_image(op, "output"), color);
+    return EW_OK;
+}
+
+void ew_bf_op_release(ew_op *op) {
+    free(op->state);
+    op->state = NULL;
+}

@@ -1,0 +1,53 @@
+/*
+ * bilateral_op.h — what the filters "bilateral", "separable" and "pyramid"
+ * share: the same images and parameters (declared once here), one model
+ * built from them, and one commit/execute parameterised by the method.
+ */
+#ifndef EW_ALGORITHMS_BILATERAL_OP_H
+#define EW_ALGORITHMS_BILATERAL_OP_H
+
+#include "algorithms/bilateral.h"
+#include "algorithms/pyramid.h"
+#include "src/op.h"
+
+typedef enum { EW_BF_BRUTE = 0, EW_BF_SEPARABLE = 1, EW_BF_PYRAMID = 2 } ew_bf_method;
+
+#define EW_BF_OP_IMAGES                                                                                         \
+    {"color", 1, 1, "image to filter (1 to 3 channels, linear; a 4th, alpha, is copied unfiltered)"},           \
+    {"guide", 1, 0, "model 0: edge-stopping guide, up to 4 channels (default: the colour itself)"},             \
+    {"normal", 3, 0, "model 1: normals, unit or zero for no surface (Cycles: Denoising Normal)"},              \
+    {"depth", 1, 0, "models 1 and 2: depth (Cycles: Depth); model 2 without it filters on the colour's first channel"}, \
+    {"roughness", 1, 0, "model 1: roughness alpha in [0, 1]; absent = diffuse (sqrt(alpha) = 1, no roughness test)"}, \
+    {"output", 1, 1, "filtered image, as many channels as the colour; may be the colour view itself"}
+
+#define EW_BF_OP_PARAMS                                                                                         \
+    {"model", EW_PARAM_INT, 0.0f, 0.0f, 3.0f,                                                                   \
+     "edge-stopping functions: 0 colour difference (sigma_range), 1 GI denoising, Eq. 9 (normal, depth, "     \
+     "roughness), 2 depth, Eq. 10, 3 none (a plain Gaussian)"},                                                \
+    {"radius", EW_PARAM_INT, 8.0f, 0.0f, 256.0f,                                                                \
+     "kernel radius in pixels (the exact filter's window; model 1: the radius at roughness 1)"},              \
+    {"sigma_spatial", EW_PARAM_FLOAT, 0.0f, 0.0f, 256.0f, "domain Gaussian sigma in pixels; 0 = radius / 3"},  \
+    {"sigma_range", EW_PARAM_FLOAT, 0.1f, 1e-4f, 1e4f, "model 0: sigma of the guide difference"},             \
+    {"sigma_normal", EW_PARAM_FLOAT, 32.0f, 0.0f, 1024.0f, "model 1: exponent s of (n_p . n_q)^s"},            \
+    {"sigma_depth", EW_PARAM_FLOAT, 1.0f, 0.0f, 1e6f, "models 1 and 2: s in exp(-s z_p |z_p - z_q|)"}
+
+#define EW_PYR_WEIGHTS_PARAM                                                                                    \
+    {"weights", EW_PARAM_INT, 1.0f, 0.0f, 1.0f,                                                                 \
+     "pyramid domain weights: 0 analytic (the paper's method e), 1 trained (built in, models/pyramid)"}
+
+ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method);
+ew_result ew_bf_op_execute(ew_op *op);
+void ew_bf_op_release(ew_op *op);
+
+/* The pyramid's weights table for a commit: the one given with
+ * set_data("weights", file bytes) if any, else the built-in trained table
+ * when trained != 0 (parsed into *table), else NULL (analytic). Errors are
+ * reported on op. The pyramid and DoF filters share this. */
+ew_result ew_bf_op_table(ew_op *op, int trained, ew_pyr_table *table, const ew_pyr_table **out);
+
+/* set_data("weights", bytes of a weights file): validated now, kept in
+ * op->data_state until unset (NULL) or the filter is destroyed. */
+ew_result ew_pyr_op_set_data(ew_op *op, const char *name, const void *data, size_t size);
+void ew_pyr_op_release_data(ew_op *op);
+
+#endif

@@ -1,0 +1,25 @@
+/* dof.c — CoC and domain-CoC attributes for the DoF filter. */
+#include "algorithms/dof.h"
+
+#include "src/backend.h"
+
+static int tiles_of(int n) { return (n + EW_DOF_TILE - 1) / EW_DOF_TILE; }
+
+size_t ew_dof_scratch_floats(int w, int h) {
+    const size_t n = (size_t)w * (size_t)h, t = (size_t)tiles_of(w) * (size_t)tiles_of(h);
+    return n /* coc */ + 2 * t + n * 2 /* attr */;
+}
+
+void ew_dof_compute_attributes(ew_device *dev, const ew_dof_camera *cam, const float *depth, float *coc,
+                               float *tiles, float *attr) {
+    ew_dof_args a;
+    a.cam = *cam;
+    a.tw = tiles_of(cam->width);
+    a.th = tiles_of(cam->height);
+    a.depth = depth;
+    a.coc = coc;
+    a.tiles = tiles;
+    a.tiles2 = tiles + (size_t)a.tw * (size_t)a.th;
+    a.attr = attr;
+    dev->backend->dof_attributes(dev, &a);
+}

@@ -1,0 +1,26 @@
+/* filter "pyramid": the pyramid edge-preserving filter; shared code in bilateral_op.c. */
+#include "algorithms/bilateral_op.h"
+
+static const ew_image_desc images[] = {EW_BF_OP_IMAGES};
+
+static const ew_param_desc params[] = {
+    EW_BF_OP_PARAMS,
+    EW_PYR_WEIGHTS_PARAM,
+};
+
+static ew_result commit(ew_op *op) { return ew_bf_op_commit(op, EW_BF_PYRAMID); }
+
+const ew_op_type ew_filter_pyramid = {
+    .kind = "filter",
+    .name = "pyramid",
+    .summary = "pyramid edge-preserving filter (Xu et al. 2024): 2x2 range-weighted downsampling, dual 3x3 upsampling; cost independent of the radius",
+    .images = images,
+    .num_images = (int)(sizeof images / sizeof images[0]),
+    .params = params,
+    .num_params = (int)(sizeof params / sizeof params[0]),
+    .commit = commit,
+    .execute = ew_bf_op_execute,
+    .release = ew_bf_op_release,
+    .set_data = ew_pyr_op_set_data,
+    .release_data = ew_pyr_op_release_data,
+};

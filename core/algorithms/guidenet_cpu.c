@@ -1,0 +1,222 @@
+/*
+ * guidenet_cpu.c — CPU convolutions for GuideNet (see guidenet_cpu.h and
+ * the SIMD body in guidenet_cpu_kernel.h).
+ *
+ * The body is compiled twice: with AVX2 + FMA intrinsics for x86-64
+ * processors that have them (picked at run time, so the library still runs
+ * on any x86-64), and with GCC's portable vector extension otherwise. The
+ * build uses ISO C (-std=c11), where GCC does not contract a * b + c into
+ * an FMA by itself, hence the explicit intrinsics.
+ */
+#include "algorithms/guidenet_cpu.h"
+
+#include <string.h>
+#include <time.h>
+
+#include "src/backend.h"
+#include "src/internal.h"
+
+/* ---- portable vectors ------------------------------------------------ */
+/* Macros, not functions: a function taking or returning a 32-byte vector
+ * would change the ABI between the two instruction sets (-Wpsabi). */
+typedef float ew_v8 __attribute__((vector_size(32)));
+typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
+
+#define EW_V ew_v8
+#define EW_VLOAD(p) (*(const ew_v8u *)(const void *)(p))
+#define EW_VSTORE(p, v) (*(ew_v8u *)(void *)(p) = (v))
+#define EW_VSET1(f) ((ew_v8){0, 0, 0, 0, 0, 0, 0, 0} + (f))
+#define EW_VZERO() ((ew_v8){0, 0, 0, 0, 0, 0, 0, 0})
+#define EW_VFMA(a, b, c) ((a) * (b) + (c))
+#define EW_SUFFIX(name) name##_generic
+#include "algorithms/guidenet_cpu_kernel.h"
+#undef EW_V
+#undef EW_VLOAD
+#undef EW_VSTORE
+#undef EW_VSET1
+#undef EW_VZERO
+#undef EW_VFMA
+#undef EW_SUFFIX
+
+/* ---- AVX2 + FMA ------------------------------------------------------- */
+#if defined(__GNUC__) && defined(__x86_64__)
+#define EW_HAVE_AVX2_PATH 1
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+#include <immintrin.h>
+#define EW_V __m256
+#define EW_VLOAD(p) _mm256_loadu_ps(p)
+#define EW_VSTORE(p, v) _mm256_storeu_ps((p), (v))
+#define EW_VSET1(f) _mm256_set1_ps(f)
+#define EW_VZERO() _mm256_setzero_ps()
+#define EW_VFMA(a, b, c) _mm256_fmadd_ps((a), (b), (c))
+#define EW_SUFFIX(name) name##_avx2
+#include "algorithms/guidenet_cpu_kernel.h"
+#undef EW_V
+#undef EW_VLOAD
+#undef EW_VSTORE
+#undef EW_VSET1
+#undef EW_VZERO
+#undef EW_VFMA
+#undef EW_SUFFIX
+#pragma GCC pop_options
+#endif
+
+#ifdef EW_HAVE_AVX2_PATH
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+/* 12 independent FMA chains of 8 floats: enough in flight to fill two FMA
+ * pipes with a 4-cycle latency. Returns the flops done. */
+static double fma_burn(long iters, float seed) {
+    __m256 a[12], m = _mm256_set1_ps(0.999999f), c = _mm256_set1_ps(1e-7f);
+    for (int k = 0; k < 12; k++) a[k] = _mm256_set1_ps(seed + (float)k);
+    for (long i = 0; i < iters; i++)
+        for (int k = 0; k < 12; k++) a[k] = _mm256_fmadd_ps(a[k], m, c);
+    float t[8];
+    __m256 s = a[0];
+    for (int k = 1; k < 12; k++) s = _mm256_add_ps(s, a[k]);
+    _mm256_storeu_ps(t, s);
+    return t[0] > -1.0f ? (double)iters * 12 * 8 * 2 : 0.0; /* (use the result) */
+}
+#pragma GCC pop_options
+#endif
+
+typedef struct {
+    long iters;
+    double flops[256];
+} peak_job;
+
+static void peak_items(void *ctx, int64_t begin, int64_t end, int tid) {
+    peak_job *j = (peak_job *)ctx;
+    for (int64_t i = begin; i < end; i++) {
+#ifdef EW_HAVE_AVX2_PATH
+        if (ew_conv_cpu_simd_level()) j->flops[tid & 255] += fma_burn(j->iters, (float)i);
+#else
+        (void)j;
+#endif
+    }
+}
+
+double ew_conv_cpu_fma_gflops(ew_device *dev, double *seconds) {
+    peak_job j;
+    memset(&j, 0, sizeof j);
+    j.iters = 20000000;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    ew_pool_run(dev->pool, dev->num_threads, 1, peak_items, &j);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double dt = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec), f = 0;
+    for (int k = 0; k < 256; k++) f += j.flops[k];
+    if (seconds) *seconds = dt;
+    return dt > 0 ? f / dt * 1e-9 : 0.0;
+}
+
+int ew_conv_cpu_simd_level(void) {
+#ifdef EW_HAVE_AVX2_PATH
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+void ew_conv_cpu_wt_layout(int cin, int cout, const float *w, float *wt) {
+    int co = 0;
+    while (co < cout) {
+        int cb = cout == 5 ? 5 : (cout - co >= 4 ? 4 : cout - co);
+        float *blk = wt + (long)co * cin * 25;
+        for (int ci = 0; ci < cin; ci++)
+            for (int t = 0; t < 25; t++)
+                for (int k = 0; k < cb; k++) blk[((long)ci * 25 + t) * cb + k] = w[((long)(co + k) * cin + ci) * 25 + t];
+        co += cb;
+    }
+}
+
+void ew_conv_cpu_rows(const ew_conv_args *a, const float *wt, int r0, int r1) {
+#ifdef EW_HAVE_AVX2_PATH
+    if (ew_conv_cpu_simd_level()) {
+        conv_rows_avx2(a, wt, r0, r1);
+        return;
+    }
+#endif
+    conv_rows_generic(a, wt, r0, r1);
+}
+
+void ew_conv_cpu_dweight(const ew_conv_args *a, const float *g, long g_rs, long g_ps, float *dw, float *db) {
+#ifdef EW_HAVE_AVX2_PATH
+    if (ew_conv_cpu_simd_level()) {
+        conv_dweight_avx2(a, g, g_rs, g_ps, dw, db);
+        return;
+    }
+#endif
+    conv_dweight_generic(a, g, g_rs, g_ps, dw, db);
+}
+
+typedef struct {
+    const ew_conv_args *a;
+    const float *wt;
+    int simd;
+} conv_job;
+
+static void conv_job_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const conv_job *j = (const conv_job *)ctx;
+    if (j->simd) {
+        ew_conv_cpu_rows(j->a, j->wt, (int)begin, (int)end);
+        return;
+    }
+    for (int64_t r = begin; r < end; r++)
+        for (int co = 0; co < j->a->cout; co++)
+            for (int x = 0; x < j->a->width; x++) ew_conv5_px(x, (int)r, co, j->a);
+}
+
+void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a) {
+    float wt[EW_CONV_CPU_MAX_CHANNEL_PAIRS * 25];
+    conv_job j = {a, wt, a->cin * a->cout <= EW_CONV_CPU_MAX_CHANNEL_PAIRS};
+    if (j.simd) ew_conv_cpu_wt_layout(a->cin, a->cout, a->weight, wt);
+    ew_pool_run(dev->pool, a->rows, 1, conv_job_rows, &j);
+}
+
+/* ---- the per-pixel GuideNet entries ------------------------------------ */
+static void input_rows_shifted(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const ew_gn_input_args *a = (const ew_gn_input_args *)ctx;
+    for (int64_t y = a->y0 + begin; y < a->y0 + end; y++) {
+        float *dst = a->dst + (y - a->y0) * a->rs;
+        const long j0 = (long)y * a->width;
+        for (int x = 0; x < a->width; x++)
+            ew_gn_input_px(j0 + x, a->color, a->albedo, a->normal, a->depth, a->depth_scale, dst + x, a->ps);
+    }
+}
+
+void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a) {
+    /* the pool hands out [0, n): shift to the band's rows */
+    ew_pool_run(dev->pool, a->y1 - a->y0, 0, input_rows_shifted, (void *)a);
+}
+
+typedef struct {
+    long n;
+    int ngrids;
+    float *outputs;
+} guides_job;
+
+static void guides_range(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const guides_job *g = (const guides_job *)ctx;
+    for (int64_t j = begin; j < end; j++) ew_nbg_guide_px((long)j, g->n, g->ngrids, g->outputs);
+}
+
+void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs) {
+    guides_job g = {n, ngrids, outputs};
+    ew_pool_run(dev->pool, n, 16384, guides_range, &g);
+}
+
+static void blend_range(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const ew_nbg_blend_args *a = (const ew_nbg_blend_args *)ctx;
+    for (int64_t j = begin; j < end; j++) ew_nbg_blend_px((long)j, a->s, a->ngrids, a->outputs, a->n, a->sliced, a->acc);
+}
+
+void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) {
+    ew_pool_run(dev->pool, a->n, 16384, blend_range, (void *)a);
+}

@@ -1,0 +1,41 @@
+/*
+ * guidenet_cpu.h — the CPU's convolutions for GuideNet: SIMD blocks (AVX2 +
+ * FMA when the processor has them, chosen at run time; portable vectors
+ * otherwise), the backend table's conv5 entry that runs them on the
+ * device's threads, and the single-threaded pieces the trainer calls per
+ * patch.
+ */
+#ifndef EW_ALGORITHMS_GUIDENET_CPU_H
+#define EW_ALGORITHMS_GUIDENET_CPU_H
+
+#include <stddef.h>
+
+#include "kernels/conv.h"
+
+typedef struct ew_device ew_device;
+
+/* Largest cin * cout the backend entry handles with SIMD blocks (its weight
+ * copy lives on the stack); larger layers fall back to the per-value code. */
+#define EW_CONV_CPU_MAX_CHANNEL_PAIRS 512
+
+/* The weight layout the SIMD blocks read: per block of output channels
+ * (one block of 5 when cout == 5, else blocks of 4 and the rest),
+ * [cin][25][block]. Same number of floats as the [cout][cin][5][5] input. */
+void ew_conv_cpu_wt_layout(int cin, int cout, const float *w, float *wt);
+/* Output rows [r0, r1) of a convolution on this thread; wt from
+ * ew_conv_cpu_wt_layout(a->weight). */
+void ew_conv_cpu_rows(const ew_conv_args *a, const float *wt, int r0, int r1);
+/* Add dL/dW ([cout][cin][25]) and dL/db (NULL: skip) of a convolution to dw
+ * and db, given g = dL/d(pre-activation) with zero padding; this thread. */
+void ew_conv_cpu_dweight(const ew_conv_args *a, const float *g, long g_rs, long g_ps, float *dw, float *db);
+/* 1 when the AVX2 + FMA blocks are in use (for benchmarks to report). */
+int ew_conv_cpu_simd_level(void);
+/* The machine's fused multiply-add throughput as the benchmark sees it: 12
+ * independent AVX2 FMA chains per thread on every thread of dev, in
+ * GFLOP/s (0 without AVX2). *seconds: the time it took. */
+double ew_conv_cpu_fma_gflops(ew_device *dev, double *seconds);
+
+/* Backend entry (backend.h): the whole convolution on the device's threads. */
+void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a);
+
+#endif

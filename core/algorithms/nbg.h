@@ -1,0 +1,56 @@
+/*
+ * nbg.h — pieces of the neural bilateral grid denoiser shared by the "nbg"
+ * op (denoise_nbg.c), the trainer (train.c) and the tests: GuideNet's
+ * forward pass over a whole image in bands of rows, and the models built
+ * into the library.
+ */
+#ifndef EW_ALGORITHMS_NBG_H
+#define EW_ALGORITHMS_NBG_H
+
+#include <stddef.h>
+
+#include "algorithms/guidenet.h"
+#include "edgewise/edgewise.h"
+
+/*
+ * GuideNet over a width x height image, one band of rows at a time, so the
+ * hidden activations (20 to 45 planes) never exist for the whole frame:
+ * a band of B output rows needs 2 more rows per layer on each side, kept in
+ * a buffer of ew_nbg_band_floats floats; rows outside the image are zero
+ * (the SAME padding). The outputs (nout planes of width*height floats,
+ * sigmoid values) are the only full-frame tensor.
+ */
+int ew_nbg_band_rows(const ew_guidenet *net, int height);
+size_t ew_nbg_band_floats(const ew_guidenet *net, int width, int band_rows);
+
+typedef struct ew_nbg_forward {
+    const ew_guidenet *net;
+    const float *params;   /* device memory, net->nparams floats */
+    int width, height;
+    const float *color, *albedo, *normal, *depth; /* packed device buffers */
+    float depth_scale;
+    float *band_mem;       /* ew_nbg_band_floats(net, width, band_rows) floats of device memory */
+    int band_rows;
+    float *outputs;        /* nout * width * height floats of device memory */
+} ew_nbg_forward;
+
+/* Runs on the device. progress (may be NULL) is called after each band with
+ * the fraction done; returning 0 stops early with EW_ERR_CANCELLED. */
+ew_result ew_nbg_guidenet_forward(ew_device *dev, const ew_nbg_forward *f, int (*progress)(void *, double),
+                                  void *user);
+
+/* Device floats the "nbg" op allocates for a width x height frame (one
+ * allocation at commit; denoise_nbg.c lays it out): parameters, 3 + 3 + 3
+ * + 1 input floats a pixel, radiance, clamped radiance, blend sum and one
+ * grid's slice (3 each), nout GuideNet outputs, one band, and the largest
+ * grid. */
+size_t ew_nbg_device_floats(const ew_guidenet *net, int width, int height, size_t *grid_floats, size_t *band_floats);
+
+/* Built-in models, by the op's "model" parameter: 0 = 2layer-3grid (the
+ * default), 1 = 2layer-1grid, 2 = 7layer-3grid. The bytes are a weights
+ * file (size 0 when this build has none for that model). */
+#define EW_NBG_NUM_MODELS 3
+const char *ew_nbg_model_name(int model);
+void ew_nbg_builtin_weights(int model, const unsigned char **bytes, size_t *size);
+
+#endif

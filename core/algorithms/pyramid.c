@@ -1,0 +1,263 @@
+/*
+ * pyramid.c — plan, weights and run of the pyramid edge-preserving filter
+ * (the per-pixel math is in kernels/pyramid.h).
+ */
+#include "algorithms/pyramid.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "src/backend.h"
+
+int ew_pyr_levels(float sigma_max, int w, int h) {
+    if (!(sigma_max > 0.0f)) return 0;
+    int need = (int)ceil(log2(3.5 * (double)sigma_max));
+    if (need < 2) need = 2;
+    int top = 0; /* levels until 1x1 */
+    while (w > 1 || h > 1) {
+        w = (w + 1) / 2;
+        h = (h + 1) / 2;
+        top++;
+    }
+    if (need > top) need = top;
+    if (need > EW_PYR_MAX_LEVELS) need = EW_PYR_MAX_LEVELS;
+    return need;
+}
+
+float ew_pyr_sigma_max(const ew_bf_model *m) {
+    switch (m->kind) {
+    case EW_RANGE_GI: return (m->sigma_alpha + 1.0f) / 3.0f;
+    case EW_RANGE_DOF: {
+        float d = 2.0f * (float)m->radius; /* CoC diameter */
+        float a[2] = {d, d};
+        return ew_bf_sigma(m, a);
+    }
+    default: return m->sigma;
+    }
+}
+
+void ew_pyr_identity(ew_pyr_params *out) {
+    memset(out, 0, sizeof *out);
+    out->wf[4] = 1.0f;
+    out->gamma = 1.0f;
+}
+
+/* Layer cake: a radially decreasing kernel is a mixture of uniform discs;
+ * for a 2-D Gaussian the disc mass in u = r^2 / 2 sigma^2 is Gamma(2, 1),
+ * whose survival function is (1 + u) e^-u. Level l owns the discs with radii
+ * in [R 2^(l - 1/2), R 2^(l + 1/2)); alpha_l is its share of what the finer
+ * levels left over. */
+static double disc_survival(double r, double sigma) {
+    double u = r * r / (2.0 * sigma * sigma);
+    return (1.0 + u) * exp(-u);
+}
+
+void ew_pyr_analytic(float sigma, int level, float gamma, ew_pyr_params *out) {
+    ew_pyr_identity(out);
+    out->gamma = gamma;
+    if (!(sigma > 0.0f) || level >= ew_pyr_levels(sigma, 1 << 30, 1 << 30)) return;
+    const double R = EW_PYR_DISC_RADIUS;
+    double lo = level == 0 ? 1.0 : disc_survival(R * pow(2.0, level - 0.5), sigma);
+    double hi = disc_survival(R * pow(2.0, level + 0.5), sigma);
+    double alpha = lo > 1e-12 ? 1.0 - hi / lo : 1.0;
+    if (alpha < 0.0) alpha = 0.0;
+    if (alpha > 1.0) alpha = 1.0;
+    out->wf[4] = (float)alpha;
+    for (int k = 0; k < 9; k++) out->wc[k] = (float)(1.0 - alpha);
+}
+
+float ew_pyr_centre_weight(const ew_pyr_params *p) {
+    double s = 0.0;
+    for (int k = 0; k < 9; k++)
+        if (k != 4) s += p->wf[k];
+    for (int ky = 0; ky < 3; ky++)
+        for (int kx = 0; kx < 3; kx++)
+            s += (double)ew_pyr_alpha_d(2 * kx + 1) * ew_pyr_alpha_d(2 * ky + 1) * p->wc[ky * 3 + kx];
+    return (float)(1.0 - s);
+}
+
+void ew_pyr_expand(const ew_pyr_params *p, ew_pyr_wrow *row) {
+    for (int k = 0; k < 9; k++) row->wf[k] = p->wf[k];
+    row->wf[4] = ew_pyr_centre_weight(p);
+    for (int par = 0; par < 4; par++) {
+        const int px = par & 1, py = par >> 1;
+        for (int iy = -1; iy <= 1; iy++)
+            for (int ix = -1; ix <= 1; ix++) {
+                int kx = ew_pyr_dclass(ix, px), ky = ew_pyr_dclass(iy, py);
+                row->wdc[par][(iy + 1) * 3 + ix + 1] =
+                    ew_pyr_alpha_d(2 * kx + 1) * ew_pyr_alpha_d(2 * ky + 1) * p->wc[ky * 3 + kx];
+            }
+    }
+    row->gamma = p->gamma;
+}
+
+static void lerp_params(const ew_pyr_params *a, const ew_pyr_params *b, float t, ew_pyr_params *out) {
+    const float *pa = (const float *)a, *pb = (const float *)b;
+    float *po = (float *)out;
+    for (int k = 0; k < EW_PYR_NPARAM; k++) po[k] = (1.0f - t) * pa[k] + t * pb[k];
+}
+
+void ew_pyr_params_at(const ew_pyr_table *t, float sigma, int level, float analytic_gamma, ew_pyr_params *out) {
+    if (!t || t->nodes < 1) {
+        ew_pyr_analytic(sigma, level, analytic_gamma, out);
+        return;
+    }
+    const float ls = log2f(fmaxf(sigma, 1e-6f));
+    if (ls > t->log2_sigma[t->nodes - 1]) {
+        ew_pyr_analytic(sigma, level, analytic_gamma, out);
+        return;
+    }
+    /* below the first node, towards the identity at sigma = 2^LOG2_MIN (a
+     * delta for the pixel grid) */
+    int k = 0;
+    while (k < t->nodes && t->log2_sigma[k] < ls) k++;
+    ew_pyr_params a, b;
+    float la, lb;
+    if (k == 0) {
+        ew_pyr_identity(&a);
+        la = (float)EW_PYR_LUT_LOG2_MIN;
+        lb = t->log2_sigma[0];
+        if (level < t->levels) b = t->p[0][level];
+        else ew_pyr_identity(&b);
+        if (ls <= la) {
+            *out = a;
+            return;
+        }
+    } else {
+        la = t->log2_sigma[k - 1];
+        lb = t->log2_sigma[k];
+        if (level < t->levels) {
+            a = t->p[k - 1][level];
+            b = t->p[k][level];
+        } else {
+            ew_pyr_identity(&a);
+            ew_pyr_identity(&b);
+        }
+    }
+    float f = lb > la ? (ls - la) / (lb - la) : 1.0f;
+    lerp_params(&a, &b, fminf(fmaxf(f, 0.0f), 1.0f), out);
+}
+
+static size_t level_floats(const ew_bf_model *m, int w, int h) {
+    return (size_t)w * (size_t)h * (size_t)(2 * EW_BF_CH + m->attrs + (m->kind == EW_RANGE_DOF ? 1 : 0));
+}
+
+size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int uniform) {
+    size_t n = 0;
+    for (int l = 1; l <= levels; l++) {
+        w = (w + 1) / 2;
+        h = (h + 1) / 2;
+        n += level_floats(m, w, h);
+    }
+    if (!uniform) n += (size_t)levels * EW_PYR_LUT_N * (sizeof(ew_pyr_wrow) / sizeof(float));
+    return n;
+}
+
+void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
+                      const ew_pyr_table *table, float analytic_gamma, float *scratch) {
+    memset(p, 0, sizeof *p);
+    p->model = *m;
+    p->width = w;
+    p->height = h;
+    p->levels = levels;
+    p->uniform = uniform;
+    p->table = table;
+    p->analytic_gamma = analytic_gamma;
+    p->major_attr = m->kind == EW_RANGE_GI;
+    p->w[0] = w;
+    p->h[0] = h;
+    float *s = scratch;
+    for (int l = 1; l <= levels; l++) {
+        p->w[l] = (p->w[l - 1] + 1) / 2;
+        p->h[l] = (p->h[l - 1] + 1) / 2;
+        size_t n = (size_t)p->w[l] * (size_t)p->h[l];
+        p->down[l] = s;
+        s += n * (size_t)EW_BF_CH;
+        p->attr[l] = s;
+        s += n * (size_t)m->attrs;
+        p->up[l] = s;
+        s += n * (size_t)EW_BF_CH;
+        if (m->kind == EW_RANGE_DOF) {
+            p->coc[l] = s;
+            s += n;
+        }
+    }
+    ew_pyr_params prm;
+    if (uniform) {
+        for (int l = 0; l < levels; l++) {
+            ew_pyr_params_at(table, m->sigma, l, analytic_gamma, &prm);
+            ew_pyr_expand(&prm, &p->rows[l]);
+        }
+    } else {
+        p->lut = (ew_pyr_wrow *)(void *)s;
+        for (int l = 0; l < levels; l++)
+            for (int i = 0; i < EW_PYR_LUT_N; i++) {
+                float sg = exp2f((float)EW_PYR_LUT_LOG2_MIN + (float)i / (float)EW_PYR_LUT_STEPS);
+                ew_pyr_params_at(table, sg, l, analytic_gamma, &prm);
+                ew_pyr_expand(&prm, &p->lut[(size_t)l * EW_PYR_LUT_N + (size_t)i]);
+            }
+    }
+}
+
+/* Squared distance substituted for the coarse samples' range function at
+ * level l (only DOF's depends on distance). §4.1 writes sqrt(2^(l+1) - 1)/2;
+ * we read the exponent as 2(l+1), i.e. sqrt(4^(l+1) - 1)/2 ~ 2^l pixels, which
+ * keeps the ratio of tile size to CoC the same at every level (the literal
+ * form grows as 2^(l/2) and would let sharp content reach far coarser
+ * levels than its CoC allows). */
+float ew_pyr_coarse_d2(int l) { return (float)((pow(4.0, l + 1) - 1.0) / 4.0); }
+
+int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
+               int (*progress)(void *user, double fraction), void *user) {
+    const ew_backend *be = dev->backend;
+    const ew_bf_model *m = &p->model;
+    const size_t n0 = (size_t)p->width * (size_t)p->height * (size_t)EW_BF_CH;
+    if (p->levels == 0) {
+        memcpy(out, image, n0 * sizeof(float));
+        return 1;
+    }
+    const float *down[EW_PYR_MAX_LEVELS + 1], *at[EW_PYR_MAX_LEVELS + 1];
+    down[0] = image;
+    at[0] = attr;
+    for (int l = 0; l < p->levels; l++) {
+        ew_pyr_down_args a;
+        a.m = m;
+        a.w = p->w[l];
+        a.h = p->h[l];
+        a.cw = p->w[l + 1];
+        a.ch = p->h[l + 1];
+        a.down = down[l];
+        a.attr = at[l];
+        a.cdown = p->down[l + 1];
+        a.cattr = p->attr[l + 1];
+        a.d2_unit = (float)(1u << (2 * l));
+        a.major_attr = p->major_attr;
+        be->pyr_down(dev, &a);
+        down[l + 1] = p->down[l + 1];
+        at[l + 1] = p->attr[l + 1];
+    }
+    if (progress && !progress(user, 0.3)) return 0;
+    const float *coarse = down[p->levels]; /* Up(L) = Down(L) */
+    for (int l = p->levels - 1; l >= 0; l--) {
+        ew_pyr_up_args a;
+        a.m = m;
+        a.w = p->w[l];
+        a.h = p->h[l];
+        a.cw = p->w[l + 1];
+        a.ch = p->h[l + 1];
+        a.down = down[l];
+        a.attr = at[l];
+        a.cup = coarse;
+        a.cattr = at[l + 1];
+        a.up = l == 0 ? out : p->up[l];
+        a.d2_unit = (float)(1u << (2 * l));
+        a.coarse_d2 = ew_pyr_coarse_d2(l);
+        a.row = p->uniform ? &p->rows[l] : NULL;
+        a.lut = p->uniform ? NULL : p->lut + (size_t)l * EW_PYR_LUT_N;
+        a.ccoc = l + 1 < p->levels ? p->coc[l + 1] : NULL; /* the coarsest: its own C */
+        a.ucoc = l > 0 ? p->coc[l] : NULL;
+        be->pyr_up(dev, &a);
+        coarse = a.up;
+    }
+    return 1;
+}

@@ -1,0 +1,128 @@
+/*
+ * pyramid.h — the pyramid edge-preserving filter on packed buffers: level
+ * plan, scratch layout, domain weights (analytic or trained), and the run
+ * (downsampling passes, then upsampling passes) through the backend table.
+ */
+#ifndef EW_ALGORITHMS_PYRAMID_H
+#define EW_ALGORITHMS_PYRAMID_H
+
+#include <stddef.h>
+
+#include "kernels/pyramid.h"
+#include "src/internal.h"
+
+/* The per-level parameters the weight template leaves open (§3.3.2): the
+ * fine domain weights wf by offset, the coarse domain weights wc by distance
+ * class (d_x, d_y) in {1,3,5}^2 as (dy/2)*3 + dx/2, and gamma. wf[4], the
+ * centre, is fixed by Eq. 2g. */
+#define EW_PYR_NPARAM 19
+typedef struct ew_pyr_params {
+    float wf[9];
+    float wc[9];
+    float gamma;
+} ew_pyr_params;
+
+/* A trained table: for each node sigma (ascending), params for levels
+ * 0..levels-1 (levels at and beyond a node's own level count are unused and
+ * must be identity). See pyramid_weights.c for the file format. */
+#define EW_PYR_MAX_NODES 64
+typedef struct ew_pyr_table {
+    int nodes, levels;
+    float log2_sigma[EW_PYR_MAX_NODES];
+    ew_pyr_params p[EW_PYR_MAX_NODES][EW_PYR_MAX_LEVELS];
+} ew_pyr_table;
+
+/* Coarser levels needed for a largest domain sigma on a w x h image: enough
+ * that the layer-cake radius of the coarsest level covers 3.5 sigma (the
+ * 99 % mass radius of a 2-D Gaussian is 3.03 sigma), at least 2 (below that
+ * the fine 3x3 weights do the work; two levels keep the cost flat over
+ * radii), and no more than it takes to reach 1x1. 0 when sigma is 0. */
+int ew_pyr_levels(float sigma_max, int w, int h);
+
+/* Largest domain sigma a model can produce (from its radius). */
+float ew_pyr_sigma_max(const ew_bf_model *m);
+
+/* The analytic weights, the paper's method "e": wf = alpha at the centre
+ * only, wc = 1 - alpha everywhere, gamma = 1 (0 for diffuse GI). alpha per
+ * level comes from the layer-cake decomposition of the Gaussian into discs
+ * (the 4^l d f/dl rule of [XRW19]) with the level-l disc radius
+ * EW_PYR_DISC_RADIUS * 2^l. Identity (alpha = 1) at levels >= levels(sigma). */
+#define EW_PYR_DISC_RADIUS 1.5f
+void ew_pyr_analytic(float sigma, int level, float gamma, ew_pyr_params *out);
+/* Identity: the fine centre only (Up(l) = Down(l)). */
+void ew_pyr_identity(ew_pyr_params *out);
+/* The parameters of a level for a sigma: trained (interpolated in log2
+ * sigma between nodes, towards identity below the first node; analytic
+ * above the last node) or analytic when table is NULL. */
+void ew_pyr_params_at(const ew_pyr_table *table, float sigma, int level, float analytic_gamma, ew_pyr_params *out);
+/* Eq. 2g: the centre fine weight that makes the domain weights sum to 1. */
+float ew_pyr_centre_weight(const ew_pyr_params *p);
+/* Expand into the kernel's row (w_d folded into the coarse weights). */
+void ew_pyr_expand(const ew_pyr_params *p, ew_pyr_wrow *row);
+
+typedef struct ew_pyr_plan {
+    ew_bf_model model;
+    int width, height;
+    int levels;                /* coarser levels: 0 = the identity */
+    int w[EW_PYR_MAX_LEVELS + 1], h[EW_PYR_MAX_LEVELS + 1];
+    int major_attr;            /* coarse attributes from the major pixel (GI) */
+    int uniform;               /* one sigma for every pixel: rows, no table */
+    const ew_pyr_table *table; /* NULL: analytic */
+    float analytic_gamma;
+    ew_pyr_wrow rows[EW_PYR_MAX_LEVELS];
+    ew_pyr_wrow *lut;          /* levels x EW_PYR_LUT_N, in scratch (not uniform) */
+    float *down[EW_PYR_MAX_LEVELS + 1], *attr[EW_PYR_MAX_LEVELS + 1], *up[EW_PYR_MAX_LEVELS + 1];
+    float *coc[EW_PYR_MAX_LEVELS + 1]; /* DOF: content CoC of Up(l), 1 <= l < levels */
+} ew_pyr_plan;
+
+/* Squared distance (full-resolution pixels) substituted for the coarse
+ * samples' range function at level l (DOF only; see pyramid.c). */
+float ew_pyr_coarse_d2(int l);
+
+/* Floats of scratch a plan needs (levels 1..L: down, attributes, up; the
+ * table). */
+size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int uniform);
+
+/* Lay out the plan in scratch (ew_pyr_scratch_floats floats) and fill the
+ * weight rows. uniform: every pixel has sigma m->sigma (COLOR/DEPTH/NONE). */
+void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
+                      const ew_pyr_table *table, float analytic_gamma, float *scratch);
+
+/* Filter: image (w*h*EW_BF_CH, premultiplied, mask last) and attributes
+ * (w*h*A) at level 0; out (the normalised sum, still premultiplied) may not
+ * alias image. Progress is reported through fn when
+ * given (return 0 to stop: ew_pyr_run then returns 0). */
+int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
+               int (*progress)(void *user, double fraction), void *user);
+
+/* ---- training (pyramid_train.c) ---- */
+/* The forward pass on the calling thread alone (training runs one image per
+ * thread), keeping every level in the plan's scratch. downs_done: the
+ * downsampling pyramid of this image is already there (it does not depend
+ * on the weights). Uniform plans only. */
+void ew_pyr_forward1(const ew_pyr_plan *p, const float *image, const float *attr, float *out, int downs_done);
+/* The exact gradient of a loss with respect to the parameters of every
+ * level, given dL/dout (w*h*EW_BF_CH floats, 0 where the loss does not
+ * look) and the forward's results still in the plan: accumulates
+ * grad[l * EW_PYR_NPARAM + k], k laid out as ew_pyr_params, with the centre
+ * fine weight eliminated by Eq. 2g (its entry stays 0). scratch:
+ * ew_pyr_grad_scratch_floats floats. */
+size_t ew_pyr_grad_scratch_floats(int w, int h);
+void ew_pyr_backward1(const ew_pyr_plan *p, const float *image, const float *attr, const float *out,
+                      const float *dout, float *scratch, double *grad);
+
+/* ---- the weights file (pyramid_weights.c) ---- */
+#define EW_PYR_ARCH "xu2024-dual3x3/v1: wf[9] by fine offset, wc[9] by distance class, gamma; " \
+                    "levels=max(2,ceil(log2(3.5 sigma)))"
+/* Parse and validate a weights file in memory: magic, version, architecture
+ * string, tensor names and shapes, checksum, finite values, Eq. 2g and the
+ * weights' ranges. Returns EW_OK or EW_ERR_INVALID_DATA with why filled. */
+ew_result ew_pyr_table_parse(const void *data, size_t size, ew_pyr_table *out, char *why, size_t whylen);
+/* Serialise a table (what the training tool writes). Returns the number of
+ * bytes needed; writes only when buf is large enough. */
+size_t ew_pyr_table_write(const ew_pyr_table *t, void *buf, size_t cap);
+/* The trained table built into the library (pyramid_weights_data.c, a copy
+ * of models/pyramid/pyramid.ewpw), parsed and validated into *out. */
+ew_result ew_pyr_builtin_table(ew_pyr_table *out, char *why, size_t whylen);
+
+#endif

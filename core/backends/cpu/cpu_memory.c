@@ -1,0 +1,103 @@
+/*
+ * cpu_memory.c — the memory entries of the CPU backend (issue 8). Device
+ * memory is host memory here, so these are malloc/memcpy; they exist so that
+ * algorithms have one code path for the CPU and for backends with memory of
+ * their own (docs/backends.md). Work runs synchronously on the device's
+ * threads, so there is never a queued failure to report.
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include "src/backend.h"
+#include "src/internal.h"
+
+void *ew_cpu_mem_alloc(ew_device *dev, size_t bytes) {
+    (void)dev;
+    /* 64-byte aligned like cudaMalloc's 256: rows of floats start on a cache line */
+    void *p = NULL;
+    size_t n = (bytes + 63) & ~(size_t)63;
+    if (posix_memalign(&p, 64, n ? n : 64) != 0) return NULL;
+    return p;
+}
+
+void ew_cpu_mem_free(ew_device *dev, void *ptr) {
+    (void)dev;
+    free(ptr);
+}
+
+ew_result ew_cpu_mem_upload(ew_device *dev, void *dst, const void *src, size_t bytes) {
+    (void)dev;
+    if (bytes && dst != src) memcpy(dst, src, bytes);
+    return EW_OK;
+}
+
+ew_result ew_cpu_mem_download(ew_device *dev, void *dst, const void *src, size_t bytes) {
+    (void)dev;
+    if (bytes && dst != src) memcpy(dst, src, bytes);
+    return EW_OK;
+}
+
+ew_result ew_cpu_mem_copy(ew_device *dev, void *dst, const void *src, size_t bytes) {
+    (void)dev;
+    if (bytes && dst != src) memmove(dst, src, bytes);
+    return EW_OK;
+}
+
+ew_result ew_cpu_mem_zero(ew_device *dev, void *ptr, size_t bytes) {
+    (void)dev;
+    if (bytes) memset(ptr, 0, bytes);
+    return EW_OK;
+}
+
+ew_result ew_cpu_sync(ew_device *dev, int wait) {
+    (void)dev;
+    (void)wait;
+    return EW_OK;
+}
+
+typedef struct {
+    int op, width;
+    const float *src;
+    double *out;
+    const ew_view_desc *v;
+    int c;
+    float *dst;
+    const float *packed;
+} mem_job;
+
+static void reduce_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const mem_job *j = (const mem_job *)ctx;
+    for (int64_t y = begin; y < end; y++) ew_reduce_row(j->op, (int)y, j->width, j->src, j->out);
+}
+
+void ew_cpu_reduce_rows(ew_device *dev, int op, int width, int height, const float *src, double *out) {
+    mem_job j = {op, width, src, out, NULL, 0, NULL, NULL};
+    ew_pool_run(dev->pool, height, 0, reduce_rows, &j);
+}
+
+static void pack_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const mem_job *j = (const mem_job *)ctx;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < j->v->width; x++) ew_view_pack_px(x, (int)y, j->v, j->c, j->dst);
+}
+
+void ew_cpu_view_pack(ew_device *dev, const ew_view_desc *v, int c, float *dst) {
+    mem_job j = {0, 0, NULL, NULL, v, c, dst, NULL};
+    ew_pool_run(dev->pool, v->height, 0, pack_rows, &j);
+}
+
+static void unpack_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const mem_job *j = (const mem_job *)ctx;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < j->v->width; x++) ew_view_unpack_px(x, (int)y, j->v, j->c, j->packed);
+}
+
+void ew_cpu_view_unpack(ew_device *dev, const float *src, int c, const ew_view_desc *v) {
+    mem_job j = {0, 0, NULL, NULL, v, c, NULL, src};
+    ew_pool_run(dev->pool, v->height, 0, unpack_rows, &j);
+}
+
+void ew_cpu_device_release(ew_device *dev) { (void)dev; }

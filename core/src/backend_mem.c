@@ -1,0 +1,74 @@
+/*
+ * backend_mem.c — what algorithms call to allocate device buffers and to
+ * move caller views in and out of them (issue 8, docs/backends.md), so that
+ * one code path serves the CPU (device memory is host memory: views are
+ * packed straight into the buffers, no extra copy) and CUDA (views are
+ * packed into a host staging buffer and uploaded, or, for device-pointer
+ * views, packed on the GPU).
+ */
+#include <string.h>
+
+#include "src/backend.h"
+#include "src/internal.h"
+#include "src/op.h"
+
+void *ew_dev_alloc(ew_device *dev, size_t bytes) { return dev->backend->mem_alloc(dev, bytes); }
+
+void ew_dev_free(ew_device *dev, void *ptr) {
+    if (ptr) dev->backend->mem_free(dev, ptr);
+}
+
+size_t ew_dev_stage_floats(const ew_device *dev, size_t n, int c) {
+    return dev->device_memory && !dev->device_images ? n * (size_t)c : 0;
+}
+
+static ew_view_desc view_desc(const ew_image *img) {
+    ew_view_desc v;
+    v.data = (char *)img->data;
+    v.width = img->width;
+    v.height = img->height;
+    v.pixel_stride = ew__pixel_stride(img);
+    v.row_stride = ew__row_stride(img);
+    return v;
+}
+
+ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst, float *stage) {
+    if (!dev->device_memory || dev->device_images) {
+        /* the view is where the buffer is: pack in place, in parallel */
+        const ew_view_desc v = view_desc(img);
+        dev->backend->view_pack(dev, &v, c, dst);
+        return EW_OK;
+    }
+    /* host view, device buffer: pack on the host (any stride, any sign),
+     * then one contiguous upload */
+    ew_view_pack(img, c, stage);
+    return dev->backend->mem_upload(dev, dst, stage, (size_t)img->width * (size_t)img->height * (size_t)c * sizeof(float));
+}
+
+ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage) {
+    const ew_view_desc v = view_desc(img);
+    if (!dev->device_memory || dev->device_images) {
+        dev->backend->view_unpack(dev, src, c, &v);
+        /* a device-pointer output stays queued (the caller's stream orders
+         * it): report launch failures without waiting */
+        return dev->backend->sync(dev, 0);
+    }
+    ew_result r = dev->backend->mem_download(dev, stage, src,
+                                             (size_t)img->width * (size_t)img->height * (size_t)c * sizeof(float));
+    if (r != EW_OK) return r;
+    ew_view_unpack(stage, c, img);
+    return EW_OK;
+}
+
+int ew_backend_first_missing(const ew_backend *b) {
+    typedef void (*any_fn)(void);
+    const size_t first = offsetof(ew_backend, name) + sizeof(b->name);
+    const int n = (int)((sizeof(ew_backend) - first) / sizeof(any_fn));
+    for (int i = 0; i < n; i++) {
+        any_fn f;
+        memcpy(&f, (const char *)b + first + (size_t)i * sizeof(any_fn), sizeof f);
+        if (!f) return i;
+    }
+    return -1;
+}
+

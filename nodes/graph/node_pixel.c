@@ -1,0 +1,324 @@
+/*
+ * node_pixel.c — small per-pixel nodes written here because the library has
+ * no public method for them: firefly suppression, albedo demodulation and
+ * remodulation, and the arithmetic that wires passes together (add,
+ * multiply, mix, channel shuffle).
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "graph.h"
+
+static float lum(const float *p, int c) {
+    return c >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+}
+
+/* b's channel k for a's channel k: a one-channel b applies to every
+ * channel; channels b lacks (alpha) are left alone (returns 0). */
+static int b_value(const ew_image *b, const float *bp, int k, float *out) {
+    if (b->channels == 1) {
+        if (k >= 3) return 0;
+        *out = bp[0];
+        return 1;
+    }
+    if (k >= b->channels) return 0;
+    *out = bp[k];
+    return 1;
+}
+
+/* ---- outlier (firefly) suppression --------------------------------------- */
+
+static const ew_port_desc outlier_in[] = {{"color", EW_PASS_ANY, 1, 1, "image with fireflies (linear)"}};
+static const ew_port_desc outlier_out[] = {{"output", EW_PASS_ANY, 1, 0, "the image with outliers clamped"}};
+static const ew_nparam_desc outlier_params[] = {
+    {"k", EW_NODE_PARAM_FLOAT, 3.0, 0.0, 100.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Threshold",
+     "clamp a pixel whose luminance exceeds its neighbours' mean + k standard deviations; 0 only replaces NaN/Inf"},
+    {"radius", EW_NODE_PARAM_INT, 2.0, 1.0, 16.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Radius",
+     "window radius in pixels (2: the 5x5 window of the bgrid denoiser)"},
+};
+
+/* Summed-area tables of luminance, its square and the count of finite
+ * pixels make the window statistics O(1) per pixel. */
+static ew_result outlier_execute(ew_gnode *n, ew_run *r) {
+    const ew_image *in = ew_node_in(n, "color");
+    const int w = in->width, h = in->height, c = in->channels;
+    const float k = (float)ew_node_num(n, "k");
+    const int rad = (int)ew_node_num(n, "radius");
+    ew_image out;
+    ew_result res = ew_run_output(r, n, 0, w, h, c, &out);
+    if (res != EW_OK) return res;
+    const size_t sw = (size_t)w + 1, cells = sw * ((size_t)h + 1);
+    double *sat = (double *)calloc(cells * 3, sizeof(double));
+    if (!sat) return ew_node_fail(n, EW_ERR_OUT_OF_MEMORY, "out of memory");
+    double *s1 = sat, *s2 = sat + cells, *sn = sat + 2 * cells;
+    for (int y = 0; y < h; y++) {
+        double r1 = 0, r2 = 0, rn = 0;
+        for (int x = 0; x < w; x++) {
+            float l = lum(ew_px(in, x, y), c);
+            if (isfinite(l)) {
+                r1 += l;
+                r2 += (double)l * l;
+                rn += 1;
+            }
+            size_t i = (size_t)(y + 1) * sw + (size_t)(x + 1), up = (size_t)y * sw + (size_t)(x + 1);
+            s1[i] = s1[up] + r1;
+            s2[i] = s2[up] + r2;
+            sn[i] = sn[up] + rn;
+        }
+    }
+    for (int y = 0; y < h; y++) {
+        int y0 = y - rad < 0 ? 0 : y - rad, y1 = y + rad + 1 > h ? h : y + rad + 1;
+        for (int x = 0; x < w; x++) {
+            int x0 = x - rad < 0 ? 0 : x - rad, x1 = x + rad + 1 > w ? w : x + rad + 1;
+            size_t a = (size_t)y0 * sw + x0, b = (size_t)y0 * sw + x1, cc = (size_t)y1 * sw + x0, d = (size_t)y1 * sw + x1;
+            const float *p = ew_px(in, x, y);
+            float *o = ew_px(&out, x, y);
+            float l = lum(p, c);
+            /* the neighbours' statistics, without the pixel itself: a lone
+             * firefly would otherwise raise its own threshold */
+            double cnt = sn[d] - sn[b] - sn[cc] + sn[a];
+            double t1 = s1[d] - s1[b] - s1[cc] + s1[a], t2 = s2[d] - s2[b] - s2[cc] + s2[a];
+            if (isfinite(l)) {
+                cnt -= 1;
+                t1 -= l;
+                t2 -= (double)l * l;
+            }
+            double m = cnt > 0 ? t1 / cnt : 0.0;
+            double var = cnt > 0 ? t2 / cnt - m * m : 0.0;
+            double limit = m + k * sqrt(var > 0 ? var : 0);
+            int bad = 0;
+            for (int ch = 0; ch < c; ch++) bad |= !isfinite(p[ch]);
+            if (bad) {
+                /* a missing sample: the window's mean grey level */
+                for (int ch = 0; ch < c; ch++) o[ch] = ch < 3 ? (float)m : (isfinite(p[ch]) ? p[ch] : 1.0f);
+            } else if (k > 0.0f && l > limit && l > 0.0f) {
+                float s = (float)(limit / l);
+                for (int ch = 0; ch < c; ch++) o[ch] = ch < 3 ? p[ch] * s : p[ch];
+            } else {
+                memcpy(o, p, (size_t)c * sizeof(float));
+            }
+        }
+        if ((y & 63) == 0 && !ew_run_progress(r, (double)y / h)) {
+            free(sat);
+            return ew_node_fail(n, EW_ERR_CANCELLED, "cancelled (frame %d)", r->frame);
+        }
+    }
+    free(sat);
+    return EW_OK;
+}
+
+const ew_node_type ew_node_outlier = {
+    .name = "outlier", .version = 1, .category = "filter",
+    .summary = "firefly suppression: clamp pixels far brighter than their neighbourhood, replace NaN/Inf",
+    .inputs = outlier_in, .num_inputs = 1, .outputs = outlier_out, .num_outputs = 1,
+    .params = outlier_params, .num_params = 2, .inplace_input = -1, .execute = outlier_execute,
+};
+
+/* ---- albedo demodulation ------------------------------------------------- */
+
+static const ew_port_desc modulate_in[] = {
+    {"color", EW_PASS_COLOR, 3, 1, "colour (RGB or RGBA; alpha is passed through)"},
+    {"albedo", EW_PASS_ALBEDO, 3, 1, "albedo (Cycles: Denoising Albedo)"},
+};
+static const ew_port_desc demodulate_out[] = {{"output", EW_PASS_COLOR, 3, 0, "colour / max(albedo, epsilon)"}};
+static const ew_port_desc remodulate_out[] = {{"output", EW_PASS_COLOR, 3, 0, "colour * max(albedo, epsilon)"}};
+static const ew_nparam_desc modulate_params[] = {
+    {"epsilon", EW_NODE_PARAM_FLOAT, 0.001, 1e-6, 1.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Epsilon",
+     "smallest albedo divided by (black albedo would blow up); use the same value to remodulate"},
+};
+
+static ew_result modulate(ew_gnode *n, ew_run *r, int divide) {
+    const ew_image *col = ew_node_in(n, "color"), *alb = ew_node_in(n, "albedo");
+    const float eps = (float)ew_node_num(n, "epsilon");
+    ew_image out;
+    ew_result res = ew_run_output(r, n, 0, col->width, col->height, col->channels, &out);
+    if (res != EW_OK) return res;
+    for (int y = 0; y < col->height; y++)
+        for (int x = 0; x < col->width; x++) {
+            const float *p = ew_px(col, x, y), *a = ew_px(alb, x, y);
+            float *o = ew_px(&out, x, y);
+            for (int ch = 0; ch < col->channels; ch++) {
+                if (ch >= 3) {
+                    o[ch] = p[ch];
+                    continue;
+                }
+                float d = a[ch] > eps ? a[ch] : eps;
+                o[ch] = divide ? p[ch] / d : p[ch] * d;
+            }
+        }
+    return EW_OK;
+}
+
+static ew_result demodulate_execute(ew_gnode *n, ew_run *r) { return modulate(n, r, 1); }
+static ew_result remodulate_execute(ew_gnode *n, ew_run *r) { return modulate(n, r, 0); }
+
+const ew_node_type ew_node_demodulate = {
+    .name = "demodulate", .version = 1, .category = "denoise",
+    .summary = "divide the colour by the albedo (filter the lighting, not the textures)",
+    .inputs = modulate_in, .num_inputs = 2, .outputs = demodulate_out, .num_outputs = 1,
+    .params = modulate_params, .num_params = 1, .inplace_input = 0, .execute = demodulate_execute,
+};
+
+const ew_node_type ew_node_remodulate = {
+    .name = "remodulate", .version = 1, .category = "denoise",
+    .summary = "multiply the colour by the albedo again (the inverse of demodulate)",
+    .inputs = modulate_in, .num_inputs = 2, .outputs = remodulate_out, .num_outputs = 1,
+    .params = modulate_params, .num_params = 1, .inplace_input = 0, .execute = remodulate_execute,
+};
+
+/* ---- add, multiply, mix ------------------------------------------------- */
+
+static const ew_port_desc ab_in[] = {
+    {"a", EW_PASS_ANY, 1, 1, "first image; the result has its channels"},
+    {"b", EW_PASS_ANY, 1, 0, "second image (1 channel applies to R,G,B); absent: 'value'"},
+};
+static const ew_port_desc math_out[] = {{"output", EW_PASS_ANY, 1, 0, "the result"}};
+static const ew_nparam_desc add_params[] = {
+    {"value", EW_NODE_PARAM_COLOR, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 0, 0, "Value", "added when 'b' is not connected"},
+};
+static const ew_nparam_desc multiply_params[] = {
+    {"value", EW_NODE_PARAM_COLOR, 0, 0, 0, "", {1, 1, 1, 1}, NULL, 0, 0, "Value",
+     "multiplied by when 'b' is not connected"},
+};
+
+static ew_result arith(ew_gnode *n, ew_run *r, int mul) {
+    const ew_image *a = ew_node_in(n, "a"), *b = ew_node_in(n, "b");
+    const ew_pvalue *val = ew_node_value(n, "value");
+    ew_image out;
+    ew_result res = ew_run_output(r, n, 0, a->width, a->height, a->channels, &out);
+    if (res != EW_OK) return res;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            const float *pa = ew_px(a, x, y);
+            const float *pb = b ? ew_px(b, x, y) : NULL;
+            float *o = ew_px(&out, x, y);
+            for (int k = 0; k < a->channels; k++) {
+                float v;
+                if (pb) {
+                    if (!b_value(b, pb, k, &v)) {
+                        o[k] = pa[k];
+                        continue;
+                    }
+                } else {
+                    v = val->color[k];
+                }
+                o[k] = mul ? pa[k] * v : pa[k] + v;
+            }
+        }
+    return EW_OK;
+}
+
+static ew_result add_execute(ew_gnode *n, ew_run *r) { return arith(n, r, 0); }
+static ew_result multiply_execute(ew_gnode *n, ew_run *r) { return arith(n, r, 1); }
+
+const ew_node_type ew_node_add = {
+    .name = "add", .version = 1, .category = "math", .summary = "a + b (or a + value)",
+    .inputs = ab_in, .num_inputs = 2, .outputs = math_out, .num_outputs = 1,
+    .params = add_params, .num_params = 1, .inplace_input = 0, .execute = add_execute,
+};
+
+const ew_node_type ew_node_multiply = {
+    .name = "multiply", .version = 1, .category = "math", .summary = "a * b (or a * value)",
+    .inputs = ab_in, .num_inputs = 2, .outputs = math_out, .num_outputs = 1,
+    .params = multiply_params, .num_params = 1, .inplace_input = 0, .execute = multiply_execute,
+};
+
+static const ew_port_desc mix_in[] = {
+    {"a", EW_PASS_ANY, 1, 1, "image at factor 0; the result has its channels"},
+    {"b", EW_PASS_ANY, 1, 1, "image at factor 1"},
+    {"mask", EW_PASS_ANY, 1, 0, "optional per-pixel factor (first channel), multiplied by 'factor'"},
+};
+static const ew_nparam_desc mix_params[] = {
+    {"factor", EW_NODE_PARAM_FLOAT, 0.5, 0.0, 1.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Factor", "0: a, 1: b"},
+};
+
+static ew_result mix_execute(ew_gnode *n, ew_run *r) {
+    const ew_image *a = ew_node_in(n, "a"), *b = ew_node_in(n, "b"), *m = ew_node_in(n, "mask");
+    const float f = (float)ew_node_num(n, "factor");
+    ew_image out;
+    ew_result res = ew_run_output(r, n, 0, a->width, a->height, a->channels, &out);
+    if (res != EW_OK) return res;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            const float *pa = ew_px(a, x, y), *pb = ew_px(b, x, y);
+            float t = m ? f * ew_px(m, x, y)[0] : f;
+            float *o = ew_px(&out, x, y);
+            for (int k = 0; k < a->channels; k++) {
+                float v;
+                o[k] = b_value(b, pb, k, &v) ? pa[k] + (v - pa[k]) * t : pa[k];
+            }
+        }
+    return EW_OK;
+}
+
+const ew_node_type ew_node_mix = {
+    .name = "mix", .version = 1, .category = "math", .summary = "a + (b - a) * factor (* mask)",
+    .inputs = mix_in, .num_inputs = 3, .outputs = math_out, .num_outputs = 1,
+    .params = mix_params, .num_params = 1, .inplace_input = 0, .execute = mix_execute,
+};
+
+/* ---- shuffle -------------------------------------------------------------- */
+
+static const ew_port_desc shuffle_in[] = {{"image", EW_PASS_ANY, 1, 1, "source image"}};
+static const ew_nparam_desc shuffle_params[] = {
+    {"channels", EW_NODE_PARAM_STRING, 0, 0, 0, "RGB", {0, 0, 0, 0}, NULL, 0, 0, "Channels",
+     "one letter per output channel: R/X first, G/Y second, B/Z third, A/W fourth source channel, 0 or 1 a "
+     "constant; e.g. 'BGR', 'RGB1', 'ZZZ', 'A'"},
+};
+
+static int shuffle_source(char c) {
+    switch (c) {
+    case 'R': case 'X': case 'r': case 'x': return 0;
+    case 'G': case 'Y': case 'g': case 'y': return 1;
+    case 'B': case 'Z': case 'b': case 'z': return 2;
+    case 'A': case 'W': case 'a': case 'w': return 3;
+    case '0': return -1;
+    case '1': return -2;
+    default: return -3;
+    }
+}
+
+static ew_result shuffle_check(ew_gnode *n) {
+    const char *s = ew_node_str(n, "channels");
+    size_t len = strlen(s);
+    if (len < 1 || len > 4)
+        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'channels': '%s' must have 1 to 4 letters", s);
+    for (size_t i = 0; i < len; i++)
+        if (shuffle_source(s[i]) == -3)
+            return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT,
+                                "parameter 'channels': '%c' is not one of R G B A, X Y Z W, 0 1", s[i]);
+    return EW_OK;
+}
+
+static ew_result shuffle_execute(ew_gnode *n, ew_run *r) {
+    const ew_image *in = ew_node_in(n, "image");
+    const char *s = ew_node_str(n, "channels");
+    const int c = (int)strlen(s);
+    int src[4];
+    for (int i = 0; i < c; i++) {
+        src[i] = shuffle_source(s[i]);
+        if (src[i] >= in->channels)
+            return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'channels': '%c' needs channel %d but the image "
+                                "has %d", s[i], src[i] + 1, in->channels);
+    }
+    ew_image out;
+    ew_result res = ew_run_output(r, n, 0, in->width, in->height, c, &out);
+    if (res != EW_OK) return res;
+    for (int y = 0; y < in->height; y++)
+        for (int x = 0; x < in->width; x++) {
+            const float *p = ew_px(in, x, y);
+            float *o = ew_px(&out, x, y);
+            float tmp[4];
+            for (int i = 0; i < c; i++) tmp[i] = src[i] >= 0 ? p[src[i]] : src[i] == -1 ? 0.0f : 1.0f;
+            memcpy(o, tmp, (size_t)c * sizeof(float)); /* safe in place */
+        }
+    return EW_OK;
+}
+
+const ew_node_type ew_node_shuffle = {
+    .name = "shuffle", .version = 1, .category = "math", .summary = "reorder, pick or add channels",
+    .inputs = shuffle_in, .num_inputs = 1, .outputs = math_out, .num_outputs = 1,
+    .params = shuffle_params, .num_params = 1, .inplace_input = 0,
+    .check = shuffle_check, .execute = shuffle_execute,
+};

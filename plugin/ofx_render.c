@@ -1,0 +1,295 @@
+/*
+ * The render action: fetch the images, run the library method over the
+ * whole source frame, write the render window, release everything.
+ *
+ * The library sees the host's pixels directly (top-down views with signed
+ * row strides, see ofx_images.c); only the result goes to a scratch buffer
+ * of the source's size, because the output image may cover just the render
+ * window. Every resource lives in one struct and one cleanup releases it,
+ * so no path — error, abort or success — leaks an image or a buffer.
+ *
+ * Cancelling: the library calls our progress callback between its bands
+ * (we ask the host's abort() there), and the copy to the output runs in
+ * bands that ask abort() too. An aborted render returns kOfxStatFailed:
+ * the spec leaves the status open, and "failed" keeps a host from caching
+ * a half-written frame.
+ */
+#include "ofx_plugin.h"
+
+#include <stdatomic.h>
+#include <stdint.h>
+#include <string.h>
+
+typedef struct {
+    OfxImageMemoryHandle handle;
+    int locked;
+} scratch_mem;
+
+typedef struct {
+    const ew_ofx_node *node;
+    ew_ofx_instance *inst;
+    OfxImageEffectHandle effect;
+    OfxTime time;
+    OfxRectI window; /* clipped to the output image */
+    OfxRectI dom;    /* what the library filters: the source image's bounds */
+    int channels;    /* of the source handed to the library */
+    ew_ofx_image src, out, aux[EW_OFX_MAX_AUX];
+    scratch_mem mem[EW_OFX_MAX_AUX + 1];
+    int num_mem;
+    float *result; /* dom-sized, top-down, `channels` per pixel */
+    ew_device *dev;
+    ew_denoiser *den;
+    ew_filter *flt;
+    atomic_int aborted;
+} render_job;
+
+static void cleanup(render_job *r) {
+    ew_denoiser_destroy(r->den);
+    ew_filter_destroy(r->flt);
+    ew_device_destroy(r->dev);
+    for (int i = 0; i < r->num_mem; i++) {
+        if (r->mem[i].locked) ew_ofx.effect->imageMemoryUnlock(r->mem[i].handle);
+        ew_ofx.effect->imageMemoryFree(r->mem[i].handle);
+    }
+    for (int i = 0; i < EW_OFX_MAX_AUX; i++) ew_ofx_image_release(&r->aux[i]);
+    ew_ofx_image_release(&r->src);
+    ew_ofx_image_release(&r->out);
+}
+
+/* Image-sized scratch from the host's image memory pool (where the spec
+ * wants image buffers), freed by cleanup. */
+static float *scratch(render_job *r, size_t bytes) {
+    if (r->num_mem == (int)(sizeof r->mem / sizeof r->mem[0]) || !ew_ofx.effect->imageMemoryAlloc) return NULL;
+    OfxImageMemoryHandle h = NULL;
+    if (ew_ofx.effect->imageMemoryAlloc(r->effect, bytes, &h) != kOfxStatOK || !h) return NULL;
+    scratch_mem *m = &r->mem[r->num_mem++];
+    m->handle = h;
+    void *p = NULL;
+    if (ew_ofx.effect->imageMemoryLock(h, &p) != kOfxStatOK || !p) return NULL;
+    m->locked = 1;
+    return (float *)p;
+}
+
+/* ---- the library call, through whichever face the method has ---------- */
+static ew_result op_image(render_job *r, const char *name, const ew_image *v) {
+    return r->den ? ew_denoiser_set_image(r->den, name, v) : ew_filter_set_image(r->flt, name, v);
+}
+
+static ew_result op_param(render_job *r, const ew_param_info *p, double v) {
+    if (p->type == EW_PARAM_FLOAT)
+        return r->den ? ew_denoiser_set_float(r->den, p->name, (float)v) : ew_filter_set_float(r->flt, p->name, (float)v);
+    return r->den ? ew_denoiser_set_int(r->den, p->name, (int32_t)v) : ew_filter_set_int(r->flt, p->name, (int32_t)v);
+}
+
+static int progress(void *user, double fraction) {
+    (void)fraction;
+    render_job *r = (render_job *)user;
+    if (ew_ofx.effect->abort && ew_ofx.effect->abort(r->effect)) {
+        atomic_store(&r->aborted, 1);
+        return 0;
+    }
+    return 1;
+}
+
+static OfxStatus library_status(render_job *r, ew_result e) {
+    if (e == EW_OK) return kOfxStatOK;
+    if (e == EW_ERR_CANCELLED || atomic_load(&r->aborted)) return kOfxStatFailed;
+    ew_ofx_post_error(r->effect, "Edgewise %s: %s", r->node->method,
+                      r->dev && ew_device_last_error(r->dev)[0] ? ew_device_last_error(r->dev) : ew_result_string(e));
+    return e == EW_ERR_OUT_OF_MEMORY ? kOfxStatErrMemory : kOfxStatFailed;
+}
+
+/* A feature image as a view over the source's domain: the host's pixels
+ * when it covers exactly that, else a zero-padded copy. */
+static OfxStatus aux_view(render_job *r, const ew_ofx_aux *a, const ew_ofx_image *im, ew_image *v) {
+    if (im->comps < a->channels && !(a->channels == 1 && im->comps >= 1)) {
+        ew_ofx_post_error(r->effect, "Edgewise %s: clip %s needs %d channels, it has %d", r->node->method, a->clip,
+                          a->channels, im->comps);
+        return kOfxStatErrImageFormat;
+    }
+    const OfxRectI *d = &r->dom, *b = &im->bounds;
+    if (b->x1 == d->x1 && b->y1 == d->y1 && b->x2 == d->x2 && b->y2 == d->y2) {
+        *v = ew_ofx_image_view(im, 0, a->channels);
+        return kOfxStatOK;
+    }
+    int w = d->x2 - d->x1, h = d->y2 - d->y1, c = a->channels;
+    float *buf = scratch(r, (size_t)w * (size_t)h * (size_t)c * sizeof(float));
+    if (!buf) return kOfxStatErrMemory;
+    for (int row = 0; row < h; row++) {
+        int y = d->y2 - 1 - row;
+        for (int x = d->x1; x < d->x2; x++) {
+            float *o = buf + ((size_t)row * (size_t)w + (size_t)(x - d->x1)) * (size_t)c;
+            int inside = x >= b->x1 && x < b->x2 && y >= b->y1 && y < b->y2;
+            const float *p = inside ? ew_ofx_image_pixel(im, x, y) : NULL;
+            for (int k = 0; k < c; k++) o[k] = p ? p[k] : 0.0f;
+        }
+    }
+    *v = ew_image_packed(buf, w, h, c);
+    return kOfxStatOK;
+}
+
+/* ---- writing the window ------------------------------------------------ */
+static void write_rows(void *arg, int y0, int y1) {
+    const render_job *r = (const render_job *)arg;
+    const OfxRectI *d = &r->dom;
+    const int C = r->channels, dw = d->x2 - d->x1;
+    for (int y = y0; y < y1; y++) {
+        for (int x = r->window.x1; x < r->window.x2; x++) {
+            float rgba[4] = {0.0f, 0.0f, 0.0f, 0.0f}; /* outside the source: transparent black */
+            if (r->result && x >= d->x1 && x < d->x2 && y >= d->y1 && y < d->y2) {
+                const float *s = r->result + ((size_t)(d->y2 - 1 - y) * (size_t)dw + (size_t)(x - d->x1)) * (size_t)C;
+                const float *sp = ew_ofx_image_pixel(&r->src, x, y);
+                if (r->src.comps == 1) {
+                    rgba[3] = s[0];
+                } else {
+                    rgba[0] = s[0];
+                    rgba[1] = s[1];
+                    rgba[2] = s[2];
+                    /* alpha filtered along, or passed through, or opaque */
+                    rgba[3] = C == 4 ? s[3] : r->src.comps == 4 ? sp[3] : 1.0f;
+                }
+            }
+            float *o = ew_ofx_image_pixel(&r->out, x, y);
+            if (r->out.comps == 1)
+                o[0] = rgba[3];
+            else
+                for (int k = 0; k < r->out.comps; k++) o[k] = rgba[k];
+        }
+    }
+}
+
+static OfxStatus write_window(render_job *r) {
+    if (ew_ofx_run_bands(r->effect, r->window.y1, r->window.y2, write_rows, r)) return kOfxStatFailed;
+    return kOfxStatOK;
+}
+
+/* ---- the steps ------------------------------------------------------------ */
+static OfxStatus read_args(render_job *r, OfxPropertySetHandle in) {
+    if (!in) return kOfxStatErrBadHandle;
+    int w[4];
+    OfxStatus st;
+    if ((st = ew_ofx.prop->propGetDouble(in, kOfxPropTime, 0, &r->time)) != kOfxStatOK) return st;
+    if ((st = ew_ofx.prop->propGetIntN(in, kOfxImageEffectPropRenderWindow, 4, w)) != kOfxStatOK) return st;
+    if (w[2] < w[0] || w[3] < w[1]) return kOfxStatErrValue;
+    r->window.x1 = w[0];
+    r->window.y1 = w[1];
+    r->window.x2 = w[2];
+    r->window.y2 = w[3];
+    return kOfxStatOK;
+}
+
+static void clip_window(render_job *r) {
+    OfxRectI *w = &r->window;
+    const OfxRectI *b = &r->out.bounds;
+    if (w->x1 < b->x1) w->x1 = b->x1;
+    if (w->y1 < b->y1) w->y1 = b->y1;
+    if (w->x2 > b->x2) w->x2 = b->x2;
+    if (w->y2 > b->y2) w->y2 = b->y2;
+    if (w->x2 < w->x1) w->x2 = w->x1;
+    if (w->y2 < w->y1) w->y2 = w->y1;
+}
+
+static OfxStatus fetch_features(render_job *r) {
+    const ew_ofx_node *n = r->node;
+    for (int i = 0; i < n->num_aux; i++) {
+        OfxImageClipHandle clip = r->inst->aux[i];
+        OfxPropertySetHandle props = NULL;
+        int connected = 0;
+        if (clip && ew_ofx.effect->clipGetPropertySet(clip, &props) == kOfxStatOK && props)
+            ew_ofx.prop->propGetInt(props, kOfxImageClipPropConnected, 0, &connected);
+        if (connected) {
+            OfxStatus st = ew_ofx_image_fetch(clip, r->time, &r->aux[i]);
+            /* no image at this time: as if unconnected */
+            if (st == kOfxStatFailed) ew_ofx_image_release(&r->aux[i]);
+            else if (st != kOfxStatOK) return st;
+        }
+        if (n->aux[i].required && !r->aux[i].handle) {
+            ew_ofx_post_error(r->effect, "Edgewise %s: connect the %s clip", n->method, n->aux[i].clip);
+            return kOfxStatFailed;
+        }
+    }
+    return kOfxStatOK;
+}
+
+static OfxStatus run_library(render_job *r) {
+    const ew_ofx_node *n = r->node;
+    OfxStatus st;
+    const int w = r->dom.x2 - r->dom.x1, h = r->dom.y2 - r->dom.y1;
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = ew_ofx_thread_count();
+    ew_result e = ew_device_create(&desc, &r->dev);
+    if (e != EW_OK) return library_status(r, e);
+    e = !strcmp(n->kind, "denoiser") ? ew_denoiser_create(r->dev, n->method, &r->den)
+                                     : ew_filter_create(r->dev, n->method, &r->flt);
+    if (e != EW_OK) return library_status(r, e);
+    e = r->den ? ew_denoiser_set_progress(r->den, progress, r) : ew_filter_set_progress(r->flt, progress, r);
+    if (e != EW_OK) return library_status(r, e);
+
+    ew_image color = ew_ofx_image_view(&r->src, 0, r->channels);
+    if ((e = op_image(r, "color", &color)) != EW_OK) return library_status(r, e);
+    for (int i = 0; i < n->num_aux; i++) {
+        if (!r->aux[i].handle) continue;
+        ew_image v;
+        if ((st = aux_view(r, &n->aux[i], &r->aux[i], &v)) != kOfxStatOK) return st;
+        if ((e = op_image(r, n->aux[i].image, &v)) != EW_OK) return library_status(r, e);
+    }
+    r->result = scratch(r, (size_t)w * (size_t)h * (size_t)r->channels * sizeof(float));
+    if (!r->result) return kOfxStatErrMemory;
+    ew_image out = ew_image_packed(r->result, w, h, r->channels);
+    if ((e = op_image(r, "output", &out)) != EW_OK) return library_status(r, e);
+
+    for (int i = 0; i < n->num_params; i++) {
+        double v;
+        if ((st = ew_ofx_param_value(r->inst, i, r->time, &v)) != kOfxStatOK) {
+            ew_ofx_post_error(r->effect, "Edgewise %s: cannot read parameter %s", n->method, n->params[i].name);
+            return st;
+        }
+        if ((e = op_param(r, &n->params[i], v)) != EW_OK) return library_status(r, e);
+    }
+    e = r->den ? ew_denoiser_commit(r->den) : ew_filter_commit(r->flt);
+    if (e == EW_OK) e = r->den ? ew_denoiser_execute(r->den) : ew_filter_execute(r->flt);
+    return library_status(r, e);
+}
+
+static OfxStatus render(render_job *r, OfxPropertySetHandle in) {
+    OfxStatus st;
+    if ((st = read_args(r, in)) != kOfxStatOK) return st;
+    if ((st = ew_ofx_image_fetch(r->inst->output, r->time, &r->out)) != kOfxStatOK) return st;
+    clip_window(r);
+
+    st = ew_ofx_image_fetch(r->inst->source, r->time, &r->src);
+    if (st == kOfxStatFailed) {
+        /* "assume the image was black and transparent" (clipGetImage) */
+        ew_ofx_image_release(&r->src);
+        return write_window(r);
+    }
+    if (st != kOfxStatOK) return st;
+    r->dom = r->src.bounds;
+    r->channels = r->src.comps < r->node->channels ? r->src.comps : r->node->channels;
+    if (r->channels < 3 && r->node->channels == 3) {
+        ew_ofx_post_error(r->effect, "Edgewise %s: the Source clip must be RGB or RGBA", r->node->method);
+        return kOfxStatErrImageFormat;
+    }
+    if ((st = fetch_features(r)) != kOfxStatOK) return st;
+    if (r->dom.x2 > r->dom.x1 && r->dom.y2 > r->dom.y1) {
+        if (ew_ofx.effect->abort && ew_ofx.effect->abort(r->effect)) return kOfxStatFailed;
+        if ((st = run_library(r)) != kOfxStatOK) return st;
+    }
+    return write_window(r);
+}
+
+OfxStatus ew_ofx_render(const ew_ofx_node *node, OfxImageEffectHandle effect, OfxPropertySetHandle in) {
+    OfxStatus st;
+    ew_ofx_instance *inst = ew_ofx_instance_get(node, effect, &st);
+    if (!inst) return st;
+    render_job r;
+    memset(&r, 0, sizeof r);
+    r.node = node;
+    r.inst = inst;
+    r.effect = effect;
+    atomic_init(&r.aborted, 0);
+    st = render(&r, in);
+    cleanup(&r);
+    if (st == kOfxStatOK) ew_ofx_clear_error(effect);
+    return st;
+}

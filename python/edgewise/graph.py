@@ -1,0 +1,340 @@
+"""Graphs of nodes, built in Python or loaded from a graph file, run by
+libedgewise_nodes. numpy arrays go in without a copy (float32 with
+contiguous channels) and come out as views of graph memory where the graph
+is private (run_node), as copies otherwise."""
+import ctypes
+import json
+import os
+import threading
+
+import numpy as np
+
+from . import _lib
+from .node_types import node_type
+
+
+class EdgewiseError(Exception):
+    """A failure of the library: `code` is the ew_result value, `code_name`
+    its name, str(e) the library's message."""
+
+    def __init__(self, code, message):
+        self.code = int(code)
+        self.code_name = _lib.RESULT_NAMES.get(self.code, str(code))
+        Exception.__init__(self, message)
+
+
+class CancelledError(EdgewiseError):
+    """The progress callback asked to stop (EW_ERR_CANCELLED)."""
+
+
+def _e(s):
+    return s.encode("utf-8") if s is not None else None
+
+
+class Device(object):
+    """A libedgewise device (CPU threads). threads=0: one per core."""
+
+    def __init__(self, threads=0):
+        core, _ = _lib.libs()
+        self._core = core
+        desc = _lib.DeviceDesc(ctypes.sizeof(_lib.DeviceDesc), 0, int(threads))
+        handle = ctypes.c_void_p()
+        r = core.ew_device_create(ctypes.byref(desc), ctypes.byref(handle))
+        if r != 0:
+            raise EdgewiseError(r, "cannot create a device: %s" % core.ew_result_string(r).decode())
+        self._handle = handle
+
+    @property
+    def handle(self):
+        return self._handle
+
+    def close(self):
+        if self._handle:
+            self._core.ew_device_destroy(self._handle)
+            self._handle = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+_default = {}
+_default_lock = threading.Lock()
+
+
+def default_device():
+    """The device graphs use when none is given (created once)."""
+    with _default_lock:
+        if "device" not in _default:
+            _default["device"] = Device()
+        return _default["device"]
+
+
+def image_view(array):
+    """An ew_image viewing a float32 array of shape (H, W) or (H, W, C),
+    C = 1..4, and the array it views (the same array when no conversion
+    was needed: channels contiguous, float32)."""
+    a = np.asarray(array)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ValueError("an image is an array of shape (height, width) or (height, width, 1..4), got %r"
+                         % (np.shape(array),))
+    if a.dtype != np.float32 or a.strides[2] != 4 or a.strides[1] <= 0:
+        a = np.ascontiguousarray(a, dtype=np.float32)
+    view = _lib.Image(a.ctypes.data, a.shape[1], a.shape[0], a.shape[2], a.strides[1], a.strides[0], 1)
+    return view, a
+
+
+class Port(object):
+    """An output of a node, to connect to an input: node.port_name or node["port"]."""
+
+    def __init__(self, node, name):
+        self.node = node
+        self.name = name
+
+    def __repr__(self):
+        return "Port(%s.%s)" % (self.node.id, self.name)
+
+
+class Node(object):
+    def __init__(self, graph, node_id, type_name):
+        self.graph = graph
+        self.id = node_id
+        self.type = type_name
+
+    def __getitem__(self, port):
+        return Port(self, port)
+
+    def __getattr__(self, port):
+        if port.startswith("_"):
+            raise AttributeError(port)
+        return Port(self, port)
+
+    def set(self, **params):
+        for k, v in params.items():
+            self.graph.set_param(self.id, k, v)
+        return self
+
+    def __repr__(self):
+        return "Node(%s: %s)" % (self.id, self.type)
+
+
+class Graph(object):
+    """A node graph. Build with add(), or Graph.load(path); run() it.
+
+    g = Graph()
+    rd = g.add("read", path="render.exr")
+    dn = g.add("denoise", method="bgrid", color=rd.color, albedo=rd.albedo)
+    g.add("write", image=dn, path="out.exr")
+    g.run()
+    """
+
+    def __init__(self, device=None):
+        _, self._nodes_lib = _lib.libs()
+        self._device = device if device is not None else default_device()
+        handle = ctypes.c_void_p()
+        r = self._nodes_lib.ew_graph_create(self._device.handle, ctypes.byref(handle))
+        if r != 0:
+            raise EdgewiseError(r, "cannot create a graph")
+        self._handle = handle
+        self._nodes = {}
+        self._arrays = {}  # keeps caller arrays alive while the graph views them
+        self._counter = 0
+
+    # ---- life cycle ----
+    def close(self):
+        if getattr(self, "_handle", None):
+            self._nodes_lib.ew_graph_destroy(self._handle)
+            self._handle = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _check(self, r):
+        if r != 0:
+            msg = self._nodes_lib.ew_graph_last_error(self._handle).decode("utf-8", "replace")
+            if not msg:
+                msg = _lib.RESULT_NAMES.get(r, str(r))
+            raise (CancelledError if r == 6 else EdgewiseError)(r, msg)
+
+    # ---- loading ----
+    @classmethod
+    def load(cls, path, device=None):
+        """A graph from a graph file (relative paths in it are relative to the file)."""
+        g = cls(device)
+        g._check(g._nodes_lib.ew_graph_load_file(g._handle, _e(os.fspath(path))))
+        return g
+
+    @classmethod
+    def loads(cls, text, base_dir=None, device=None):
+        """A graph from graph-file text; relative paths are relative to base_dir (default: cwd)."""
+        g = cls(device)
+        g._check(g._nodes_lib.ew_graph_load_string(g._handle, _e(text), _e(base_dir)))
+        return g
+
+    def node(self, node_id):
+        """The Node called node_id (also for nodes loaded from a file)."""
+        if node_id in self._nodes:
+            return self._nodes[node_id]
+        return Node(self, node_id, None)
+
+    # ---- building ----
+    def add(self, type_name, id=None, **kwargs):
+        """Add a node. Keyword arguments naming an input port of the type are
+        connections (a Port, a Node for its main output, or a numpy array,
+        which becomes an "input" node); the others are parameters."""
+        method = kwargs.get("method") if type_name == "denoise" else kwargs.get("filter") if type_name == "filter" else None
+        if isinstance(method, str):
+            info = node_type(type_name, method)
+        else:
+            info = node_type(type_name)
+        inputs = set(p["name"] for p in info["inputs"])
+        if id is None:
+            self._counter += 1
+            id = "%s%d" % (type_name, self._counter)
+            while id in self._nodes:
+                self._counter += 1
+                id = "%s%d" % (type_name, self._counter)
+        self._check(self._nodes_lib.ew_graph_add_node(self._handle, _e(id), _e(type_name)))
+        node = Node(self, id, type_name)
+        self._nodes[id] = node
+        for k, v in kwargs.items():
+            if isinstance(v, (Port, Node)) or (k in inputs and not isinstance(v, (str, bool, int, float))):
+                self.connect(v, node[k])
+            else:
+                self.set_param(id, k, v)
+        return node
+
+    def connect(self, src, dst):
+        """Connect src (a Port, a Node, or a numpy array) to dst (a Port)."""
+        if isinstance(src, np.ndarray) or (not isinstance(src, (Port, Node)) and hasattr(src, "__array__")):
+            src = self.add_input(src)
+        if isinstance(src, Node):
+            src_node, src_port = src.id, None
+        else:
+            src_node, src_port = src.node.id, src.name
+        self._check(self._nodes_lib.ew_graph_connect(self._handle, _e(src_node), _e(src_port), _e(dst.node.id),
+                                                     _e(dst.name)))
+
+    def add_input(self, array, id=None):
+        """An "input" node viewing `array` (not copied when float32 with
+        contiguous channels; the graph keeps a reference)."""
+        node = self.add("input", id=id)
+        self.set_input(node.id, array)
+        return node
+
+    def set_input(self, node_id, array):
+        view, kept = image_view(array)
+        self._arrays[node_id] = kept
+        self._check(self._nodes_lib.ew_graph_set_input(self._handle, _e(node_id), ctypes.byref(view)))
+
+    def set_param(self, node_id, name, value):
+        lib, h, n, p = self._nodes_lib, self._handle, _e(node_id), _e(name)
+        if isinstance(value, (bool, np.bool_)):
+            r = lib.ew_graph_set_bool(h, n, p, int(bool(value)))
+        elif isinstance(value, (int, np.integer)):
+            if -2 ** 31 <= int(value) < 2 ** 31:
+                r = lib.ew_graph_set_int(h, n, p, int(value))
+            else:
+                r = lib.ew_graph_set_float(h, n, p, float(value))
+        elif isinstance(value, (float, np.floating)):
+            r = lib.ew_graph_set_float(h, n, p, float(value))
+        elif isinstance(value, str):
+            r = lib.ew_graph_set_string(h, n, p, _e(value))
+        elif isinstance(value, os.PathLike):
+            r = lib.ew_graph_set_string(h, n, p, _e(os.fspath(value)))
+        elif isinstance(value, (list, tuple, np.ndarray)):
+            r = lib.ew_graph_set_param(h, n, p, _e(",".join(repr(float(x)) for x in value)))
+        else:
+            raise TypeError("node %r parameter %r: cannot pass a %s" % (node_id, name, type(value).__name__))
+        self._check(r)
+
+    def set(self, assignment):
+        """Set a parameter from text, "node.param=value" (as --set does)."""
+        self._check(self._nodes_lib.ew_graph_set_assignment(self._handle, _e(assignment)))
+
+    def set_frames(self, first, last=None):
+        self._check(self._nodes_lib.ew_graph_set_frames(self._handle, int(first), int(first if last is None else last)))
+
+    # ---- running ----
+    def validate(self):
+        self._check(self._nodes_lib.ew_graph_validate(self._handle))
+
+    def run(self, progress=None):
+        """Run every frame. progress(fraction) may return False to cancel
+        (CancelledError is raised). Returns the report (a dict)."""
+        errors = []
+        if progress is not None:
+            def tramp(user, fraction):
+                try:
+                    return 0 if progress(fraction) is False else 1
+                except BaseException as e:  # stop the run, re-raise below
+                    errors.append(e)
+                    return 0
+            cb = _lib.PROGRESS_FN(tramp)
+        else:
+            cb = _lib.PROGRESS_FN()
+        self._nodes_lib.ew_graph_set_progress(self._handle, cb, None)
+        try:
+            r = self._nodes_lib.ew_graph_run(self._handle)
+        finally:
+            self._nodes_lib.ew_graph_set_progress(self._handle, _lib.PROGRESS_FN(), None)
+        if errors:
+            raise errors[0]
+        self._check(r)
+        return self.report()
+
+    def report(self):
+        return json.loads(self._nodes_lib.ew_graph_report(self._handle).decode("utf-8"))
+
+    def stats(self):
+        s = _lib.GraphStats()
+        self._check(self._nodes_lib.ew_graph_get_stats(self._handle, ctypes.byref(s)))
+        return dict((name, getattr(s, name)) for name, _ in s._fields_)
+
+    def output(self, node_id, copy=True):
+        """The result of "output" node node_id after run(): a (H, W, C)
+        float32 array. copy=False gives a view of graph memory, valid until
+        the next run (the array keeps the graph alive)."""
+        view = _lib.Image()
+        self._check(self._nodes_lib.ew_graph_get_output(self._handle, _e(node_id), ctypes.byref(view)))
+        n = view.width * view.height * view.channels
+        buf = (ctypes.c_float * n).from_address(view.data)
+        buf._edgewise_graph = self  # the memory belongs to the graph
+        a = np.frombuffer(buf, dtype=np.float32).reshape(view.height, view.width, view.channels)
+        return a.copy() if copy else a
+
+
+def run_node(type_name, outputs=None, device=None, progress=None, **kwargs):
+    """Run one node on numpy arrays: inputs and parameters as keyword
+    arguments (see Graph.add). Returns the main output as a (H, W, C)
+    float32 array, or a dict when `outputs` names several ports. The
+    arrays are views of the private graph's memory: no copy."""
+    g = Graph(device)
+    node = g.add(type_name, id="node", **kwargs)
+    names = [outputs] if isinstance(outputs, str) else list(outputs) if outputs else None
+    if names is None:
+        method = kwargs.get("method") if type_name == "denoise" else kwargs.get("filter") if type_name == "filter" else None
+        info = node_type(type_name, method if isinstance(method, str) else None)
+        if not info["outputs"]:
+            raise ValueError("node type %r has no outputs" % type_name)
+        names = [info["outputs"][0]["name"]]
+    for i, name in enumerate(names):
+        g.add("output", id="out%d" % i, image=node[name])
+    g.run(progress)
+    result = dict((name, g.output("out%d" % i, copy=False)) for i, name in enumerate(names))
+    if outputs is None or isinstance(outputs, str):
+        return result[names[0]]
+    return result

@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# `edgewise filter` and `edgewise dof` on good and bad input. Usage:
+#   test_filter_cli.sh EDGEWISE_BIN MAKE_FIXTURES_BIN WEIGHTS_FILE
+# Prints "N passed, N failed" and exits non-zero on any failure.
+set -u
+EW="$1"; FIX="$2"; WEIGHTS="$3"
+T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
+pass=0; fail=0
+ok()  { pass=$((pass+1)); echo "ok   $1"; }
+bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+
+# expect NAME EXIT_CODE STDERR_SUBSTRING -- ARGS...   (one line on stderr for errors)
+expect() {
+  local name="$1" code="$2" want="$3"; shift 4
+  "$EW" "$@" >"$T/out" 2>"$T/err"; local got=$?
+  if [ "$got" -ne "$code" ]; then bad "$name (exit $got, expected $code)"; return; fi
+  if [ -n "$want" ] && ! grep -qF -- "$want" "$T/err" "$T/out"; then bad "$name (output lacks '$want')"; return; fi
+  if [ "$code" -ne 0 ] && [ "$(wc -l <"$T/err")" -ne 1 ]; then bad "$name (expected one line on stderr)"; return; fi
+  ok "$name"
+}
+no_file() { if [ -e "$1" ]; then bad "$2: $1 exists"; else ok "$2"; fi; }
+
+"$FIX" "$T" || { echo "0 passed, 1 failed"; exit 1; }
+IN="$T/two_layers.exr"   # layers 'Back Plate' (colour) and 'ViewLayer' (colour, normal, Denoising Depth)
+
+# ---- help and usage errors
+"$EW" --help | grep -q "filter IN -o OUT" && ok help_lists_filter || bad help_lists_filter
+"$EW" --help | grep -q "dof IN -o OUT" && ok help_lists_dof || bad help_lists_dof
+"$EW" filter --help | grep -q -- "--sigma-spatial" && ok filter_help || bad filter_help
+"$EW" dof --help | grep -q -- "--focus-distance" && ok dof_help || bad dof_help
+expect filter_no_input 2 "needs an input" -- filter
+expect filter_no_output 2 "-o OUT" -- filter "$IN"
+expect filter_bad_method 2 "unknown --method 'median'" -- filter "$IN" -o "$T/o.exr" --method median
+expect filter_bad_model 2 "unknown --model 'fancy'" -- filter "$IN" -o "$T/o.exr" --model fancy
+expect filter_bad_radius 2 "--radius expects an integer in [0, 256]" -- filter "$IN" -o "$T/o.exr" --radius 300
+expect dof_no_output 2 "-o OUT" -- dof "$IN"
+expect dof_focus_in_lens 2 "--focus-distance 0.02 m must be beyond the focal length" -- dof "$IN" -o "$T/o.exr" --focus-distance 0.02
+no_file "$T/o.exr" usage_errors_write_nothing
+
+# ---- bad input
+expect filter_missing_file 1 "cannot read '$T/nope.exr'" -- filter "$T/nope.exr" -o "$T/o.exr"
+expect filter_output_is_input 1 "refusing to write the output over the input" -- filter "$IN" -o "$IN"
+expect filter_unknown_pass 1 "has no pass 'Emit'" -- filter "$IN" -o "$T/o.exr" --pass Emit
+expect filter_gi_without_features 1 "--model gi needs a normal or depth pass" -- filter "$IN" -o "$T/o.exr" --model gi --layer "Back Plate"
+expect filter_no_colour 1 "no colour pass" -- filter "$T/depth_only.exr" -o "$T/o.exr"
+echo "garbage" >"$T/bad.ewpw"
+expect filter_bad_weights_file 1 "--weights '$T/bad.ewpw': data 'weights': not a pyramid weights file" -- filter "$IN" -o "$T/o.exr" --weights "$T/bad.ewpw"
+expect dof_no_depth 1 "has no depth pass (looked for Depth and Denoising Depth)" -- dof "$T/no_albedo.exr" -o "$T/o.exr"
+no_file "$T/o.exr" bad_inputs_write_nothing
+
+# ---- filtering
+expect radius_0 0 "" -- filter "$IN" -o "$T/r0.exr" -q --radius 0
+"$EW" compare "$T/r0.exr" "$IN" | grep -q "PSNR inf" && ok radius_0_is_identity || bad radius_0_is_identity
+for m in pyramid bilateral separable atrous; do
+  expect "method_$m" 0 "wrote $T/$m.exr" -- filter "$IN" -o "$T/$m.exr" --method "$m" --radius 6
+done
+"$EW" compare "$T/pyramid.exr" "$IN" | grep -Eq "PSNR [0-9.]+ dB" && ok filtering_changes_the_image || bad filtering_changes_the_image
+"$EW" info "$T/pyramid.exr" | grep -q "layer 'ViewLayer'" && ok output_keeps_other_layers || bad output_keeps_other_layers
+expect model_gi 0 "gi, radius 8, normal, depth" -- filter "$IN" -o "$T/gi.exr" --layer ViewLayer --model gi
+expect model_depth_on_depth 0 "'Denoising Depth'" -- filter "$IN" -o "$T/dz.exr" --layer ViewLayer --pass "Denoising Depth" --model depth
+expect model_color_guide 0 "" -- filter "$IN" -o "$T/g.exr" --layer ViewLayer --guide-pass "Denoising Albedo" --sigma-range 0.05
+expect weights_analytic 0 "" -- filter "$IN" -o "$T/a.exr" --weights analytic --radius 20
+if [ -f "$WEIGHTS" ]; then
+  expect weights_file 0 "" -- filter "$IN" -o "$T/wf.exr" --weights "$WEIGHTS" --radius 20
+  "$EW" compare "$T/wf.exr" "$T/a.exr" | grep -Eq "PSNR [0-9.]+ dB" && ok trained_differs_from_analytic || bad trained_differs_from_analytic
+fi
+expect png_output_and_reference 0 "output vs reference: PSNR" -- filter "$IN" -o "$T/o.png" --radius 4 --reference "$IN"
+[ -s "$T/o.png" ] && ok png_written || bad png_written
+
+# ---- depth of field (two_layers' ViewLayer has Denoising Depth: 5 left, 1.5 right)
+expect dof_runs 0 "CoC from" -- dof "$IN" -o "$T/dof.exr" --layer ViewLayer --focus-distance 5 --fstop 1.4 --coc-pass CoC
+"$EW" info "$T/dof.exr" | grep -q "ViewLayer.CoC.Z" && ok dof_writes_coc_pass || bad dof_writes_coc_pass
+expect dof_exact_with_reference 0 "with depth of field PSNR" -- dof "$IN" -o "$T/dofx.exr" --layer ViewLayer --focus-distance 5 --method bilateral --reference "$IN"
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

@@ -1,0 +1,744 @@
+/* The pyramid filter against a slow reference written straight from the
+ * paper (Eq. 2, 2a-2g, 3) in double precision: major pixel by argmax, every
+ * weight term computed separately as the paper names it. Then the properties
+ * the issue lists: range == 1 gives the convolution model, step edges hold,
+ * constants stay, odd sizes, radius 0 and beyond the image, NaN/Inf; and the
+ * weights file. */
+#include "ew_test.h"
+
+#include <stdlib.h>
+
+#include "algorithms/bilateral.h"
+#include "algorithms/pyramid.h"
+#include "src/backend.h"
+
+static float urand(unsigned *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (float)((*s >> 8) & 0xffffff) / 16777216.0f;
+}
+
+static ew_device *make_device(int threads) {
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = threads;
+    ew_device *dev = NULL;
+    return ew_device_create(&desc, &dev) == EW_OK ? dev : NULL;
+}
+
+/* ---- reference ---- */
+/* Values are (r M, g M, b M, M) (see kernels/bilateral.h); samples beyond
+ * the border are (0, 0, 0, 0) with range value 1. */
+typedef struct {
+    int w, h;
+    double *down, *attr, *up, *coc; /* coc: DOF content CoC of up */
+} rlevel;
+
+static double rrange(const ew_bf_model *m, const double *p, const double *q, double d2) {
+    float pf[EW_BF_MAX_ATTR], qf[EW_BF_MAX_ATTR];
+    for (int k = 0; k < m->attrs; k++) {
+        pf[k] = (float)p[k];
+        qf[k] = (float)q[k];
+    }
+    /* the range functions themselves are tested against libm in
+     * test_bilateral; here the pyramid's structure is under test */
+    return ew_bf_range(m, pf, qf, (float)d2);
+}
+
+static double rsigma(const ew_bf_model *m, const double *a) {
+    float f[EW_BF_MAX_ATTR];
+    for (int k = 0; k < m->attrs; k++) f[k] = (float)a[k];
+    return ew_bf_sigma(m, f);
+}
+
+/* Eq. 3, with the major pixel m = argmax_q f(mean A, A(q)) */
+static void ref_down(const ew_bf_model *m, int l, const rlevel *f, rlevel *c, int major_attr) {
+    const int C = EW_BF_CH, A = m->attrs;
+    for (int y = 0; y < c->h; y++)
+        for (int x = 0; x < c->w; x++) {
+            int qs[4][2], n = 0;
+            for (int iy = 0; iy < 2; iy++)
+                for (int ix = 0; ix < 2; ix++)
+                    if (2 * x + ix < f->w && 2 * y + iy < f->h) {
+                        qs[n][0] = 2 * x + ix;
+                        qs[n][1] = 2 * y + iy;
+                        n++;
+                    }
+            /* the mean in float, summed in the kernel's order: the argmax
+             * must not flip on a near tie between float and double */
+            double mean[EW_BF_MAX_ATTR] = {0};
+            for (int k = 0; k < A; k++) {
+                float sum = 0.0f;
+                for (int q = 0; q < n; q++) sum += (float)f->attr[((long)qs[q][1] * f->w + qs[q][0]) * A + k];
+                mean[k] = sum / (float)n;
+            }
+            int mj = 0;
+            double best = -1;
+            for (int q = 0; q < n && m->kind != EW_RANGE_NONE; q++) {
+                double v = rrange(m, mean, f->attr + ((long)qs[q][1] * f->w + qs[q][0]) * A, 0.5 * pow(4, l));
+                if (v > best) {
+                    best = v;
+                    mj = q;
+                }
+            }
+            const double *am = f->attr + ((long)qs[mj][1] * f->w + qs[mj][0]) * A;
+            double num[EW_BF_CH] = {0}, den = 4 - n, anum[EW_BF_MAX_ATTR] = {0}, aden = 0;
+            for (int q = 0; q < n; q++) {
+                long i = (long)qs[q][1] * f->w + qs[q][0];
+                double dx = qs[q][0] - qs[mj][0], dy = qs[q][1] - qs[mj][1];
+                double fr = q == mj ? 1.0 : rrange(m, am, f->attr + i * A, (dx * dx + dy * dy) * pow(4, l));
+                for (int k = 0; k < A; k++) anum[k] += fr * f->attr[i * A + k];
+                aden += fr;
+                for (int k = 0; k < C; k++) num[k] += fr * f->down[i * C + k];
+                den += fr;
+            }
+            long j = (long)y * c->w + x;
+            for (int k = 0; k < C; k++) c->down[j * C + k] = num[k] / den;
+            for (int k = 0; k < A; k++) c->attr[j * A + k] = major_attr ? am[k] : anum[k] / aden;
+        }
+}
+
+/* Eq. 2 with 2a-2g, term by term */
+static void ref_up(const ew_bf_model *m, int l, rlevel *f, const rlevel *c, const ew_pyr_table *table, float agamma,
+                   int uniform, int coarsest) {
+    const int C = EW_BF_CH, A = m->attrs, dof = m->kind == EW_RANGE_DOF;
+    for (int y = 0; y < f->h; y++)
+        for (int x = 0; x < f->w; x++) {
+            const double *ap = f->attr + ((long)y * f->w + x) * A;
+            ew_pyr_params prm;
+            if (uniform) {
+                ew_pyr_params_at(table, m->sigma, l, agamma, &prm);
+            } else {
+                /* per-pixel sigma: the documented table over log2(sigma),
+                 * EW_PYR_LUT_STEPS per octave, linearly interpolated */
+                double t = (log2(fmax(rsigma(m, ap), 1e-6)) - EW_PYR_LUT_LOG2_MIN) * EW_PYR_LUT_STEPS;
+                t = fmin(fmax(t, 0.0), EW_PYR_LUT_N - 1.0);
+                int i0 = (int)t, i1 = i0 + 1 < EW_PYR_LUT_N ? i0 + 1 : i0;
+                ew_pyr_params p0, p1;
+                ew_pyr_params_at(table, exp2f((float)EW_PYR_LUT_LOG2_MIN + (float)i0 / EW_PYR_LUT_STEPS), l, agamma, &p0);
+                ew_pyr_params_at(table, exp2f((float)EW_PYR_LUT_LOG2_MIN + (float)i1 / EW_PYR_LUT_STEPS), l, agamma, &p1);
+                p0.wf[4] = ew_pyr_centre_weight(&p0);
+                p1.wf[4] = ew_pyr_centre_weight(&p1);
+                const float *a0 = (const float *)&p0, *a1 = (const float *)&p1;
+                float *o = (float *)&prm;
+                for (int k = 0; k < EW_PYR_NPARAM; k++) o[k] = (float)((1 - (t - i0)) * a0[k] + (t - i0) * a1[k]);
+            }
+            if (uniform) prm.wf[4] = ew_pyr_centre_weight(&prm); /* Eq. 2g (interpolated rows keep it) */
+            double fc[3][3], wb[3][3], ff[3][3], sff = 0, comp = 0, cocv[3][3], cocf[3][3];
+            int cin[3][3], fin[3][3];
+            for (int iy = -1; iy <= 1; iy++)
+                for (int ix = -1; ix <= 1; ix++) {
+                    int qx = x / 2 + ix, qy = y / 2 + iy;
+                    int in = qx >= 0 && qy >= 0 && qx < c->w && qy < c->h;
+                    cin[iy + 1][ix + 1] = in;
+                    int dx = abs(4 * ix - 2 * (x % 2) + 1), dy = abs(4 * iy - 2 * (y % 2) + 1);
+                    double wd = (17.0 - 3 * dx) / 24.0 * (17.0 - 3 * dy) / 24.0; /* 2f */
+                    double wc = prm.wc[(dy / 2) * 3 + dx / 2];
+                    double aq[EW_BF_MAX_ATTR] = {0};
+                    cocv[iy + 1][ix + 1] = 0;
+                    if (in) {
+                        long qi = (long)qy * c->w + qx;
+                        for (int k = 0; k < A; k++) aq[k] = c->attr[qi * A + k];
+                        /* DOF: the CoC of the content */
+                        if (dof) aq[1] = cocv[iy + 1][ix + 1] = coarsest ? c->attr[qi * A + 1] : c->coc[qi];
+                    }
+                    fc[iy + 1][ix + 1] = in ? rrange(m, ap, aq, (pow(4, l + 1) - 1) / 4) : 1.0;
+                    wb[iy + 1][ix + 1] = wd * fc[iy + 1][ix + 1] * wc; /* 2e */
+                    comp += wb[iy + 1][ix + 1] * (1 - pow(fc[iy + 1][ix + 1], prm.gamma));
+                    int fx = x + ix, fy = y + iy;
+                    fin[iy + 1][ix + 1] = fx >= 0 && fy >= 0 && fx < f->w && fy < f->h;
+                    cocf[iy + 1][ix + 1] = fin[iy + 1][ix + 1] && dof ? f->attr[((long)fy * f->w + fx) * A + 1] : 0;
+                    ff[iy + 1][ix + 1] = !fin[iy + 1][ix + 1] || (ix == 0 && iy == 0)
+                                             ? 1
+                                             : rrange(m, ap, f->attr + ((long)fy * f->w + fx) * A,
+                                                      (ix * ix + iy * iy) * pow(4, l));
+                    sff += ff[iy + 1][ix + 1];
+                }
+            double num[EW_BF_CH] = {0}, den = 0, cn = 0, cw = 0;
+            for (int iy = 0; iy < 3; iy++)
+                for (int ix = 0; ix < 3; ix++) {
+                    double wcv = wb[iy][ix] * pow(fc[iy][ix], prm.gamma); /* 2c */
+                    if (cin[iy][ix]) {
+                        const double *v = c->up + ((long)(y / 2 + iy - 1) * c->w + (x / 2 + ix - 1)) * C;
+                        for (int k = 0; k < C; k++) num[k] += wcv * v[k];
+                        cn += wcv * cocv[iy][ix];
+                        cw += wcv;
+                    }
+                    den += wcv;
+                    double wfr = comp * ff[iy][ix] / sff;                 /* 2d */
+                    double wf = prm.wf[iy * 3 + ix] * ff[iy][ix] + wfr; /* 2b */
+                    if (fin[iy][ix]) {
+                        const double *v = f->down + ((long)(y + iy - 1) * f->w + (x + ix - 1)) * C;
+                        for (int k = 0; k < C; k++) num[k] += wf * v[k];
+                        cn += wf * cocf[iy][ix];
+                        cw += wf;
+                    }
+                    den += wf;
+                }
+            long j = (long)y * f->w + x;
+            for (int k = 0; k < C; k++) f->up[j * C + k] = den > 0 ? num[k] / den : f->down[j * C + k]; /* 2a */
+            if (dof) f->coc[j] = cw > 0 ? cn / cw : f->attr[j * A + 1];
+        }
+}
+
+static void ref_pyramid(const ew_bf_model *m, int w, int h, int levels, const float *img, const float *attr,
+                        const ew_pyr_table *table, float agamma, int uniform, double *out) {
+    rlevel L[EW_PYR_MAX_LEVELS + 1];
+    const int C = EW_BF_CH, A = m->attrs;
+    for (int l = 0; l <= levels; l++) {
+        L[l].w = l ? (L[l - 1].w + 1) / 2 : w;
+        L[l].h = l ? (L[l - 1].h + 1) / 2 : h;
+        long n = (long)L[l].w * L[l].h;
+        L[l].down = malloc(sizeof(double) * n * C);
+        L[l].up = malloc(sizeof(double) * n * C);
+        L[l].attr = malloc(sizeof(double) * (n * A + 1));
+        L[l].coc = malloc(sizeof(double) * n);
+    }
+    for (long i = 0; i < (long)w * h * C; i++) L[0].down[i] = img[i];
+    for (long i = 0; i < (long)w * h * A; i++) L[0].attr[i] = attr[i];
+    for (int l = 0; l < levels; l++) {
+        ref_down(m, l, &L[l], &L[l + 1], m->kind == EW_RANGE_GI);
+        /* attributes are stored as float, as the library does */
+        for (long i = 0; i < (long)L[l + 1].w * L[l + 1].h * A; i++) L[l + 1].attr[i] = (float)L[l + 1].attr[i];
+    }
+    memcpy(L[levels].up, L[levels].down, sizeof(double) * L[levels].w * L[levels].h * C);
+    for (int l = levels - 1; l >= 0; l--) ref_up(m, l, &L[l], &L[l + 1], table, agamma, uniform, l + 1 == levels);
+    memcpy(out, L[0].up, sizeof(double) * w * h * C);
+    for (int l = 0; l <= levels; l++) {
+        free(L[l].down);
+        free(L[l].up);
+        free(L[l].attr);
+        free(L[l].coc);
+    }
+}
+
+/* a random table whose nodes lie on the kernel's log2(sigma) grid, so the
+ * per-pixel table and the reference interpolate the same way */
+static void random_table(ew_pyr_table *t, unsigned *s) {
+    memset(t, 0, sizeof *t);
+    t->nodes = 4;
+    t->levels = 4;
+    const float nodes[4] = {-1.0f, 0.5f, 1.25f, 2.5f};
+    for (int i = 0; i < 4; i++) {
+        t->log2_sigma[i] = nodes[i];
+        for (int l = 0; l < 4; l++) {
+            ew_pyr_params *q = &t->p[i][l];
+            for (int k = 0; k < 9; k++) {
+                q->wf[k] = 0.08f * urand(s);
+                q->wc[k] = 0.6f * urand(s);
+            }
+            q->gamma = 0.3f + 1.5f * urand(s);
+            q->wf[4] = ew_pyr_centre_weight(q);
+        }
+    }
+}
+
+static void random_attrs(const ew_bf_model *m, long n, float *attr, unsigned *s) {
+    for (long i = 0; i < n; i++) {
+        float *a = attr + i * m->attrs;
+        switch (m->kind) {
+        case EW_RANGE_COLOR:
+            for (int k = 0; k < m->attrs; k++) a[k] = urand(s);
+            break;
+        case EW_RANGE_GI: {
+            float x = urand(s) - 0.5f, y = urand(s) - 0.5f, z = 0.6f + urand(s), l = sqrtf(x * x + y * y + z * z);
+            a[0] = x / l;
+            a[1] = y / l;
+            a[2] = z / l;
+            a[3] = 1.0f + urand(s);
+            a[4] = urand(s);
+            break;
+        }
+        case EW_RANGE_DEPTH: a[0] = 1.0f + urand(s); break;
+        case EW_RANGE_DOF:
+            a[1] = 14.0f * urand(s) * urand(s);
+            a[0] = urand(s) < 0.3f ? a[1] + 6.0f * urand(s) : a[1];
+            break;
+        default: break;
+        }
+    }
+}
+
+static ew_bf_model model_of(int kind, int C, float sigma) {
+    ew_bf_model m;
+    memset(&m, 0, sizeof m);
+    m.kind = kind;
+    m.channels = C;
+    m.sigma = sigma;
+    m.radius = (int)ceilf(3 * sigma);
+    m.inv_2sr2 = 1.0f / (2 * 0.3f * 0.3f);
+    m.sigma_alpha = 3.0f * sigma - 1.0f;
+    m.sigma_n = 8;
+    m.sigma_z = 0.7f;
+    m.use_roughness = 1;
+    m.attrs = ew_bf_attrs(kind);
+    return m;
+}
+
+/* run the library's pyramid; returns malloc'd output */
+static float *run_pyr(ew_device *dev, const ew_bf_model *m, int w, int h, int levels, int uniform,
+                      const ew_pyr_table *t, float agamma, const float *img, const float *attr) {
+    size_t sc = ew_pyr_scratch_floats(m, w, h, levels, uniform);
+    float *scratch = malloc(sizeof(float) * (sc + 1)), *out = malloc(sizeof(float) * w * h * EW_BF_CH);
+    ew_pyr_plan p;
+    ew_pyr_plan_init(&p, m, w, h, levels, uniform, t, agamma, scratch);
+    ew_pyr_run(dev, &p, img, attr, out, NULL, NULL);
+    free(scratch);
+    return out;
+}
+
+static int check_against_reference(int kind, int C, int w, int h, float sigma, int use_table, unsigned seed) {
+    ew_bf_model m = model_of(kind, C, sigma);
+    const int uniform = kind != EW_RANGE_GI && kind != EW_RANGE_DOF;
+    const long n = (long)w * h;
+    float *img = malloc(sizeof(float) * n * C), *attr = malloc(sizeof(float) * (n * EW_BF_MAX_ATTR + 8));
+    for (long i = 0; i < n; i++) {
+        for (int c = 0; c < 3; c++) img[i * C + c] = 3.0f * urand(&seed);
+        img[i * C + 3] = 1.0f;
+    }
+    for (int c = 0; c < C; c++) img[(n / 3) * C + c] = 0.0f; /* a missing sample */
+    random_attrs(&m, n, attr, &seed);
+    ew_pyr_table t;
+    random_table(&t, &seed);
+    const ew_pyr_table *tp = use_table ? &t : NULL;
+    int levels = 3;
+    double *ref = malloc(sizeof(double) * n * C);
+    ref_pyramid(&m, w, h, levels, img, attr, tp, 1.0f, uniform, ref);
+    ew_device *dev = make_device(3);
+    float *out = run_pyr(dev, &m, w, h, levels, uniform, tp, 1.0f, img, attr);
+    int ok = 1;
+    double worst = 0;
+    for (long i = 0; i < n * C; i++) {
+        if (isnan(out[i]) && isnan(ref[i])) continue; /* both: nothing valid in reach */
+        double e = fabs(out[i] - ref[i]);
+        if (!(e <= 1e-4 * (1 + fabs(ref[i])))) ok = 0;
+        if (e > worst || isnan(e)) {
+            worst = isnan(e) ? INFINITY : e;
+            if (getenv("EW_DEBUG")) fprintf(stderr, "   at %ld (x %ld y %ld c %ld): %g vs %g\n", i, (i / C) % w, (i / C) / w, i % C, out[i], ref[i]);
+        }
+    }
+    if (!ok) fprintf(stderr, "  kind %d table %d: pyramid differs from Eq. 2-3 by %g\n", kind, use_table, worst);
+    ew_device_destroy(dev);
+    free(img); free(attr); free(ref); free(out);
+    return ok;
+}
+
+/* Sizes are multiples of 2^levels here: a block with two children (odd
+ * sizes) has an exact tie for the major pixel under a symmetric range
+ * function, which float rounding breaks either way. Odd sizes are covered
+ * by the property tests below. */
+TEST(matches_eq2_eq3_color_analytic) { CHECK(check_against_reference(EW_RANGE_COLOR, EW_BF_CH, 24, 16, 2.0f, 0, 1)); }
+TEST(matches_eq2_eq3_color_trained) { CHECK(check_against_reference(EW_RANGE_COLOR, EW_BF_CH, 16, 24, 1.5f, 1, 2)); }
+TEST(matches_eq2_eq3_depth_trained) { CHECK(check_against_reference(EW_RANGE_DEPTH, EW_BF_CH, 24, 24, 2.0f, 1, 3)); }
+TEST(matches_eq2_eq3_gi_per_pixel_sigma) { CHECK(check_against_reference(EW_RANGE_GI, EW_BF_CH, 16, 16, 1.5f, 1, 4)); }
+TEST(matches_eq2_eq3_dof_per_pixel_sigma) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 32, 16, 2.0f, 1, 5)); }
+TEST(matches_eq2_eq3_dof_analytic) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 16, 16, 2.0f, 0, 6)); }
+TEST(matches_eq2_eq3_gaussian_odd_size) { CHECK(check_against_reference(EW_RANGE_NONE, EW_BF_CH, 23, 17, 1.7f, 1, 7)); }
+
+/* The convolution-approximation model: with every range function 1 the
+ * pipeline is linear: box 2x2 down, Up = sum wf Down + sum w_d wc Up_c. */
+static void conv_model(const ew_pyr_table *t, float sigma, int w, int h, int levels, const float *img, double *out) {
+    double *down[8], *up[8];
+    int W[8], H[8];
+    W[0] = w;
+    H[0] = h;
+    down[0] = malloc(sizeof(double) * w * h);
+    for (long i = 0; i < (long)w * h; i++) down[0][i] = img[i];
+    for (int l = 1; l <= levels; l++) {
+        W[l] = (W[l - 1] + 1) / 2;
+        H[l] = (H[l - 1] + 1) / 2;
+        down[l] = malloc(sizeof(double) * W[l] * H[l]);
+        for (int y = 0; y < H[l]; y++)
+            for (int x = 0; x < W[l]; x++) {
+                double s = 0;
+                int n = 0;
+                for (int k = 0; k < 4; k++) {
+                    int fx = 2 * x + (k & 1), fy = 2 * y + (k >> 1);
+                    if (fx < W[l - 1] && fy < H[l - 1]) {
+                        s += down[l - 1][fy * W[l - 1] + fx];
+                        n++;
+                    }
+                }
+                (void)n;
+                down[l][y * W[l] + x] = s / 4; /* zero padding beyond the border */
+            }
+    }
+    up[levels] = down[levels];
+    for (int l = levels - 1; l >= 0; l--) {
+        ew_pyr_params p;
+        ew_pyr_params_at(t, sigma, l, 1.0f, &p);
+        p.wf[4] = ew_pyr_centre_weight(&p);
+        up[l] = malloc(sizeof(double) * W[l] * H[l]);
+        for (int y = 0; y < H[l]; y++)
+            for (int x = 0; x < W[l]; x++) {
+                double s = 0, ws = 0;
+                for (int iy = -1; iy <= 1; iy++)
+                    for (int ix = -1; ix <= 1; ix++) {
+                        int fx = x + ix, fy = y + iy, cx = x / 2 + ix, cy = y / 2 + iy;
+                        /* zero padding: samples beyond the border add weight, not value */
+                        if (fx >= 0 && fy >= 0 && fx < W[l] && fy < H[l])
+                            s += p.wf[(iy + 1) * 3 + ix + 1] * down[l][fy * W[l] + fx];
+                        ws += p.wf[(iy + 1) * 3 + ix + 1];
+                        int dx = abs(4 * ix - 2 * (x % 2) + 1), dy = abs(4 * iy - 2 * (y % 2) + 1);
+                        double wgt = (17.0 - 3 * dx) / 24 * (17.0 - 3 * dy) / 24 * p.wc[(dy / 2) * 3 + dx / 2];
+                        if (cx >= 0 && cy >= 0 && cx < W[l + 1] && cy < H[l + 1]) s += wgt * up[l + 1][cy * W[l + 1] + cx];
+                        ws += wgt;
+                    }
+                up[l][y * W[l] + x] = s / ws;
+            }
+    }
+    memcpy(out, up[0], sizeof(double) * w * h);
+    for (int l = 0; l <= levels; l++) {
+        free(down[l]);
+        if (l < levels) free(up[l]);
+    }
+}
+
+TEST(range_one_equals_convolution_model) {
+    const int w = 37, h = 29;
+    unsigned s = 21;
+    float img[37 * 29];
+    for (int i = 0; i < w * h; i++) img[i] = urand(&s);
+    ew_pyr_table t;
+    random_table(&t, &s);
+    ew_device *dev = make_device(2);
+    float ones[37 * 29];
+    for (int i = 0; i < w * h; i++) ones[i] = 1.0f;
+    for (int trained = 0; trained < 2; trained++) {
+        const ew_pyr_table *tp = trained ? &t : NULL;
+        double ref[37 * 29], mask[37 * 29];
+        conv_model(tp, 2.2f, w, h, 4, img, ref);
+        conv_model(tp, 2.2f, w, h, 4, ones, mask); /* normalized convolution: the mask */
+        for (int i = 0; i < w * h; i++) ref[i] /= mask[i];
+        /* no range function at all (buffers hold EW_BF_CH floats a pixel) */
+        float img4[37 * 29 * EW_BF_CH] = {0};
+        for (int i = 0; i < w * h; i++) {
+            img4[i * EW_BF_CH] = img[i];
+            img4[i * EW_BF_CH + 3] = 1.0f;
+        }
+        ew_bf_model none = model_of(EW_RANGE_NONE, 1, 2.2f);
+        float *o = run_pyr(dev, &none, w, h, 4, 1, tp, 1.0f, img4, img4);
+        for (int i = 0; i < w * h; i++) CHECK_NEAR(o[i * EW_BF_CH] / o[i * EW_BF_CH + 3], ref[i], 1e-5);
+        free(o);
+        /* a colour range function so wide it is 1 everywhere */
+        ew_bf_model wide = model_of(EW_RANGE_COLOR, 1, 2.2f);
+        wide.inv_2sr2 = 0.0f;
+        o = run_pyr(dev, &wide, w, h, 4, 1, tp, 1.0f, img4, img4);
+        for (int i = 0; i < w * h; i++) CHECK_NEAR(o[i * EW_BF_CH] / o[i * EW_BF_CH + 3], ref[i], 1e-5);
+        free(o);
+    }
+    ew_device_destroy(dev);
+}
+
+/* Eq. 2g: the domain weights of every row sum to 1, analytic or trained */
+TEST(domain_weights_sum_to_one) {
+    for (float ls = -3.5f; ls < 7.0f; ls += 0.37f)
+        for (int l = 0; l < 8; l++) {
+            ew_pyr_params p;
+            ew_pyr_params_at(NULL, exp2f(ls), l, 1.0f, &p);
+            ew_pyr_wrow row;
+            ew_pyr_expand(&p, &row);
+            for (int par = 0; par < 4; par++) {
+                double s = 0;
+                for (int k = 0; k < 9; k++) s += row.wf[k] + row.wdc[par][k];
+                CHECK_NEAR(s, 1.0, 1e-5);
+            }
+            CHECK(row.wf[4] >= 0.0f);
+        }
+}
+
+/* ---- properties through the public API ---- */
+static ew_result run_api(ew_device *dev, int w, int h, int C, const float *in, float *out, int model, int radius,
+                         float sigma_r, const float *aux, int weights) {
+    ew_filter *f = NULL;
+    ew_result r = ew_filter_create(dev, "pyramid", &f);
+    ew_image vi = ew_image_packed((float *)in, w, h, C), vo = ew_image_packed(out, w, h, C);
+    ew_image va = ew_image_packed((float *)aux, w, h, model == 1 ? 3 : 1);
+    if (r == EW_OK) r = ew_filter_set_image(f, "color", &vi);
+    if (r == EW_OK) r = ew_filter_set_image(f, "output", &vo);
+    if (r == EW_OK && aux) r = ew_filter_set_image(f, model == 0 ? "guide" : model == 1 ? "normal" : "depth", &va);
+    if (r == EW_OK) r = ew_filter_set_int(f, "model", model);
+    if (r == EW_OK) r = ew_filter_set_int(f, "radius", radius);
+    if (r == EW_OK) r = ew_filter_set_float(f, "sigma_range", sigma_r);
+    if (r == EW_OK) r = ew_filter_set_int(f, "weights", weights);
+    if (r == EW_OK) r = ew_filter_commit(f);
+    if (r == EW_OK) r = ew_filter_execute(f);
+    ew_filter_destroy(f);
+    return r;
+}
+
+TEST(constant_image_stays_constant) {
+    ew_device *dev = make_device(2);
+    const int w = 45, h = 31;
+    float *in = malloc(sizeof(float) * w * h * 3), *out = malloc(sizeof(float) * w * h * 3);
+    float *nrm = malloc(sizeof(float) * w * h * 3);
+    unsigned s = 4;
+    for (int i = 0; i < w * h; i++) {
+        in[i * 3] = 0.3f;
+        in[i * 3 + 1] = 1.5f;
+        in[i * 3 + 2] = 7.0f;
+        nrm[i * 3] = urand(&s) - 0.5f;
+        nrm[i * 3 + 1] = urand(&s) - 0.5f;
+        nrm[i * 3 + 2] = 1.0f;
+    }
+    for (int model = 0; model < 4; model++)
+        for (int radius = 1; radius <= 40; radius += 13) {
+            CHECK_EQ_INT(run_api(dev, w, h, 3, in, out, model, radius, 0.2f, model == 1 ? nrm : NULL, 0), EW_OK);
+            for (int i = 0; i < w * h * 3; i++) CHECK_NEAR(out[i], in[i], 2e-6 * in[i]);
+        }
+    free(in); free(out); free(nrm);
+    ew_device_destroy(dev);
+}
+
+TEST(step_edge_is_not_crossed) {
+    ew_device *dev = make_device(2);
+    const int w = 64, h = 40;
+    float *in = malloc(sizeof(float) * w * h), *out = malloc(sizeof(float) * w * h), *g = malloc(sizeof(float) * w * h);
+    unsigned s = 8;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            int left = x < 27; /* an odd column: not on a 2^l boundary */
+            g[y * w + x] = left ? 0.0f : 1.0f;
+            in[y * w + x] = (left ? 0.2f : 3.0f) + 0.02f * (urand(&s) - 0.5f);
+        }
+    for (int radius = 4; radius <= 32; radius *= 2) {
+        /* guided by a separate guide (joint), and by the image itself */
+        CHECK_EQ_INT(run_api(dev, w, h, 1, in, out, 0, radius, 0.05f, g, 0), EW_OK);
+        for (int y = 0; y < h; y++) {
+            CHECK_NEAR(out[y * w + 26], 0.2, 0.012);
+            CHECK_NEAR(out[y * w + 27], 3.0, 0.012);
+        }
+        CHECK_EQ_INT(run_api(dev, w, h, 1, in, out, 0, radius, 0.1f, NULL, 0), EW_OK);
+        for (int y = 0; y < h; y++) {
+            CHECK_NEAR(out[y * w + 26], 0.2, 0.012);
+            CHECK_NEAR(out[y * w + 27], 3.0, 0.012);
+        }
+        /* depth model: a depth step (exp(-1 * 1 * 39): nothing crosses) */
+        for (int i = 0; i < w * h; i++) g[i] = (i % w) < 27 ? 1.0f : 40.0f;
+        CHECK_EQ_INT(run_api(dev, w, h, 1, in, out, 2, radius, 0.1f, g, 0), EW_OK);
+        for (int y = 0; y < h; y++) {
+            CHECK_NEAR(out[y * w + 26], 0.2, 0.012);
+            CHECK_NEAR(out[y * w + 27], 3.0, 0.012);
+        }
+        for (int i = 0; i < w * h; i++) g[i] = (i % w) < 27 ? 0.0f : 1.0f;
+    }
+    free(in); free(out); free(g);
+    ew_device_destroy(dev);
+}
+
+TEST(odd_sizes_radius_zero_and_beyond_the_image) {
+    ew_device *dev = make_device(2);
+    const int sizes[][2] = {{1, 1}, {3, 7}, {7, 3}, {2, 1}, {1023, 577}};
+    for (int k = 0; k < 5; k++) {
+        const int w = sizes[k][0], h = sizes[k][1];
+        const long n = (long)w * h;
+        float *in = malloc(sizeof(float) * n * 3), *out = malloc(sizeof(float) * n * 3);
+        unsigned s = 30 + k;
+        for (long i = 0; i < n * 3; i++) in[i] = urand(&s);
+        CHECK_EQ_INT(run_api(dev, w, h, 3, in, out, 0, 0, 0.1f, NULL, 0), EW_OK);
+        CHECK(memcmp(in, out, sizeof(float) * n * 3) == 0);
+        const int radii[] = {1, 5, 64, 256};
+        for (int r = 0; r < 4; r++) {
+            if (n > 100000 && r != 2) continue;
+            CHECK_EQ_INT(run_api(dev, w, h, 3, in, out, 3, radii[r], 0.1f, NULL, 0), EW_OK);
+            double lo = 1, hi = 0;
+            for (long i = 0; i < n * 3; i++) {
+                CHECK(isfinite(out[i]));
+                lo = fmin(lo, out[i]);
+                hi = fmax(hi, out[i]);
+            }
+            CHECK(lo >= 0.0 && hi <= 1.0); /* a convex combination */
+            if (n == 1) CHECK(memcmp(in, out, sizeof(float) * 3) == 0);
+        }
+        free(in);
+        free(out);
+    }
+    ew_device_destroy(dev);
+}
+
+TEST(non_finite_samples_are_contained) {
+    ew_device *dev = make_device(2);
+    const int w = 33, h = 21;
+    float *in = malloc(sizeof(float) * w * h * 3), *out = malloc(sizeof(float) * w * h * 3);
+    unsigned s = 12;
+    for (int i = 0; i < w * h * 3; i++) in[i] = urand(&s);
+    in[(10 * w + 10) * 3] = NAN;
+    in[(3 * w + 20) * 3 + 1] = INFINITY;
+    in[(15 * w + 2) * 3 + 2] = -INFINITY;
+    for (int i = 0; i < 3; i++) in[(20 * w + 32) * 3 + i] = NAN; /* a corner */
+    for (int model = 0; model < 4; model += 3) {
+        CHECK_EQ_INT(run_api(dev, w, h, 3, in, out, model, 9, 0.3f, NULL, 0), EW_OK);
+        for (int i = 0; i < w * h * 3; i++) {
+            CHECK(isfinite(out[i]));
+            CHECK(out[i] >= 0.0f && out[i] <= 1.0f);
+        }
+    }
+    /* an image of nothing but NaN: zeros, not garbage */
+    for (int i = 0; i < w * h * 3; i++) in[i] = NAN;
+    CHECK_EQ_INT(run_api(dev, w, h, 3, in, out, 3, 9, 0.3f, NULL, 0), EW_OK);
+    for (int i = 0; i < w * h * 3; i++) CHECK(out[i] == 0.0f);
+    free(in);
+    free(out);
+    ew_device_destroy(dev);
+}
+
+/* the result must not depend on the number of threads */
+TEST(result_independent_of_thread_count) {
+    const int w = 70, h = 43;
+    float *in = malloc(sizeof(float) * w * h * 3), *o1 = malloc(sizeof(float) * w * h * 3);
+    float *o4 = malloc(sizeof(float) * w * h * 3);
+    unsigned s = 77;
+    for (int i = 0; i < w * h * 3; i++) in[i] = urand(&s);
+    ew_device *d1 = make_device(1), *d4 = make_device(4);
+    CHECK_EQ_INT(run_api(d1, w, h, 3, in, o1, 0, 20, 0.2f, NULL, 0), EW_OK);
+    CHECK_EQ_INT(run_api(d4, w, h, 3, in, o4, 0, 20, 0.2f, NULL, 0), EW_OK);
+    CHECK(memcmp(o1, o4, sizeof(float) * w * h * 3) == 0);
+    free(in); free(o1); free(o4);
+    ew_device_destroy(d1);
+    ew_device_destroy(d4);
+}
+
+/* ---- the weights file ---- */
+TEST(weights_file_round_trip_and_validation) {
+    ew_pyr_table t, back;
+    unsigned s = 5;
+    random_table(&t, &s);
+    size_t n = ew_pyr_table_write(&t, NULL, 0);
+    unsigned char *buf = malloc(n);
+    CHECK(ew_pyr_table_write(&t, buf, n) == n);
+    char why[200];
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_OK);
+    CHECK_EQ_INT(back.nodes, t.nodes);
+    CHECK(memcmp(back.p[2][3].wc, t.p[2][3].wc, sizeof t.p[2][3].wc) == 0);
+    /* truncated, corrupted, wrong magic */
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n - 5, &back, why, sizeof why), EW_ERR_INVALID_DATA);
+    buf[n / 2] ^= 1;
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
+    CHECK_STR_CONTAINS(why, "checksum");
+    buf[n / 2] ^= 1;
+    buf[0] = 'X';
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
+    CHECK_STR_CONTAINS(why, "magic");
+    free(buf);
+    /* weights outside [0, 1]: coarse weights all 1 leave a negative centre */
+    for (int k = 0; k < 9; k++) t.p[1][1].wc[k] = 1.0f;
+    n = ew_pyr_table_write(&t, NULL, 0);
+    buf = malloc(n);
+    ew_pyr_table_write(&t, buf, n);
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
+    CHECK_STR_CONTAINS(why, "outside [0, 1]");
+    free(buf);
+    /* Eq. 2g violated: the writer always enforces it, so patch the stored
+     * centre weight of node 0 level 0 and fix up the checksum */
+    random_table(&t, &s);
+    n = ew_pyr_table_write(&t, NULL, 0);
+    buf = malloc(n);
+    ew_pyr_table_write(&t, buf, n);
+    size_t at = 8 + 4 + 4 + strlen(EW_PYR_ARCH) + 4 + (4 + 10 + 4 + 4 + 4 * (size_t)t.nodes) + (4 + 6 + 4 + 12) + 4 * 4;
+    float centre;
+    memcpy(&centre, buf + at, 4);
+    CHECK_NEAR(centre, ew_pyr_centre_weight(&t.p[0][0]), 1e-6);
+    centre -= 0.01f;
+    memcpy(buf + at, &centre, 4);
+    uint32_t crc = 0xffffffffu;
+    for (size_t i = 0; i < n - 4; i++) {
+        crc ^= buf[i];
+        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    crc = ~crc;
+    for (int k = 0; k < 4; k++) buf[n - 4 + k] = (unsigned char)(crc >> (8 * k));
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
+    CHECK_STR_CONTAINS(why, "Eq. 2g");
+    free(buf);
+    /* through the API: bad bytes are rejected at set_data, naming the data */
+    ew_device *dev = make_device(1);
+    ew_filter *f = NULL;
+    CHECK_EQ_INT(ew_filter_create(dev, "pyramid", &f), EW_OK);
+    CHECK_EQ_INT(ew_filter_set_data(f, "weights", "garbage!", 8), EW_ERR_INVALID_DATA);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "'weights'");
+    ew_filter_destroy(f);
+    ew_device_destroy(dev);
+}
+
+
+/* ---- training: the backward pass against finite differences ---- */
+static double loss_of(ew_pyr_plan *p, const ew_pyr_params *prm, const float *img, const float *attr, float *out,
+                      const float *dout, long n) {
+    for (int l = 0; l < p->levels; l++) ew_pyr_expand(&prm[l], &p->rows[l]);
+    ew_pyr_forward1(p, img, attr, out, 0);
+    double L = 0;
+    for (long i = 0; i < n * EW_BF_CH; i++) L += (double)dout[i] * out[i];
+    return L;
+}
+
+static int check_gradient(int kind, unsigned seed) {
+    const int w = 20, h = 14, levels = 3;
+    const long n = (long)w * h;
+    ew_bf_model m = model_of(kind, EW_BF_CH, 2.0f);
+    float *img = malloc(sizeof(float) * n * EW_BF_CH), *attr = malloc(sizeof(float) * (n * EW_BF_MAX_ATTR + 8));
+    float *out = malloc(sizeof(float) * n * EW_BF_CH), *dout = malloc(sizeof(float) * n * EW_BF_CH);
+    for (long i = 0; i < n * EW_BF_CH; i++) {
+        img[i] = i % EW_BF_CH == 3 ? 1.0f : urand(&seed);
+        dout[i] = 2.0f * urand(&seed) - 1.0f;
+    }
+    for (int c = 0; c < EW_BF_CH; c++) img[17 * EW_BF_CH + c] = 0.0f; /* a missing sample too */
+    random_attrs(&m, n, attr, &seed);
+    ew_pyr_table t;
+    random_table(&t, &seed);
+    ew_pyr_params prm[4];
+    for (int l = 0; l < levels; l++) prm[l] = t.p[1][l];
+    float *scratch = malloc(sizeof(float) * ew_pyr_scratch_floats(&m, w, h, levels, 1));
+    float *gs = malloc(sizeof(float) * ew_pyr_grad_scratch_floats(w, h));
+    ew_pyr_plan p;
+    ew_pyr_plan_init(&p, &m, w, h, levels, 1, NULL, 1.0f, scratch);
+    loss_of(&p, prm, img, attr, out, dout, n);
+    double grad[4 * EW_PYR_NPARAM] = {0};
+    ew_pyr_backward1(&p, img, attr, out, dout, gs, grad);
+    int ok = 1;
+    const double hstep = 1e-3;
+    for (int l = 0; l < levels; l++)
+        for (int k = 0; k < EW_PYR_NPARAM; k++) {
+            if (k == 4) continue; /* the centre: fixed by Eq. 2g */
+            float *f = (float *)&prm[l];
+            const float keep = f[k];
+            f[k] = keep + (float)hstep;
+            double lp = loss_of(&p, prm, img, attr, out, dout, n);
+            f[k] = keep - (float)hstep;
+            double lm = loss_of(&p, prm, img, attr, out, dout, n);
+            f[k] = keep;
+            double fd = (lp - lm) / (2 * hstep), an = grad[l * EW_PYR_NPARAM + k];
+            if (!(fabs(fd - an) <= 0.02 * fmax(1.0, fabs(an)))) {
+                fprintf(stderr, "  kind %d level %d param %d: analytic %g, finite differences %g\n", kind, l, k, an, fd);
+                ok = 0;
+            }
+        }
+    if (grad[4] != 0.0) ok = 0;
+    free(img); free(attr); free(out); free(dout); free(scratch); free(gs);
+    return ok;
+}
+
+TEST(backward_matches_finite_differences_color) { CHECK(check_gradient(EW_RANGE_COLOR, 41)); }
+TEST(backward_matches_finite_differences_gi) { CHECK(check_gradient(EW_RANGE_GI, 42)); }
+TEST(backward_matches_finite_differences_depth) { CHECK(check_gradient(EW_RANGE_DEPTH, 43)); }
+
+/* the weights built into the library are models/pyramid/pyramid.ewpw, byte
+ * for byte, and validate */
+extern const unsigned char ew_pyr_builtin_weights[];
+extern const size_t ew_pyr_builtin_weights_size;
+
+TEST(builtin_weights_are_the_models_file) {
+    char path[4096];
+    snprintf(path, sizeof path, "%s", __FILE__);
+    char *cut = strstr(path, "tests/unit/test_pyramid.c");
+    if (!cut) SKIP("source path unknown");
+    snprintf(cut, sizeof path - (size_t)(cut - path), "models/pyramid/pyramid.ewpw");
+    FILE *f = fopen(path, "rb");
+    if (!f) SKIP("models/pyramid/pyramid.ewpw not found");
+    static unsigned char buf[1 << 20];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    CHECK_EQ_INT(n, ew_pyr_builtin_weights_size);
+    CHECK(memcmp(buf, ew_pyr_builtin_weights, n) == 0);
+    ew_pyr_table t;
+    char why[200];
+    CHECK_EQ_INT(ew_pyr_builtin_table(&t, why, sizeof why), EW_OK);
+    CHECK(t.nodes >= 1);
+}
