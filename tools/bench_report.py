@@ -41,7 +41,7 @@ def means(rows):
     for r in rows:
         a = acc[(r["method"], r["spp"])]
         for k in ("psnr", "ssim", "relmse", "smape", "ms"):
-            a[k].append(min(r[k], 100.0))
+            a[k].append(min(r[k], 100.0) if k == "psnr" else r[k])
     return {key: {k: sum(v) / len(v) for k, v in a.items()} | {"n": len(a["psnr"])} for key, a in acc.items()}
 
 
