@@ -24,8 +24,8 @@
  * the separable filter and (gi) the a-trous filter are scored with the
  * library's PSNR and SSIM (tone-mapped, 3 channels).
  *
- * Time: one filter committed, ew_filter_execute run 6 times, the median of
- * the last 5 (packing the views included; the first run also pays the page
+ * Time: one filter committed, ew_filter_execute run 4 times, the median of
+ * the last 3, in three interleaved sweeps over the radii (median per point) (packing the views included; the first run also pays the page
  * faults of fresh scratch memory) at
  * 2560x1440 for radius 1..64: dof with a uniform CoC of diameter 2 radius
  * (the paper's Fig. 12 set-up), gi with a uniform radius, colour. Speed at
@@ -447,8 +447,8 @@ static float dof_depth_for(float coc, float focal, float fstop, float focus, flo
 
 static double time_one(ew_device *dev, const setting *st, big *b, const float *depth) {
     double t = -1;
-    /* commit once, execute 6 times, the median of the last 5 */
-    if (run_reps(dev, st, W2K, H2K, 3, b->rgb, st->model == 1 ? b->normal : NULL, depth, b->out, &t, 6) != EW_OK)
+    /* commit once, execute 4 times, the median of the last 3 */
+    if (run_reps(dev, st, W2K, H2K, 3, b->rgb, st->model == 1 ? b->normal : NULL, depth, b->out, &t, 4) != EW_OK)
         return -1;
     return t;
 }
@@ -515,8 +515,9 @@ static void timing(ew_device *dev, const char *out_dir, int quick) {
     double t[3][64];
     const char *names[3] = {"dof (uniform CoC 2r)", "gi denoising", "colour"};
     say("\n## Time against the radius at 2560x1440 (pyramid, trained weights)\n\n");
-    say("A committed filter's ew_filter_execute, median of runs 2-6 (packing the views included), %d threads, "
-        "load average %.1f at the start (the machine is shared).\n\n",
+    say("A committed filter's ew_filter_execute, median of runs 2-4 (packing the views included); three sweeps "
+        "over all radii, interleaved, and the median per point over the sweeps. %d threads, load average %.1f at "
+        "the start (the machine is shared).\n\n",
         ew_device_get_num_threads(dev), loadavg());
     FILE *csv;
     char path[4096];
@@ -524,19 +525,33 @@ static void timing(ew_device *dev, const char *out_dir, int quick) {
     csv = fopen(path, "w");
     if (csv) fprintf(csv, "radius,dof_ms,gi_ms,colour_ms\n");
     say("| radius | dof ms | gi ms | colour ms |\n|---|---|---|---|\n");
+    /* Several sweeps over all radii and use cases, interleaved, the median
+     * per point over the sweeps: on a shared machine the load changes during
+     * a run, and a single sweep would charge those changes to whichever
+     * radii ran at the time. */
+    const int sweeps = quick ? 1 : 3;
+    double per[3][64][8];
+    for (int sw = 0; sw < sweeps; sw++)
+        for (int i = 0; i < nr; i++) {
+            const int r = radii[i];
+            setting d = {"dof", -1, r, 1, 0, -1, -1, -1, 50.0f, 1.0f, 1.0f};
+            const float z = dof_depth_for(2.0f * (float)r, 50.0f, 1.0f, 1.0f, 36.0f, W2K);
+            for (size_t k = 0; k < n; k++) b.depth_const[k] = z;
+            per[0][i][sw] = time_one(dev, &d, &b, b.depth_const);
+            for (size_t k = 0; k < n; k++) b.depth_const[k] = 2.0f;
+            setting g = {"pyramid", 1, r, 1, -1, -1, 32.0f, 0.5f, 0, 0, 0};
+            per[1][i][sw] = time_one(dev, &g, &b, b.depth_const);
+            setting c = {"pyramid", 0, r, 1, -1, 0.1f, -1, -1, 0, 0, 0};
+            per[2][i][sw] = time_one(dev, &c, &b, NULL);
+            fprintf(stderr, "bench_filters: timing sweep %d radius %d\n", sw + 1, r);
+        }
     for (int i = 0; i < nr; i++) {
-        const int r = radii[i];
-        setting d = {"dof", -1, r, 1, 0, -1, -1, -1, 50.0f, 1.0f, 1.0f};
-        const float z = dof_depth_for(2.0f * (float)r, 50.0f, 1.0f, 1.0f, 36.0f, W2K);
-        for (size_t k = 0; k < n; k++) b.depth_const[k] = z;
-        t[0][i] = time_one(dev, &d, &b, b.depth_const);
-        for (size_t k = 0; k < n; k++) b.depth_const[k] = 2.0f;
-        setting g = {"pyramid", 1, r, 1, -1, -1, 32.0f, 0.5f, 0, 0, 0};
-        t[1][i] = time_one(dev, &g, &b, b.depth_const);
-        setting c = {"pyramid", 0, r, 1, -1, 0.1f, -1, -1, 0, 0, 0};
-        t[2][i] = time_one(dev, &c, &b, NULL);
-        say("| %d | %.1f | %.1f | %.1f |\n", r, t[0][i] * 1e3, t[1][i] * 1e3, t[2][i] * 1e3);
-        if (csv) fprintf(csv, "%d,%.2f,%.2f,%.2f\n", r, t[0][i] * 1e3, t[1][i] * 1e3, t[2][i] * 1e3);
+        for (int s = 0; s < 3; s++) {
+            qsort(per[s][i], (size_t)sweeps, sizeof(double), cmp_double);
+            t[s][i] = per[s][i][sweeps / 2];
+        }
+        say("| %d | %.1f | %.1f | %.1f |\n", radii[i], t[0][i] * 1e3, t[1][i] * 1e3, t[2][i] * 1e3);
+        if (csv) fprintf(csv, "%d,%.2f,%.2f,%.2f\n", radii[i], t[0][i] * 1e3, t[1][i] * 1e3, t[2][i] * 1e3);
     }
     if (csv) fclose(csv);
     say("\n");
@@ -754,7 +769,9 @@ int main(int argc, char **argv) {
     ew_device *dev = NULL;
     if (ew_device_create(&desc, &dev) != EW_OK) return 1;
     time_t now = time(NULL);
-    say("# bench_filters results\n\n%s, libedgewise %s, %d threads, load average %.1f\n", ctime(&now),
+    char when[64];
+    strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S", localtime(&now));
+    say("# bench_filters results\n\n%s, libedgewise %s, %d threads, load average %.1f\n", when,
         ew_version_string(), ew_device_get_num_threads(dev), loadavg());
     if (!skip_q && data) {
         scene sc[32];
