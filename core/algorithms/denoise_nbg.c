@@ -32,8 +32,9 @@ static const ew_image_desc images[] = {
 
 static const ew_param_desc params[] = {
     {"model", EW_PARAM_INT, 0.0f, 0.0f, (float)(EW_NBG_NUM_MODELS - 1),
-     "built-in model: 0 = 2layer-3grid (real time, the default), 1 = 2layer-1grid (fastest), "
-     "2 = 7layer-3grid (offline); ignored while weights are set with set_data"},
+     "built-in model: 0 = 2layer-3grid (real time, trained on 1-64 spp; the default), 1 = 2layer-1grid "
+     "(fastest), 2 = 7layer-3grid (offline), 3 = 2layer-3grid-1spp (trained on 1 spp: best for 1-2 spp); "
+     "ignored while weights are set with set_data"},
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off "
      "(the shipped models were trained with 3)"},

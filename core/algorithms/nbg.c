@@ -82,12 +82,14 @@ ew_result ew_nbg_guidenet_forward(ew_device *dev, const ew_nbg_forward *f, int (
 }
 
 /* ---- built-in models (nbg_weights_data.c, generated from models/nbg/) ---- */
-extern const unsigned char ew_nbg_weights_2layer_3grid[], ew_nbg_weights_2layer_1grid[], ew_nbg_weights_7layer_3grid[];
+extern const unsigned char ew_nbg_weights_2layer_3grid[], ew_nbg_weights_2layer_1grid[], ew_nbg_weights_7layer_3grid[],
+    ew_nbg_weights_2layer_3grid_1spp[];
 extern const size_t ew_nbg_weights_2layer_3grid_size, ew_nbg_weights_2layer_1grid_size,
-    ew_nbg_weights_7layer_3grid_size;
+    ew_nbg_weights_7layer_3grid_size, ew_nbg_weights_2layer_3grid_1spp_size;
 
 const char *ew_nbg_model_name(int model) {
-    static const char *const names[EW_NBG_NUM_MODELS] = {"2layer-3grid", "2layer-1grid", "7layer-3grid"};
+    static const char *const names[EW_NBG_NUM_MODELS] = {"2layer-3grid", "2layer-1grid", "7layer-3grid",
+                                                         "2layer-3grid-1spp"};
     return model >= 0 && model < EW_NBG_NUM_MODELS ? names[model] : NULL;
 }
 
@@ -96,6 +98,7 @@ void ew_nbg_builtin_weights(int model, const unsigned char **bytes, size_t *size
     case 0: *bytes = ew_nbg_weights_2layer_3grid; *size = ew_nbg_weights_2layer_3grid_size; break;
     case 1: *bytes = ew_nbg_weights_2layer_1grid; *size = ew_nbg_weights_2layer_1grid_size; break;
     case 2: *bytes = ew_nbg_weights_7layer_3grid; *size = ew_nbg_weights_7layer_3grid_size; break;
+    case 3: *bytes = ew_nbg_weights_2layer_3grid_1spp; *size = ew_nbg_weights_2layer_3grid_1spp_size; break;
     default: *bytes = NULL; *size = 0; break;
     }
 }

@@ -47,9 +47,11 @@ ew_result ew_nbg_guidenet_forward(ew_device *dev, const ew_nbg_forward *f, int (
 size_t ew_nbg_device_floats(const ew_guidenet *net, int width, int height, size_t *grid_floats, size_t *band_floats);
 
 /* Built-in models, by the op's "model" parameter: 0 = 2layer-3grid (the
- * default), 1 = 2layer-1grid, 2 = 7layer-3grid. The bytes are a weights
- * file (size 0 when this build has none for that model). */
-#define EW_NBG_NUM_MODELS 3
+ * default, trained on 1-64 spp), 1 = 2layer-1grid, 2 = 7layer-3grid,
+ * 3 = 2layer-3grid-1spp (the same net trained on 1-spp renders only). The
+ * bytes are a weights file (size 0 when this build has none for that
+ * model). */
+#define EW_NBG_NUM_MODELS 4
 const char *ew_nbg_model_name(int model);
 void ew_nbg_builtin_weights(int model, const unsigned char **bytes, size_t *size);
 

@@ -34,9 +34,11 @@ static const char help[] =
     "                        albedo, normal and depth; see docs/nbg.md)\n"
     "                        bgrid: bilateral grid guided by albedo/normal/depth (needs albedo)\n"
     "                        bgrid-color: bilateral grid guided by the colour alone\n"
-    "  --model NAME|PATH     nbg's weights: a built-in model, 2layer-3grid (default, real time),\n"
-    "                        2layer-1grid (fastest) or 7layer-3grid (offline), or a weights file\n"
-    "                        written by train_nbg (models/nbg/README.md)\n"
+    "  --model NAME|PATH     nbg's weights: a built-in model, 2layer-3grid (real time, trained on\n"
+    "                        1-64 spp), 2layer-3grid-1spp (trained on 1 spp), 2layer-1grid\n"
+    "                        (fastest) or 7layer-3grid (offline), or a weights file written by\n"
+    "                        train_nbg (models/nbg/README.md). Default: 2layer-3grid-1spp when the\n"
+    "                        file's Cycles metadata says 1 or 2 samples, else 2layer-3grid\n"
     "  --threads N           worker threads, 0 = all cores (default 0)\n"
     "  --half | --float      EXR pixel type of the written passes (default: as read)\n"
     "  --reference REF       also print PSNR/SSIM of input and output against REF\n"
@@ -87,6 +89,7 @@ static void print_help(void) {
         for (int32_t k = 0; k < np && used < sizeof params; k++) {
             ew_param_info p;
             ew_method_param("denoiser", m, k, &p);
+            if (!strcmp(p.name, "model")) continue; /* nbg's: --model NAME|PATH, listed above */
             char opt[64];
             snprintf(opt, sizeof opt, "--%s", p.name);
             for (char *c = opt; *c; c++)
@@ -101,7 +104,8 @@ static void print_help(void) {
 }
 
 /* nbg's built-in models, by its "model" parameter (README.md, docs/nbg.md) */
-static const char *const builtin[] = {"2layer-3grid", "2layer-1grid", "7layer-3grid"};
+static const char *const builtin[] = {"2layer-3grid", "2layer-1grid", "7layer-3grid", "2layer-3grid-1spp"};
+#define NUM_BUILTIN 4
 
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
@@ -156,7 +160,7 @@ static int parse(int argc, char **argv, options *o) {
     }
     /* --model: a built-in model's name, else a weights file (read later) */
     o->model_index = 0;
-    for (int k = 0; o->model && k < 3; k++)
+    for (int k = 0; o->model && k < NUM_BUILTIN; k++)
         if (!strcmp(o->model, builtin[k])) o->model_index = k;
     if (o->model && strcmp(o->model, builtin[o->model_index]) != 0) o->model_index = -1;
     return 1;
@@ -234,8 +238,17 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     ew_image out = ew_image_packed(j->out, w, h, 3);
     ew_denoiser *d = NULL;
     const int nbg = !strcmp(method, "nbg");
+    int model_index = j->o->model_index;
+    if (nbg && !j->o->model) {
+        /* The 1-spp model is ~1 dB better at 1-2 spp and worse above
+         * (models/nbg/README.md): pick by the render's sample count. */
+        char key[320];
+        snprintf(key, sizeof key, "cycles.%s.samples", layer);
+        int spp = atoi(ewio_get_attribute(j->f, key));
+        if (spp >= 1 && spp <= 2) model_index = 3;
+    }
     ew_result r = ew_denoiser_create(j->dev, nbg ? "nbg" : "bgrid", &d);
-    if (r == EW_OK && nbg && j->o->model_index >= 0) r = ew_denoiser_set_int(d, "model", j->o->model_index);
+    if (r == EW_OK && nbg && model_index >= 0) r = ew_denoiser_set_int(d, "model", model_index);
     if (r == EW_OK && nbg && j->o->model_index < 0)
         r = ew_denoiser_set_data(d, "weights", j->o->model_bytes, j->o->model_size);
     if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &color);
@@ -282,7 +295,7 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     }
     char what[300];
     if (nbg)
-        snprintf(what, sizeof what, "nbg %s", j->o->model_index >= 0 ? builtin[j->o->model_index] : j->o->model);
+        snprintf(what, sizeof what, "nbg %s", model_index >= 0 ? builtin[model_index] : j->o->model);
     else
         snprintf(what, sizeof what, "%s", method);
     /* Keep the noisy original beside the result, as Blender does. */

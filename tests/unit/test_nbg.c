@@ -166,7 +166,7 @@ TEST(errors_name_the_problem) {
     CHECK_STR_CONTAINS(ew_device_last_error(dev), "not an Edgewise weights file");
     CHECK_EQ_INT(ew_denoiser_set_data(d, "lut", "x", 1), EW_ERR_INVALID_ARGUMENT);
     CHECK_STR_CONTAINS(ew_device_last_error(dev), "takes data 'weights'");
-    CHECK_EQ_INT(ew_denoiser_set_int(d, "model", 3), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_denoiser_set_int(d, "model", EW_NBG_NUM_MODELS), EW_ERR_INVALID_ARGUMENT);
     /* weights of another kind of model */
     ew_tensor t;
     memset(&t, 0, sizeof t);
