@@ -214,3 +214,57 @@ TEST(non_finite_pixels_are_reconstructed) {
     free(grid);
     for (int i = 0; i < w * h * 3; i++) CHECK_NEAR(out[i], 1.0, 1e-5);
 }
+
+/* The CPU backend's row splat and slice (backends/cpu/cpu_bgrid.c) against
+ * the kernels' per-column gather and per-pixel slice (what CUDA runs and the
+ * trainer's reference): the same expressions added in the same order, so
+ * the same bits — on widths that are not multiples of the SIMD width or of
+ * the weights' run, fractional rates, guides at and beyond the range ends,
+ * non-finite pixels and empty neighbourhoods (the slice's fallback). */
+static int same_bits_as_kernels(int w, int h, float rs, float rd, int threads, unsigned seed) {
+    ew_bgrid_params p;
+    if (!ew_bgrid_params_init(&p, w, h, rs, rd, 3)) return 0;
+    const long n = (long)w * h;
+    const size_t gf = ew_bgrid_floats(&p);
+    float *img = malloc(sizeof(float) * n * 3), *guide = malloc(sizeof(float) * n);
+    float *grid = malloc(sizeof(float) * gf), *grid_k = malloc(sizeof(float) * gf);
+    float *out = malloc(sizeof(float) * n * 3), *out_k = malloc(sizeof(float) * n * 3);
+    for (long i = 0; i < n * 3; i++) img[i] = 8.0f * urand(&seed) - 0.5f;
+    for (long i = 0; i < n; i++) {
+        /* clustered guides, so some cells are empty next to full ones */
+        float r = urand(&seed);
+        guide[i] = r < 0.45f ? 30.0f + 10.0f * urand(&seed) : (r < 0.9f ? 200.0f + 20.0f * urand(&seed) : 255.0f * urand(&seed));
+    }
+    guide[0] = 0.0f;
+    guide[n - 1] = 255.0f;
+    guide[n / 2] = NAN;
+    guide[n / 3] = -3.0f;
+    img[3 * (n / 4)] = INFINITY;
+    img[3 * (n / 5) + 2] = NAN;
+    ew_device *dev = make_device(threads);
+    ew_bgrid_splat(dev, &p, img, guide, grid);
+    for (int v = 0; v < p.gh; v++)
+        for (int u = 0; u < p.gw; u++) ew_bgrid_splat_column(u, v, &p, img, guide, grid_k);
+    int ok = memcmp(grid, grid_k, sizeof(float) * gf) == 0;
+    if (!ok) fprintf(stderr, "  %dx%d rates %g/%g: splat differs from the kernel\n", w, h, rs, rd);
+    ew_bgrid_slice(dev, &p, grid_k, guide, out);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) ew_bgrid_slice_px(x, y, &p, grid_k, guide, out_k + ((long)y * w + x) * 3);
+    if (memcmp(out, out_k, sizeof(float) * n * 3) != 0) {
+        fprintf(stderr, "  %dx%d rates %g/%g: slice differs from the kernel\n", w, h, rs, rd);
+        ok = 0;
+    }
+    ew_device_destroy(dev);
+    free(img); free(guide); free(grid); free(grid_k); free(out); free(out_k);
+    return ok;
+}
+
+TEST(cpu_rows_are_the_kernels_bits) {
+    CHECK(same_bits_as_kernels(301, 37, 4, 4, 2, 21));
+    CHECK(same_bits_as_kernels(517, 23, 8, 8, 1, 22));
+    CHECK(same_bits_as_kernels(70, 71, 16, 16, 3, 23));
+    CHECK(same_bits_as_kernels(45, 19, 2.5f, 5.5f, 2, 24));
+    CHECK(same_bits_as_kernels(33, 40, 3, 255, 2, 25)); /* one depth cell */
+    CHECK(same_bits_as_kernels(9, 7, 1, 32, 2, 26));
+    CHECK(same_bits_as_kernels(260, 12, 32, 32, 2, 27));
+}

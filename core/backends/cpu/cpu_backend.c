@@ -1,7 +1,8 @@
 /*
- * cpu_backend.c — the CPU backend: rows (or grid columns) are handed out to
+ * cpu_backend.c — the CPU backend: rows (or grid rows) are handed out to
  * the device's thread pool; each item calls the shared per-pixel function.
  */
+#include "backends/cpu/cpu_bgrid.h"
 #include "src/backend.h"
 #include "src/internal.h"
 
@@ -12,34 +13,7 @@ typedef struct {
     const ew_denoise_buffers *b;
 } cpu_job;
 
-static void splat_rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const cpu_job *j = (const cpu_job *)ctx;
-    for (int64_t v = begin; v < end; v++)
-        for (int u = 0; u < j->p->gw; u++) ew_bgrid_splat_column(u, (int)v, j->p, j->a, j->guide, j->dst);
-}
-
-static void cpu_bgrid_splat(ew_device *dev, const ew_bgrid_params *p, const float *image,
-                            const float *guide, float *grid) {
-    cpu_job j = {p, image, guide, grid, NULL};
-    ew_pool_run(dev->pool, p->gh, 1, splat_rows, &j);
-}
-
-static void slice_rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const cpu_job *j = (const cpu_job *)ctx;
-    const int C = j->p->channels;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < j->p->width; x++)
-            ew_bgrid_slice_px(x, (int)y, j->p, j->a, j->guide,
-                              j->dst + ((int64_t)y * j->p->width + x) * C);
-}
-
-static void cpu_bgrid_slice(ew_device *dev, const ew_bgrid_params *p, const float *grid,
-                            const float *guide, float *out) {
-    cpu_job j = {p, grid, guide, out, NULL};
-    ew_pool_run(dev->pool, p->height, 0, slice_rows, &j);
-}
+/* splat and slice: cpu_bgrid.c */
 
 static void prepare_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
@@ -118,8 +92,8 @@ static void cpu_temporal(ew_device *dev, const ew_temporal_params *p, const ew_t
 
 const ew_backend ew_cpu_backend = {
     .name = "cpu",
-    .bgrid_splat = cpu_bgrid_splat,
-    .bgrid_slice = cpu_bgrid_slice,
+    .bgrid_splat = ew_cpu_bgrid_splat,
+    .bgrid_slice = ew_cpu_bgrid_slice,
     .denoise_prepare = cpu_denoise_prepare,
     .denoise_finish = cpu_denoise_finish,
     .denoise_refine_guide = cpu_denoise_refine_guide,
