@@ -1,15 +1,33 @@
 /*
- * denoise_auto.c — denoiser "auto": no more filtering than the frame needs.
- * It picks the bgrid settings for the frame's noise level: from the sample
- * count when the caller knows it (Cycles writes it into the EXR header),
- * else from a noise estimate of the colour (algorithms/noise.c). The tiers
- * and their thresholds were measured on the training scenes of
- * ../shared/data/cycles-train (see BENCHMARKS.md): strong smoothing at 1 spp
- * loses 4 dB at 64 spp, where a fine grid still gains 2 dB.
+ * denoise_auto.c — denoiser "auto": no more model than the frame needs.
+ *
+ * It reads the frame's noise level — the sample count when the caller knows
+ * it (Cycles writes it into the EXR header), else a noise estimate of the
+ * colour (algorithms/noise.c) — and which feature passes exist, and runs
+ * the cheapest method that measured within a few tenths of a dB of the best
+ * at that level:
+ *
+ *   level (spp)   with albedo + normal + depth   otherwise: bgrid (spatial, range, prepass rate)
+ *   0 (1-2)       nbg 2layer-3grid-1spp          coarse grid (8, 8, 8)
+ *   1 (3-8)       nbg 2layer-3grid               medium grid (4, 8, 4)
+ *   2 (9-32)      bgrid fine grid                fine grid   (2, 8, 4)
+ *   3 (33-)       bgrid finest grid              finest grid (2, 4, 4)
+ *
+ * Measured on the validation scenes of ../shared/data/cycles-train (the
+ * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
+ * the learned guides win by 1.6 dB over the best grid at 1 spp and 1.0 dB
+ * at 4 spp; at 16 spp the fine grid matches nbg (+0.2 dB) at under a third
+ * of its time, and at 64 spp the finest grid beats nbg by 2.5 dB: strong
+ * smoothing destroys detail a converged frame already has. The grid
+ * settings per level were swept on the training scenes (bgrid has no
+ * weights, so they are fair for it). When this build has no NBG weights
+ * the grid column is used at every level.
  */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "algorithms/nbg.h"
 #include "algorithms/noise.h"
 #include "src/op.h"
 
@@ -25,24 +43,37 @@ static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 1e7f, "samples per pixel of the render (0: unknown, estimate the noise)"},
 };
 
-typedef struct { float spatial, range, prepass; } tier;
+#define NUM_LEVELS 4
+#define NBG_1SPP 3 /* nbg's built-in models (algorithms/nbg.h) */
+#define NBG_ALL_SPP 0
 
-/* Measured best settings per noise level (training scenes, mean PSNR gain). */
-static const tier tiers[] = {
-    {8.0f, 8.0f, 8.0f}, /* ~1 spp */
-    {4.0f, 8.0f, 4.0f}, /* ~4 spp */
-    {2.0f, 4.0f, 4.0f}, /* 16 spp and more */
+typedef struct { float spatial, range, prepass; } grid_setting;
+
+static const grid_setting grids[NUM_LEVELS] = {
+    {8.0f, 8.0f, 8.0f}, /* coarse */
+    {4.0f, 8.0f, 4.0f}, /* medium */
+    {2.0f, 8.0f, 4.0f}, /* fine */
+    {2.0f, 4.0f, 4.0f}, /* finest */
 };
+/* nbg's built-in model per level, or -1 for the grid */
+static const int nbg_model[NUM_LEVELS] = {NBG_1SPP, NBG_ALL_SPP, -1, -1};
+static const char *const grid_names[NUM_LEVELS] = {"coarse", "medium", "fine", "finest"};
 
-static int pick_tier(int samples, const ew_image *color, const ew_image *albedo) {
-    if (samples > 0) return samples <= 2 ? 0 : samples <= 8 ? 1 : 2;
-    float n = ew_estimate_noise(color, albedo);
-    return n > 0.04f ? 0 : n > 0.015f ? 1 : 2;
+/* Noise-estimate thresholds between the levels: the geometric means of the
+ * estimate's medians per sample count over the training scenes, 0.048
+ * (1 spp), 0.020 (4), 0.0117 (16) and 0.0065 (64). Scenes overlap a lot
+ * (64-spp glossy frames read like 4-spp diffuse ones: the estimate sees
+ * detail the albedo lacks as noise), so a known sample count is always
+ * preferred. */
+static int level_of(int samples, float noise) {
+    if (samples > 0) return samples <= 2 ? 0 : samples <= 8 ? 1 : samples <= 32 ? 2 : 3;
+    return noise > 0.031f ? 0 : noise > 0.0153f ? 1 : noise > 0.0087f ? 2 : 3;
 }
 
 typedef struct {
     ew_op *inner;
-    int tier;
+    const char *inner_name; /* "nbg" or "bgrid" */
+    char choice[160];
 } state;
 
 static void release(ew_op *op) {
@@ -52,24 +83,60 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
+/* Make s->inner a fresh op of method `name` with the frame's images. */
+static ew_result bind(ew_op *op, state *s, const char *name) {
+    ew_op_destroy(s->inner);
+    s->inner = NULL;
+    s->inner_name = name;
+    ew_result r = ew_op_create(op->dev, "denoiser", name, &s->inner);
+    for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
+        r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));
+    return r;
+}
+
+static ew_result commit_grid(ew_op *op, state *s, int level) {
+    const grid_setting *g = &grids[level];
+    ew_result r = bind(op, s, "bgrid");
+    if (r == EW_OK) r = ew_op_set_param(s->inner, "spatial_rate", g->spatial, 0);
+    if (r == EW_OK) r = ew_op_set_param(s->inner, "range_rate", g->range, 0);
+    if (r == EW_OK) r = ew_op_set_param(s->inner, "prepass_rate", g->prepass, 0);
+    if (r == EW_OK) r = ew_op_commit(s->inner);
+    return r;
+}
+
 static ew_result commit(ew_op *op) {
     state *s = (state *)op->state;
     if (!s) {
         s = (state *)calloc(1, sizeof *s);
         if (!s) return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
         op->state = s;
-        ew_result r = ew_op_create(op->dev, "denoiser", "bgrid", &s->inner);
-        if (r != EW_OK) return r;
     }
-    s->tier = pick_tier((int)ew_op_param(op, "samples"), ew_op_image(op, "color"), ew_op_image(op, "albedo"));
-    const tier *t = &tiers[s->tier];
-    ew_result r = EW_OK;
-    for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
-        r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));
-    if (r == EW_OK) r = ew_op_set_param(s->inner, "spatial_rate", t->spatial, 0);
-    if (r == EW_OK) r = ew_op_set_param(s->inner, "range_rate", t->range, 0);
-    if (r == EW_OK) r = ew_op_set_param(s->inner, "prepass_rate", t->prepass, 0);
-    if (r == EW_OK) r = ew_op_commit(s->inner);
+    const int samples = (int)ew_op_param(op, "samples");
+    const float noise = samples > 0 ? 0.0f : ew_estimate_noise(ew_op_image(op, "color"), ew_op_image(op, "albedo"));
+    const int level = level_of(samples, noise);
+    char why[64];
+    if (samples > 0)
+        snprintf(why, sizeof why, "%d spp", samples);
+    else
+        snprintf(why, sizeof why, "noise estimate %.4f", (double)noise);
+
+    const int features = ew_op_image(op, "albedo") && ew_op_image(op, "normal") && ew_op_image(op, "depth");
+    const int model = features ? nbg_model[level] : -1;
+    if (model >= 0) {
+        ew_result r = bind(op, s, "nbg");
+        if (r == EW_OK) r = ew_op_set_param(s->inner, "model", (float)model, 1);
+        if (r == EW_OK) r = ew_op_commit(s->inner);
+        if (r == EW_OK) {
+            snprintf(s->choice, sizeof s->choice, "nbg %s (%s)", ew_nbg_model_name(model), why);
+            return EW_OK;
+        }
+        if (r != EW_ERR_UNSUPPORTED) return r;
+        /* this build has no weights for that model: the hand-made guide */
+    }
+    ew_result r = commit_grid(op, s, level);
+    if (r == EW_OK)
+        snprintf(s->choice, sizeof s->choice, "bgrid %s grid %g/%g (%s)", grid_names[level],
+                 (double)grids[level].spatial, (double)grids[level].range, why);
     return r;
 }
 
@@ -80,11 +147,17 @@ static ew_result execute(ew_op *op) {
     return ew_op_execute(s->inner);
 }
 
+static const char *describe(const ew_op *op) {
+    const state *s = (const state *)op->state;
+    return s ? s->choice : NULL;
+}
+
 const ew_op_type ew_denoise_auto = {
     .kind = "denoiser",
     .name = "auto",
-    .summary = "picks the bilateral-grid settings for the frame's noise level (sample count, or a noise "
-               "estimate): no more smoothing than the frame needs",
+    .summary = "picks the cheapest method that reaches the best quality for the frame's noise level (sample "
+               "count, or a noise estimate) and passes: nbg at 1-8 spp with albedo/normal/depth, else a "
+               "bilateral grid as fine as the frame allows",
     .images = images,
     .num_images = (int)(sizeof images / sizeof images[0]),
     .params = params,
@@ -92,4 +165,5 @@ const ew_op_type ew_denoise_auto = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .describe = describe,
 };

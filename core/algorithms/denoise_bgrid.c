@@ -175,5 +175,6 @@ const ew_op_type ew_denoise_bgrid = {
     "(the colour's luminance when no features are given)",
     images, (int)(sizeof images / sizeof images[0]), params, (int)(sizeof params / sizeof params[0]),
     commit, execute, release, NULL, NULL,
-    1, /* device_memory: runs on CUDA (issue 8) */
+    1,    /* device_memory: runs on CUDA (issue 8) */
+    NULL, /* describe: the method's name */
 };

@@ -29,6 +29,12 @@ ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, void *user
 }
 ew_result ew_denoiser_commit(ew_denoiser *d) { return ew_op_commit((ew_op *)d); }
 ew_result ew_denoiser_execute(ew_denoiser *d) { return ew_op_execute((ew_op *)d); }
+const char *ew_denoiser_describe(const ew_denoiser *d) {
+    const ew_op *op = (const ew_op *)d;
+    if (!op || !op->committed) return NULL;
+    const char *s = op->type->describe ? op->type->describe(op) : NULL;
+    return s ? s : op->type->name;
+}
 
 struct ew_filter { ew_op op; };
 

@@ -45,6 +45,9 @@ typedef struct ew_op_type {
      * (docs/backends.md); only then may it run on a device with memory of
      * its own (CUDA): ew_op_create refuses it there otherwise. */
     int device_memory;
+    /* Optional: what a committed op runs, in words (ew_denoiser_describe);
+     * NULL means the method's own name. */
+    const char *(*describe)(const ew_op *op);
 } ew_op_type;
 
 struct ew_op {

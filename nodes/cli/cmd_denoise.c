@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "cycles_passes.h"
+#include "method_run.h"
 
 static const char help[] =
     "usage: edgewise denoise IN -o OUT [options]\n"
@@ -28,17 +29,20 @@ static const char help[] =
     "options:\n"
     "  -o, --output FILE     output file (required)\n"
     "  --layer NAME          denoise only this view layer\n"
-    "  --method NAME         auto (default): nbg when the layer has albedo, normal and depth,\n"
-    "                        else bgrid when it has albedo, else bgrid-color\n"
+    "  --method NAME         auto (default): no more model than the frame needs, by its sample\n"
+    "                        count (the file's Cycles metadata; --samples overrides it) or a\n"
+    "                        noise estimate, and its passes: nbg 2layer-3grid-1spp at 1-2 spp,\n"
+    "                        nbg 2layer-3grid at 3-8 spp, a bilateral grid as fine as the frame\n"
+    "                        allows above that or without albedo/normal/depth (docs/nbg.md)\n"
     "                        nbg: neural bilateral grid, guides learned by a small CNN (needs\n"
-    "                        albedo, normal and depth; see docs/nbg.md)\n"
+    "                        albedo, normal and depth)\n"
     "                        bgrid: bilateral grid guided by albedo/normal/depth (needs albedo)\n"
     "                        bgrid-color: bilateral grid guided by the colour alone\n"
-    "  --model NAME|PATH     nbg's weights: a built-in model, 2layer-3grid (real time, trained on\n"
-    "                        1-64 spp), 2layer-3grid-1spp (trained on 1 spp), 2layer-1grid\n"
-    "                        (fastest) or 7layer-3grid (offline), or a weights file written by\n"
-    "                        train_nbg (models/nbg/README.md). Default: 2layer-3grid-1spp when the\n"
-    "                        file's Cycles metadata says 1 or 2 samples, else 2layer-3grid\n"
+    "  --model NAME|PATH     nbg's weights (implies --method nbg): a built-in model,\n"
+    "                        2layer-3grid (default; real time, trained on 1-64 spp),\n"
+    "                        2layer-3grid-1spp (trained on 1 spp), 2layer-1grid (fastest) or\n"
+    "                        7layer-3grid (offline), or a weights file written by train_nbg\n"
+    "                        (models/nbg/README.md)\n"
     "  --threads N           worker threads, 0 = all cores (default 0)\n"
     "  --half | --float      EXR pixel type of the written passes (default: as read)\n"
     "  --reference REF       also print PSNR/SSIM of input and output against REF\n"
@@ -158,6 +162,7 @@ static int parse(int argc, char **argv, options *o) {
         fprintf(stderr, "edgewise: --model is for --method nbg, not '%s'\n", o->method);
         return 0;
     }
+    if (o->model) o->method = "nbg"; /* a model names the method */
     /* --model: a built-in model's name, else a weights file (read later) */
     o->model_index = 0;
     for (int k = 0; o->model && k < NUM_BUILTIN; k++)
@@ -192,19 +197,39 @@ static int same_file(const char *a, const char *b) {
     return strcmp(a, b) == 0;
 }
 
-static double now_s(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 typedef struct {
     ewio_file *f;
     ew_device *dev;
     const options *o;
-    float *color, *albedo, *normal, *depth, *out;
+    float *out;
     char err[1024];
 } job;
+
+/* What runs on a layer: the library method and its settings (bench and the
+ * stability suite run the same ew_method_run, so their figures are what
+ * this command gives). */
+static int make_spec(const job *j, const ew_layer_passes *lp, const char *method, ew_method_spec *spec) {
+    memset(spec, 0, sizeof *spec);
+    spec->label = method;
+    spec->kind = "denoiser";
+    spec->name = !strcmp(method, "bgrid-color") ? "bgrid" : method;
+    if (!strcmp(method, "nbg")) {
+        if (j->o->model_index >= 0) {
+            spec->param_names[spec->num_params] = "model";
+            spec->param_values[spec->num_params++] = (float)j->o->model_index;
+        } else {
+            spec->data_name = "weights";
+            spec->data = j->o->model_bytes;
+            spec->data_size = j->o->model_size;
+        }
+    }
+    for (int k = 0; k < j->o->num_set && spec->num_params < EW_RUN_MAX_PARAMS; k++) {
+        spec->param_names[spec->num_params] = j->o->set_name[k];
+        spec->param_values[spec->num_params++] = j->o->set_value[k];
+    }
+    (void)lp;
+    return 0;
+}
 
 /* Denoise one layer in memory and put the result back into the file. */
 static int denoise_layer(job *j, const ew_layer_passes *lp) {
@@ -213,19 +238,16 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     char layers[512];
     ew_list_layers(j->f, layers, sizeof layers);
     const char *method = j->o->method;
-    const int auto_method = !strcmp(method, "auto");
-    if (auto_method) method = lp->albedo && lp->normal && lp->depth ? "nbg" : lp->albedo ? "bgrid" : "bgrid-color";
     if (!strcmp(method, "nbg") && (!lp->albedo || !lp->normal || !lp->depth))
         return cli_fail("layer '%s' lacks the %s pass that --method nbg needs (it reads Denoising Albedo, Normal "
                         "and Depth); layers found: %s. Enable Denoising Data in Blender's view layer passes, or "
-                        "use --method bgrid",
+                        "use --method auto",
                         layer, !lp->albedo ? "albedo" : !lp->normal ? "normal" : "depth", layers);
     if (!strcmp(method, "bgrid") && !lp->albedo)
         return cli_fail("layer '%s' has no albedo pass (looked for 'Denoising Albedo' and 'DiffCol'), which "
                         "--method bgrid needs; layers found: %s. Enable Denoising Data in Blender's view layer "
                         "passes, or use --method bgrid-color",
                         layer, layers);
-    int use_features = !strcmp(method, "bgrid") || !strcmp(method, "nbg");
 
     int nc = (int)strlen(lp->color_comps);
     float *orig = (float *)malloc((size_t)w * h * nc * sizeof(float));
@@ -234,70 +256,33 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(orig);
         return cli_fail("%s", j->err);
     }
-    ew_image color = ew_image_packed(orig, w, h, nc);
-    ew_image out = ew_image_packed(j->out, w, h, 3);
-    ew_denoiser *d = NULL;
-    const int nbg = !strcmp(method, "nbg");
-    int model_index = j->o->model_index;
-    if (nbg && !j->o->model) {
-        /* The 1-spp model is ~1 dB better at 1-2 spp and worse above
-         * (models/nbg/README.md): pick by the render's sample count. */
-        char key[320];
-        snprintf(key, sizeof key, "cycles.%s.samples", layer);
-        int spp = atoi(ewio_get_attribute(j->f, key));
-        if (spp >= 1 && spp <= 2) model_index = 3;
-    }
-    ew_result r = ew_denoiser_create(j->dev, nbg ? "nbg" : "bgrid", &d);
-    if (r == EW_OK && nbg && model_index >= 0) r = ew_denoiser_set_int(d, "model", model_index);
-    if (r == EW_OK && nbg && j->o->model_index < 0)
-        r = ew_denoiser_set_data(d, "weights", j->o->model_bytes, j->o->model_size);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &color);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &out);
-    if (r == EW_OK && use_features) {
-        ew_image v;
-        if (ewio_get_pass(j->f, layer, lp->albedo, "RGB", j->albedo, j->err, sizeof j->err) != 0) goto io_fail;
-        v = ew_image_packed(j->albedo, w, h, 3);
-        r = ew_denoiser_set_image(d, "albedo", &v);
-        if (r == EW_OK && lp->normal) {
-            if (ewio_get_pass(j->f, layer, lp->normal, "XYZ", j->normal, j->err, sizeof j->err) != 0) goto io_fail;
-            v = ew_image_packed(j->normal, w, h, 3);
-            r = ew_denoiser_set_image(d, "normal", &v);
-        }
-        if (r == EW_OK && lp->depth) {
-            if (ewio_get_pass(j->f, layer, lp->depth, "Z", j->depth, j->err, sizeof j->err) != 0) goto io_fail;
-            v = ew_image_packed(j->depth, w, h, 1);
-            r = ew_denoiser_set_image(d, "depth", &v);
-        }
-    }
-    for (int k = 0; r == EW_OK && k < j->o->num_set; k++)
-        r = ew_denoiser_set_float(d, j->o->set_name[k], j->o->set_value[k]);
-    if (r == EW_OK && nbg && auto_method && !j->o->model) {
-        /* auto without built-in weights in this build: the hand-made guide */
-        r = ew_denoiser_commit(d);
-        if (r == EW_ERR_UNSUPPORTED) {
-            ew_denoiser_destroy(d);
-            free(orig);
-            options fallback = *j->o;
-            fallback.method = "bgrid";
-            job jb = *j;
-            jb.o = &fallback;
-            return denoise_layer(&jb, lp);
-        }
-    }
-    double t0 = now_s();
-    if (r == EW_OK) r = ew_denoiser_commit(d);
-    if (r == EW_OK) r = ew_denoiser_execute(d);
-    double dt = now_s() - t0;
-    ew_denoiser_destroy(d);
-    if (r != EW_OK) {
+    ew_layer_data in;
+    if (ew_layer_data_read(j->f, lp, &in, j->err, sizeof j->err) != 0) {
         free(orig);
-        return cli_fail("denoising layer '%s' failed: %s", layer, ew_device_last_error(j->dev));
+        return cli_fail("%s", j->err);
     }
-    char what[300];
-    if (nbg)
-        snprintf(what, sizeof what, "nbg %s", model_index >= 0 ? builtin[model_index] : j->o->model);
-    else
-        snprintf(what, sizeof what, "%s", method);
+    if (!strcmp(method, "bgrid-color")) { /* guided by the colour alone */
+        free(in.albedo);
+        free(in.normal);
+        free(in.depth);
+        in.albedo = in.normal = in.depth = NULL;
+    }
+    ew_method_spec spec;
+    char chosen[200] = "";
+    make_spec(j, lp, method, &spec);
+    spec.chosen = chosen;
+    spec.chosen_len = sizeof chosen;
+    double ms = 0.0;
+    int bad = ew_method_run(j->dev, &spec, &in, j->out, &ms, j->err, sizeof j->err);
+    const int guided = in.albedo != NULL;
+    const int has_nd = in.normal && in.depth, has_n = in.normal != NULL, has_d = in.depth != NULL;
+    ew_layer_data_free(&in);
+    if (bad) {
+        free(orig);
+        return cli_fail("denoising layer '%s' failed: %s", layer, j->err);
+    }
+    if (!strcmp(method, "nbg") && j->o->model_index < 0)
+        snprintf(chosen, sizeof chosen, "nbg %s", j->o->model); /* weights from a file */
     /* Keep the noisy original beside the result, as Blender does. */
     int put = 0;
     if (strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0')
@@ -307,15 +292,11 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     free(orig);
     if (put != 0) return cli_fail("%s", j->err);
     if (!j->o->quiet)
-        fprintf(stderr, "edgewise: layer '%s': %s (%s%s%s) %dx%d in %.3f s\n", layer[0] ? layer : "(image)", what,
-                lp->color, use_features ? " guided by albedo" : "",
-                use_features ? (lp->normal && lp->depth ? ", normal, depth" : lp->normal ? ", normal" : lp->depth ? ", depth" : "") : "",
-                w, h, dt);
+        fprintf(stderr, "edgewise: layer '%s': %s (%s%s%s) %dx%d in %.3f s\n", layer[0] ? layer : "(image)", chosen,
+                lp->color, guided ? " guided by albedo" : "",
+                guided ? (has_nd ? ", normal, depth" : has_n ? ", normal" : has_d ? ", depth" : "") : "", w, h,
+                ms * 1e-3);
     return 0;
-io_fail:
-    ew_denoiser_destroy(d);
-    free(orig);
-    return cli_fail("%s", j->err);
 }
 
 static int print_quality(job *j, const ew_layer_passes *lp, const float *noisy_rgb) {
@@ -363,12 +344,9 @@ int cmd_denoise(int argc, char **argv) {
     int rc = EW_EXIT_FAIL;
     const size_t n = (size_t)ewio_width(j.f) * (size_t)ewio_height(j.f);
     float *noisy_first = NULL;
-    j.albedo = (float *)malloc(n * 3 * sizeof(float));
-    j.normal = (float *)malloc(n * 3 * sizeof(float));
-    j.depth = (float *)malloc(n * sizeof(float));
     j.out = (float *)malloc(n * 3 * sizeof(float));
     noisy_first = (float *)malloc(n * 3 * sizeof(float));
-    if (!j.albedo || !j.normal || !j.depth || !j.out || !noisy_first) {
+    if (!j.out || !noisy_first) {
         cli_fail("out of memory for a %dx%d image", ewio_width(j.f), ewio_height(j.f));
         goto done;
     }
@@ -416,9 +394,6 @@ int cmd_denoise(int argc, char **argv) {
 done:
     ew_device_destroy(j.dev);
     ewio_free(j.f);
-    free(j.albedo);
-    free(j.normal);
-    free(j.depth);
     free(j.out);
     free(noisy_first);
     free(o.model_bytes);

@@ -6,7 +6,6 @@
 #include <string.h>
 #include <time.h>
 
-#define ALBEDO_EPS 0.01f /* the same epsilon as the denoisers' demodulation */
 
 void ew_layer_data_free(ew_layer_data *d) {
     free(d->color);
@@ -47,12 +46,17 @@ int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_d
     if (!fail && ewio_has_pass(f, lp->layer, "Vector", "XY"))
         out->vector = read_pass(f, lp->layer, "Vector", "XY", err, errlen, &fail);
     if (fail) ew_layer_data_free(out);
+    char key[320];
+    snprintf(key, sizeof key, "cycles.%s.samples", lp->layer);
+    const char *spp = ewio_get_attribute(f, key);
+    out->samples = spp ? atoi(spp) : 0;
+    if (out->samples < 0) out->samples = 0;
     return fail;
 }
 
 /* As the denoisers demodulate (kernels/denoise_px.h): a damaged or negative
  * albedo counts as black, so it cannot turn a pixel into NaN. */
-static float albedo_factor(float a) { return (isfinite(a) && a > 0.0f ? a : 0.0f) + ALBEDO_EPS; }
+static float albedo_factor(float a) { return (isfinite(a) && a > 0.0f ? a : 0.0f) + EW_ALBEDO_EPSILON; }
 
 static double now_ms(void) {
     struct timespec ts;
@@ -87,11 +91,20 @@ static ew_result execute(int f, void *op) {
     return f ? ew_filter_execute((ew_filter *)op) : ew_denoiser_execute((ew_denoiser *)op);
 }
 
+/* Whether the method has a parameter called `name`. */
+static int has_param(const ew_method_spec *spec, const char *name) {
+    ew_param_info p;
+    for (int32_t k = 0; ew_method_param(spec->kind, spec->name, k, &p) == EW_OK; k++)
+        if (!strcmp(p.name, name)) return 1;
+    return 0;
+}
+
 int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_data *in, float *out, double *ms,
                   char *err, size_t errlen) {
     const int w = in->width, h = in->height;
     const size_t n = (size_t)w * h;
     *ms = 0.0;
+    if (errlen) err[0] = '\0';
     if (!spec->kind) { /* identity: the noisy input */
         memcpy(out, in->color, n * 3 * sizeof(float));
         return 0;
@@ -140,15 +153,26 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
         views[i] = ew_image_packed(buf, w, h, ch);
         r = set_image(is_filter, op, info.name, &views[i]);
     }
+    int samples_set = 0;
     for (int k = 0; r == EW_OK && k < spec->num_params; k++) {
         r = set_float(is_filter, op, spec->param_names[k], spec->param_values[k]);
         if (r == EW_ERR_INVALID_ARGUMENT && strstr(ew_device_last_error(dev), "set_int"))
             r = set_int(is_filter, op, spec->param_names[k], (int32_t)spec->param_values[k]);
+        samples_set |= !strcmp(spec->param_names[k], "samples");
     }
+    if (r == EW_OK && !samples_set && in->samples > 0 && has_param(spec, "samples"))
+        r = set_int(is_filter, op, "samples", in->samples);
+    if (r == EW_OK && spec->data_name)
+        r = is_filter ? ew_filter_set_data(fop, spec->data_name, spec->data, spec->data_size)
+                      : ew_denoiser_set_data(dop, spec->data_name, spec->data, spec->data_size);
     double t0 = now_ms();
     if (r == EW_OK) r = commit(is_filter, op);
     if (r == EW_OK) r = execute(is_filter, op);
     *ms = now_ms() - t0;
+    if (r == EW_OK && spec->chosen && spec->chosen_len) {
+        const char *what = is_filter ? spec->name : ew_denoiser_describe(dop);
+        snprintf(spec->chosen, spec->chosen_len, "%s", what ? what : spec->name);
+    }
     if (r != EW_OK && !err[0]) snprintf(err, errlen, "%s: %s", spec->label, ew_device_last_error(dev));
     ew_filter_destroy(fop);
     ew_denoiser_destroy(dop);

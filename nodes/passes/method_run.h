@@ -21,6 +21,14 @@ typedef struct ew_method_spec {
     int num_params;
     const char *param_names[EW_RUN_MAX_PARAMS];
     float param_values[EW_RUN_MAX_PARAMS];
+    /* optional named data (ew_*_set_data), e.g. "weights" and a file's bytes */
+    const char *data_name;
+    const void *data;
+    size_t data_size;
+    /* optional output: what the method ran (ew_denoiser_describe), e.g. the
+     * model "auto" picked */
+    char *chosen;
+    size_t chosen_len;
 } ew_method_spec;
 
 /* Inputs of one layer, read once, reused across methods. */
@@ -31,6 +39,8 @@ typedef struct ew_layer_data {
     float *normal;  /* 3 per pixel or NULL */
     float *depth;   /* 1 per pixel or NULL */
     float *vector;  /* 2 per pixel or NULL */
+    int samples;    /* samples per pixel from the file's Cycles metadata, 0 if unknown;
+                       given to methods with a "samples" parameter the spec leaves unset */
 } ew_layer_data;
 
 int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);

@@ -110,6 +110,12 @@ typedef struct ew_image {
     ew_format format;
 } ew_image;
 
+/* The denoisers divide colour by (albedo + EW_ALBEDO_EPSILON) and multiply
+ * it back the same way: black albedo (emitters, background) amplifies noise
+ * at most 1/EPSILON times and there is no threshold to make seams. Callers
+ * that demodulate around a filter should use the same value. */
+#define EW_ALBEDO_EPSILON 0.01f
+
 /* A packed float view of a caller buffer of width*height*channels floats. */
 EW_API ew_image ew_image_packed(float *data, int32_t width, int32_t height, int32_t channels);
 
@@ -150,6 +156,12 @@ EW_API ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, voi
 EW_API ew_result ew_denoiser_commit(ew_denoiser *d);
 /* Run. Allocates nothing. */
 EW_API ew_result ew_denoiser_execute(ew_denoiser *d);
+/* What a committed denoiser runs, in words: for "auto", the method, model
+ * or grid settings it picked for this frame and from what (e.g. "nbg
+ * 2layer-3grid-1spp (1 spp)"); for the others, the method's name. NULL
+ * before a successful commit. The text lives until the next commit or
+ * destroy. */
+EW_API const char *ew_denoiser_describe(const ew_denoiser *d);
 
 /* ---- filters ---------------------------------------------------------- */
 /*

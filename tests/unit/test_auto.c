@@ -1,0 +1,167 @@
+/* The "auto" denoiser: which method it runs for a sample count, a noise
+ * level and a set of passes (ew_denoiser_describe), that its output is
+ * exactly what the method it names gives, and the demodulation epsilon
+ * the public header states. */
+#include "ew_test.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "edgewise/edgewise.h"
+#include "kernels/denoise_px.h"
+
+static float urand(unsigned *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (float)((*s >> 8) & 0xffffff) / 16777216.0f;
+}
+
+static ew_device *make_device(void) {
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = 2;
+    ew_device *dev = NULL;
+    return ew_device_create(&desc, &dev) == EW_OK ? dev : NULL;
+}
+
+#define W 48
+#define H 40
+#define N (W * H)
+
+/* A smooth two-region scene with noise of the given strength. */
+typedef struct {
+    float color[N * 3], albedo[N * 3], normal[N * 3], depth[N], out[N * 3], out2[N * 3];
+} frame;
+
+static void make_frame(frame *f, float noise, unsigned seed) {
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int j = y * W + x, left = x < W / 2;
+            for (int c = 0; c < 3; c++) {
+                f->albedo[j * 3 + c] = left ? 0.7f : 0.3f;
+                float light = 0.2f + 0.3f * (float)y / H;
+                /* multiplicative noise of mean 1, like a few samples' worth */
+                float n = 1.0f + noise * (2.0f * urand(&seed) - 1.0f) * 1.7f;
+                f->color[j * 3 + c] = f->albedo[j * 3 + c] * light * n;
+                f->normal[j * 3 + c] = c == 2 ? 1.0f : 0.0f;
+            }
+            f->depth[j] = left ? 2.0f : 5.0f;
+        }
+}
+
+/* Run `method` on f (features when `features`), with `samples` when the
+ * method takes it; returns what it says it ran (copied into `what`). */
+static ew_result run(ew_device *dev, const char *method, frame *f, int features, int samples, const char *pname,
+                     float pvalue, float *out, char *what, size_t len) {
+    ew_denoiser *d = NULL;
+    ew_result r = ew_denoiser_create(dev, method, &d);
+    ew_image c = ew_image_packed(f->color, W, H, 3), a = ew_image_packed(f->albedo, W, H, 3),
+             n = ew_image_packed(f->normal, W, H, 3), z = ew_image_packed(f->depth, W, H, 1),
+             o = ew_image_packed(out, W, H, 3);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
+    if (r == EW_OK && features) r = ew_denoiser_set_image(d, "albedo", &a);
+    if (r == EW_OK && features) r = ew_denoiser_set_image(d, "normal", &n);
+    if (r == EW_OK && features) r = ew_denoiser_set_image(d, "depth", &z);
+    if (r == EW_OK && samples >= 0) r = ew_denoiser_set_int(d, "samples", samples);
+    if (r == EW_OK && pname) /* "model" is nbg's one integer parameter */
+        r = strcmp(pname, "model") ? ew_denoiser_set_float(d, pname, pvalue) : ew_denoiser_set_int(d, pname, (int32_t)pvalue);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK && what) snprintf(what, len, "%s", ew_denoiser_describe(d));
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    ew_denoiser_destroy(d);
+    return r;
+}
+
+static int same(const float *a, const float *b) { return memcmp(a, b, sizeof(float) * N * 3) == 0; }
+
+TEST(sample_count_picks_the_model) {
+    ew_device *dev = make_device();
+    static frame f;
+    make_frame(&f, 0.5f, 1);
+    char what[200];
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
+    CHECK_STR_CONTAINS(what, "1 spp");
+    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, "model", 3, f.out2, NULL, 0), EW_OK);
+    CHECK(same(f.out, f.out2));
+
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK(strstr(what, "nbg 2layer-3grid (") != NULL);
+    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, "model", 0, f.out2, NULL, 0), EW_OK);
+    CHECK(same(f.out, f.out2));
+
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid finest grid 2/4");
+    /* the finest grid is bgrid with those rates */
+    ew_denoiser *d = NULL;
+    CHECK_EQ_INT(ew_denoiser_create(dev, "bgrid", &d), EW_OK);
+    ew_image c = ew_image_packed(f.color, W, H, 3), a = ew_image_packed(f.albedo, W, H, 3),
+             n = ew_image_packed(f.normal, W, H, 3), z = ew_image_packed(f.depth, W, H, 1),
+             o = ew_image_packed(f.out2, W, H, 3);
+    ew_denoiser_set_image(d, "color", &c);
+    ew_denoiser_set_image(d, "albedo", &a);
+    ew_denoiser_set_image(d, "normal", &n);
+    ew_denoiser_set_image(d, "depth", &z);
+    ew_denoiser_set_image(d, "output", &o);
+    ew_denoiser_set_float(d, "spatial_rate", 2.0f);
+    ew_denoiser_set_float(d, "range_rate", 4.0f);
+    ew_denoiser_set_float(d, "prepass_rate", 4.0f);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK_STR_CONTAINS(ew_denoiser_describe(d), "bgrid");
+    CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
+    ew_denoiser_destroy(d);
+    CHECK(same(f.out, f.out2));
+    ew_device_destroy(dev);
+}
+
+TEST(without_features_it_uses_the_grid) {
+    ew_device *dev = make_device();
+    static frame f;
+    make_frame(&f, 0.5f, 2);
+    char what[200];
+    CHECK_EQ_INT(run(dev, "auto", &f, 0, 1, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid coarse grid 8/8");
+    CHECK_EQ_INT(run(dev, "auto", &f, 0, 4, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid medium grid 4/8");
+    for (int i = 0; i < N * 3; i++) CHECK(isfinite(f.out[i]));
+    ew_device_destroy(dev);
+}
+
+TEST(noise_estimate_when_the_count_is_unknown) {
+    ew_device *dev = make_device();
+    static frame f;
+    char what[200];
+    make_frame(&f, 0.9f, 3); /* very noisy: the 1-spp level */
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "1spp");
+    CHECK_STR_CONTAINS(what, "noise estimate");
+    make_frame(&f, 0.0f, 3); /* clean: the finest grid */
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "finest");
+    ew_device_destroy(dev);
+}
+
+TEST(describe_needs_a_commit) {
+    ew_device *dev = make_device();
+    static frame f;
+    make_frame(&f, 0.5f, 4);
+    ew_denoiser *d = NULL;
+    CHECK_EQ_INT(ew_denoiser_create(dev, "auto", &d), EW_OK);
+    CHECK(ew_denoiser_describe(d) == NULL);
+    ew_image c = ew_image_packed(f.color, W, H, 3), o = ew_image_packed(f.out, W, H, 3);
+    ew_denoiser_set_image(d, "color", &c);
+    ew_denoiser_set_image(d, "output", &o);
+    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+    CHECK(ew_denoiser_describe(d) != NULL);
+    ew_denoiser_set_int(d, "samples", 64); /* a change undoes the commit */
+    CHECK(ew_denoiser_describe(d) == NULL);
+    ew_denoiser_destroy(d);
+    CHECK(ew_denoiser_describe(NULL) == NULL);
+    ew_device_destroy(dev);
+}
+
+TEST(demodulation_epsilon_is_the_public_one) {
+    CHECK(EW_ALBEDO_EPS == EW_ALBEDO_EPSILON);
+}
