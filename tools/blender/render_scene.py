@@ -53,6 +53,10 @@ FAMILIES = {
     "motionblur": ("f", "motion blur on, no Vector pass"),
     "anim": ("g", "4-frame camera/object animation, motion blur off, Vector pass on"),
     "hdri": ("h", "world lighting: bundled HDRIs or a Nishita sky"),
+    # stability families (issue 9): not in the shared dataset or make_dataset.sh's default
+    "volume": ("i", "room filled with fog and a smoke blob, lit by a spot (volume scattering)"),
+    "texture": ("j", "high-frequency procedural textures and bump at sub-pixel scale (moire)"),
+    "thin": ("k", "thin geometry: a wire fence, loose wires and grass blades"),
 }
 HDRI_DIR_CANDIDATES = [
     "/usr/share/blender/datafiles/studiolights/world",
@@ -950,10 +954,262 @@ def build_hdri(rng, ctx):
     return extra
 
 
+# --------------------------------------------------------------------------
+# stability families (issue 9): scenes where denoisers fail.  Added after the
+# dataset families; nothing above is changed, so those still reproduce the shared
+# dataset exactly.
+
+
+def mat_volume(name, color, density, anisotropy=0.0, absorption=(0.0, 0.0, 0.0),
+               rng=None, noise_scale=None):
+    """Principled Volume only (no surface: the mesh boundary is invisible).  With
+    noise_scale the density is a clipped noise texture (a heterogeneous 'smoke')."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    N, L = nt.nodes, nt.links
+    N.remove(N["Principled BSDF"])
+    v = N.new("ShaderNodeVolumePrincipled")
+    v.inputs["Color"].default_value = (*color, 1.0)
+    v.inputs["Density"].default_value = density
+    v.inputs["Anisotropy"].default_value = anisotropy
+    v.inputs["Absorption Color"].default_value = (*absorption, 1.0)
+    if noise_scale is not None:
+        tc = N.new("ShaderNodeTexCoord")
+        nz = N.new("ShaderNodeTexNoise")
+        nz.inputs["Scale"].default_value = noise_scale
+        nz.inputs["Detail"].default_value = rng.uniform(2.0, 6.0)
+        nz.inputs["Roughness"].default_value = rng.uniform(0.45, 0.65)
+        nz.inputs["W"].default_value = rng.uniform(0.0, 10.0)
+        nz.noise_dimensions = "4D"
+        L.new(tc.outputs["Object"], nz.inputs["Vector"])
+        mr = N.new("ShaderNodeMapRange")
+        mr.inputs["From Min"].default_value = rng.uniform(0.4, 0.5)
+        mr.inputs["From Max"].default_value = rng.uniform(0.6, 0.75)
+        mr.inputs["To Min"].default_value = 0.0
+        mr.inputs["To Max"].default_value = density
+        mr.clamp = True
+        L.new(nz.outputs["Fac"], mr.inputs["Value"])
+        L.new(mr.outputs["Result"], v.inputs["Density"])
+    L.new(v.outputs["Volume"], N["Material Output"].inputs["Volume"])
+    return m
+
+
+def add_box(name, center, size, mat):
+    """Axis-aligned box; the size is baked into the mesh."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=center)
+    ob = bpy.context.active_object
+    ob.name = name
+    for v in ob.data.vertices:
+        v.co.x *= size[0]
+        v.co.y *= size[1]
+        v.co.z *= size[2]
+    assign(ob, mat)
+    return ob
+
+
+def build_volume(rng, ctx):
+    W, D, H = build_room(rng, colorful_walls=rng.random() < 0.5)
+    # the whole room filled with thin fog (homogeneous: no ray marching) ...
+    e = 0.01
+    fog_d = rng.uniform(0.08, 0.3)
+    aniso = rng.uniform(0.0, 0.6)
+    fog_col = hsv(rng.uniform(0.0, 1.0), rng.uniform(0.0, 0.15), 1.0)
+    add_box("Fog", (0.0, D / 2, H / 2), (W - 2 * e, D - 2 * e, H - 2 * e),
+            mat_volume("Fog", fog_col, fog_d, anisotropy=aniso))
+    # ... occluders on the floor, so the spot makes shafts and shadowed fog ...
+    items = scatter(rng, rng.randint(2, 3), (-W / 2 + 0.05, W / 2 - 0.05), (0.3, D - 0.05),
+                    (0.15, 0.35), ["cube", "tallbox", "sphere", "cylinder"])
+    for i, (x, y, s, k) in enumerate(items[1:]):
+        if k == "tallbox":
+            s = min(s, H / 4.5)
+        add_obj(k, (x, y, 0.0), s, rot_z=rng.uniform(0, math.pi / 2),
+                mat=mat_diffuse("Obj%d" % i, rand_color(rng, s=(0.0, 0.6), v=(0.4, 0.85))),
+                name="Obj%d" % i)
+    # ... and a dense heterogeneous smoke blob (coloured absorption) in the first slot
+    x, y, s, _ = items[0] if items else (0.0, D / 2, 0.3, "")
+    smoke_d = rng.uniform(3.0, 10.0)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=s * 1.3,
+                                          location=(x, y, s * 1.3 + 0.01))
+    ob = bpy.context.active_object
+    ob.name = "Smoke"
+    assign(ob, mat_volume("Smoke", rand_color(rng, s=(0.0, 0.5), v=(0.7, 1.0)), smoke_d,
+                          anisotropy=rng.uniform(-0.2, 0.4),
+                          absorption=rand_color(rng, s=(0.2, 0.8), v=(0.3, 0.9)),
+                          rng=rng, noise_scale=rng.uniform(2.0, 5.0)))
+    # a spot under the ceiling aimed at the floor (god rays); the rest is lit by the
+    # fog and the walls (no fill lamp: one inside the fog makes nearby fog a firefly source)
+    sx, sy = rng.uniform(-0.3, 0.3) * W, rng.uniform(0.3, 0.8) * D
+    tgt = (x + rng.uniform(-0.2, 0.2), y + rng.uniform(-0.2, 0.2), 0.0)  # through the smoke
+    spot_deg = rng.uniform(25.0, 50.0)
+    add_light("SPOT", "Spot", (sx, sy, H - 0.1), energy=400.0, size=rng.uniform(0.01, 0.08),
+              target=tgt, spot_size=math.radians(spot_deg), spot_blend=rng.uniform(0.05, 0.3),
+              color=hsv(rng.uniform(0.05, 0.15), rng.uniform(0.0, 0.3), 1.0))
+    sc = bpy.context.scene
+    sc.cycles.volume_bounces = 2
+    set_world_color((1.0, 1.0, 1.0), 0.03)
+    room_camera(rng, W, D, H, ctx)
+    return {"volume_fog_density": fog_d, "volume_fog_anisotropy": aniso,
+            "volume_smoke_density": smoke_d, "volume_spot_deg": spot_deg,
+            "volume_bounces": sc.cycles.volume_bounces}
+
+
+def mat_fine(name, rng, kind, scale, bump):
+    """High-contrast procedural texture at a fine scale, optionally also as a bump map
+    (high-frequency normals as well as albedo)."""
+    c1 = rand_color(rng, s=(0.0, 0.7), v=(0.65, 0.95))
+    c2 = rand_color(rng, s=(0.0, 0.7), v=(0.02, 0.2))
+    m = mat_principled(name, c1, rough=rng.uniform(0.3, 0.7), spec=0.5, rng=rng,
+                       tex=(c2, scale, kind))
+    if bump > 0.0:
+        nt = m.node_tree
+        p = nt.nodes["Principled BSDF"]
+        fac = next(n for n in nt.nodes if n.bl_idname.startswith("ShaderNodeTex")
+                   and n.bl_idname != "ShaderNodeTexCoord").outputs["Fac"]
+        b = nt.nodes.new("ShaderNodeBump")
+        b.inputs["Strength"].default_value = bump
+        b.inputs["Distance"].default_value = 0.02
+        nt.links.new(fac, b.inputs["Height"])
+        nt.links.new(b.outputs["Normal"], p.inputs["Normal"])
+    return m
+
+
+def build_texture(rng, ctx):
+    # a floor checker fine enough to alias towards the horizon, stripes or bricks on
+    # a back wall, objects with textures of a few millimetres, some also as bump
+    add_plane("Floor", (0, 0, 0), (0, 0, 0), 60.0, 60.0,
+              mat_fine("Floor", rng, "checker", rng.uniform(4.0, 12.0), 0.0))
+    y = rng.uniform(3.0, 5.0)
+    add_plane("BackWall", (0, y, 15.0), (math.pi / 2, 0, 0), 60.0, 30.0,
+              mat_fine("BackWall", rng, rng.choice(["wave", "brick", "checker"]),
+                       rng.uniform(10.0, 30.0), 0.0))
+    items = scatter(rng, rng.randint(3, 5), (-2.4, 2.4), (-1.6, 1.6), (0.35, 0.8),
+                    ["sphere", "cube", "cylinder", "torus", "monkey"])
+    kinds = []
+    for i, (x, y0, s, k) in enumerate(items):
+        tk = rng.choice(TEX_KINDS)
+        kinds.append(tk)
+        m = mat_fine("Obj%d" % i, rng, tk, rng.uniform(20.0, 80.0),
+                     rng.uniform(0.2, 0.8) if rng.random() < 0.5 else 0.0)
+        add_obj(k, (x, y0, 0.0), s, rot_z=rng.uniform(0, 2 * math.pi), mat=m, name="Obj%d" % i)
+    key_lights(rng)
+    set_world_color(hsv(rng.uniform(0.5, 0.65), rng.uniform(0.0, 0.4), 1.0), rng.uniform(0.1, 0.4))
+    stage_camera(rng, el=(8.0, 25.0))
+    return {"texture_kinds": kinds}
+
+
+def add_segments(name, segs, mat):
+    """One mesh of thin square-section beams; segs = [(p0, p1, radius), ...]."""
+    verts, faces = [], []
+    for p0, p1, r in segs:
+        a, b = Vector(p0), Vector(p1)
+        d = (b - a).normalized()
+        u = d.cross(Vector((0.0, 0.0, 1.0)) if abs(d.z) < 0.9 else Vector((1.0, 0.0, 0.0)))
+        u.normalize()
+        v = d.cross(u)
+        base = len(verts)
+        for end in (a, b):
+            for su, sv in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
+                verts.append(tuple(end + r * (su * u + sv * v)))
+        faces += [(base + i, base + (i + 1) % 4, base + 4 + (i + 1) % 4, base + 4 + i)
+                  for i in range(4)]
+        faces += [(base + 3, base + 2, base + 1, base), (base + 4, base + 5, base + 6, base + 7)]
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    ob = link(bpy.data.objects.new(name, me))
+    assign(ob, mat)
+    return ob
+
+
+def add_blades(name, blades, mat):
+    """Grass: one triangle per blade; blades = [(base xyz, tip xyz, half width), ...]."""
+    verts, faces = [], []
+    for base, tip, hw in blades:
+        bx, by, bz = base
+        ang = math.atan2(tip[1] - by, tip[0] - bx) + math.pi / 2
+        dx, dy = hw * math.cos(ang), hw * math.sin(ang)
+        k = len(verts)
+        verts += [(bx - dx, by - dy, bz), (bx + dx, by + dy, bz), tuple(tip)]
+        faces.append((k, k + 1, k + 2))
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    ob = link(bpy.data.objects.new(name, me))
+    assign(ob, mat)
+    return ob
+
+
+def build_thin(rng, ctx):
+    # dark soil, a plain light back wall: thin things against a smooth background are
+    # what a denoiser erases
+    add_plane("Floor", (0, 0, 0), (0, 0, 0), 60.0, 60.0,
+              mat_diffuse("Floor", rand_color(rng, s=(0.2, 0.6), v=(0.08, 0.2)), rng=rng,
+                          tex=(rand_color(rng, s=(0.2, 0.6), v=(0.05, 0.15)), rng.uniform(1, 4),
+                               "noise")))
+    wall_y = rng.uniform(2.5, 4.0)
+    add_plane("BackWall", (0, wall_y, 15.0), (math.pi / 2, 0, 0), 60.0, 30.0,
+              mat_diffuse("BackWall", rand_color(rng, s=(0.0, 0.4), v=(0.6, 0.85))))
+    # a few ordinary objects behind the fence
+    for i, (x, y, s, k) in enumerate(scatter(rng, rng.randint(1, 3), (-2.0, 2.0), (0.2, 2.0),
+                                             (0.3, 0.6), ["sphere", "cube", "cylinder", "monkey"])):
+        m, _ = random_surface(rng, "Obj%d" % i, allow_metal=False)
+        add_obj(k, (x, y, 0.0), s, rot_z=rng.uniform(0, 2 * math.pi), mat=m, name="Obj%d" % i)
+    # a wire fence (a grid of beams) between the camera and the scene, slightly turned
+    fy = rng.uniform(-1.8, -0.8)
+    spacing = rng.uniform(0.12, 0.3)
+    wire_r = rng.uniform(0.004, 0.012)
+    turn = math.radians(rng.uniform(-25.0, 25.0))
+    ct, st = math.cos(turn), math.sin(turn)
+
+    def fence_pt(u, z):
+        return (u * ct, fy + u * st, z)
+    half, top = 6.0, 3.2
+    segs = []
+    n_u = int(2 * half / spacing)
+    for j in range(n_u + 1):
+        u = -half + j * spacing
+        segs.append((fence_pt(u, 0.0), fence_pt(u, top), wire_r))
+    for j in range(int(top / spacing) + 1):
+        z = 0.02 + j * spacing
+        segs.append((fence_pt(-half, z), fence_pt(half, z), wire_r))
+    fence_metal = rng.random() < 0.5
+    fence_mat = (mat_principled("Fence", metal_color(rng), rough=rng.uniform(0.2, 0.5), metal=1.0)
+                 if fence_metal else mat_diffuse("Fence", rand_color(rng, v=(0.02, 0.15))))
+    add_segments("Fence", segs, fence_mat)
+    # loose wires across the view, between the fence and the wall
+    wires = []
+    for _ in range(rng.randint(3, 6)):
+        y0, z0 = rng.uniform(fy + 0.3, wall_y - 0.3), rng.uniform(0.3, 2.5)
+        wires.append(((-8.0, y0 + rng.uniform(-0.5, 0.5), z0),
+                      (8.0, y0 + rng.uniform(-0.5, 0.5), z0 + rng.uniform(-1.2, 1.2)),
+                      rng.uniform(0.002, 0.006)))
+    add_segments("Wires", wires, mat_diffuse("Wires", rand_color(rng, v=(0.02, 0.3))))
+    # grass: a patch of thin blades on both sides of the fence
+    blades = []
+    for _ in range(rng.randint(300, 600)):
+        bx, by = rng.uniform(-3.5, 3.5), rng.uniform(fy - 1.0, fy + 2.0)
+        hgt = rng.uniform(0.1, 0.45)
+        lean = rng.uniform(0.0, 0.5) * hgt
+        a = rng.uniform(0, 2 * math.pi)
+        blades.append(((bx, by, 0.0), (bx + lean * math.cos(a), by + lean * math.sin(a), hgt),
+                       rng.uniform(0.002, 0.006)))
+    g = hsv(rng.uniform(0.2, 0.35), rng.uniform(0.5, 0.9), rng.uniform(0.5, 0.85))
+    add_blades("Grass", blades, mat_diffuse("Grass", g))
+    sun_dir = orbit_point((0, 0, 0), 1.0, rng.uniform(-150, 150), rng.uniform(20, 60))
+    add_light("SUN", "Sun", sun_dir, energy=3.0, size=math.radians(rng.uniform(0.5, 3.0)),
+              target=(0, 0, 0), color=hsv(rng.uniform(0.06, 0.12), rng.uniform(0.0, 0.3), 1.0))
+    set_world_color(hsv(rng.uniform(0.55, 0.62), rng.uniform(0.2, 0.6), 1.0), rng.uniform(0.3, 1.0))
+    stage_camera(rng, target=(0.0, 0.5, 0.6), dist=(6.0, 8.0), el=(5.0, 18.0), az=25.0)
+    return {"thin_fence_spacing": spacing, "thin_wire_radius": wire_r,
+            "thin_fence_metal": fence_metal, "thin_blades": len(blades)}
+
+
 BUILDERS = {
     "cornell": build_cornell, "glossy": build_glossy, "glass": build_glass,
     "firefly": build_firefly, "dof": build_dof, "motionblur": build_motionblur,
     "anim": build_anim, "hdri": build_hdri,
+    "volume": build_volume, "texture": build_texture, "thin": build_thin,
 }
 
 
