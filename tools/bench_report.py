@@ -10,6 +10,8 @@ Reads OUT_DIR/results.csv and writes
   scenes.md                        per scene table
   index.html                       input / outputs / reference / error maps per frame
                                    (when the bench ran with --images)
+and, from OUT_DIR/temporal.csv (edgewise bench --temporal),
+  temporal.md, temporal_psnr_vs_flicker.png
 Uses Debian's python3-matplotlib.
 """
 import csv
@@ -137,11 +139,84 @@ def write_html(rows, out):
     return True
 
 
+def write_temporal(out):
+    """OUT_DIR/temporal.csv (edgewise bench --temporal) -> temporal.md (mean over scenes per method, spp and
+    accumulation mode, then per scene), temporal_psnr_vs_flicker.png, and the mean table on stdout.
+    Returns False when there is no temporal.csv."""
+    path = os.path.join(out, "temporal.csv")
+    if not os.path.isfile(path):
+        return False
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    keys = ("psnr", "ssim", "tdiff", "tdiff_ref", "tdiff_excess", "flicker_static", "static_frac", "ms")
+    for r in rows:
+        for k in keys:
+            r[k] = float(r[k])
+        r["spp"] = int(r["spp"])
+    modes = ["off", "after", "after-demod", "before-demod"]
+    order = {m: i for i, m in enumerate(modes)}
+    acc = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        for k in keys:
+            acc[(r["spp"], r["method"], r["accumulation"])][k].append(r[k])
+    mean = {g: {k: sum(v) / len(v) for k, v in a.items()} | {"n": len(a["psnr"])} for g, a in acc.items()}
+    head = ("| spp | method | accumulation | scenes | PSNR dB | SSIM | tdiff | tdiff ref | excess | static flicker | "
+            "ms/frame |\n|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n")
+    lines = [f"# Temporal stability ({len({r['scene'] for r in rows})} sequences)\n",
+             "tdiff: mean |change| of the tone-mapped output between consecutive frames; excess: tdiff minus the "
+             "reference's (flicker added, < 0: smoother in time than the reference); static flicker: tdiff over "
+             "pixels whose reference and motion are still.\n", "## Mean over scenes\n", head]
+    for g, v in sorted(mean.items(), key=lambda kv: (kv[0][0], kv[0][1], order.get(kv[0][2], 9))):
+        lines.append(f"| {g[0]} | {g[1]} | {g[2]} | {v['n']} | {v['psnr']:.2f} | {v['ssim']:.4f} | {v['tdiff']:.5f} | "
+                     f"{v['tdiff_ref']:.5f} | {v['tdiff_excess']:+.5f} | {v['flicker_static']:.6f} | {v['ms']:.1f} |\n")
+    print("".join(lines[2:]), end="")
+    lines += ["\n## Per scene\n", head.replace("| spp |", "| scene | spp |", 1).replace("|---:|---|", "|---|---:|---|", 1)]
+    for r in sorted(rows, key=lambda r: (r["scene"], r["spp"], r["method"], order.get(r["accumulation"], 9))):
+        lines.append(f"| {r['scene']} | {r['spp']} | {r['method']} | {r['accumulation']} | 1 | {r['psnr']:.2f} | "
+                     f"{r['ssim']:.4f} | {r['tdiff']:.5f} | {r['tdiff_ref']:.5f} | {r['tdiff_excess']:+.5f} | "
+                     f"{r['flicker_static']:.6f} | {r['ms']:.1f} |\n")
+    with open(os.path.join(out, "temporal.md"), "w") as f:
+        f.write("".join(lines))
+    spps = sorted({g[0] for g in mean})
+    methods = sorted({g[1] for g in mean})
+    cmap = plt.get_cmap("tab10")
+    markers = {"off": "o", "after": "s", "after-demod": "D", "before-demod": "^"}
+    fig, axes = plt.subplots(1, len(spps), figsize=(6.5 * len(spps), 5), squeeze=False)
+    for ax, spp in zip(axes[0], spps):
+        for mi, meth in enumerate(methods):
+            pts = [(mode, mean[(spp, meth, mode)]) for mode in modes if (spp, meth, mode) in mean]
+            if not pts:
+                continue
+            ax.plot([v["tdiff_excess"] for _, v in pts], [v["psnr"] for _, v in pts], color=cmap(mi % 10), lw=0.8,
+                    alpha=0.6)
+            for mode, v in pts:
+                ax.scatter(v["tdiff_excess"], v["psnr"], color=cmap(mi % 10), marker=markers.get(mode, "x"), s=40,
+                           zorder=3, label=meth if mode == "off" else None)
+        ax.axvline(0.0, color="0.5", lw=0.8, ls="--")
+        ax.set_xscale("symlog", linthresh=1e-3)
+        ax.set_xlabel("excess frame-to-frame change over the reference (tone-mapped; 0 = as stable)")
+        ax.set_ylabel("PSNR (dB), mean over frames and scenes")
+        ax.set_title(f"{spp} spp")
+        ax.grid(True, alpha=0.3)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    for mode, mk in markers.items():
+        handles.append(plt.Line2D([], [], color="k", marker=mk, ls=""))
+        labels.append(f"accumulation {mode}")
+    axes[0][-1].legend(handles, labels, fontsize=7, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "temporal_psnr_vs_flicker.png"), dpi=110)
+    plt.close(fig)
+    print(f"bench_report: wrote {out}/temporal.md and temporal_psnr_vs_flicker.png")
+    return True
+
+
 def main(argv):
     if len(argv) != 2 or argv[1] in ("-h", "--help"):
         print(__doc__.strip())
         return 0 if len(argv) == 2 else 2
     out = argv[1]
+    if write_temporal(out) and not os.path.isfile(os.path.join(out, "results.csv")):
+        return 0  # a --temporal run only
     path = os.path.join(out, "results.csv")
     if not os.path.isfile(path):
         print(f"bench_report: no {path} (run 'edgewise bench DATA -o {out}' first)", file=sys.stderr)
