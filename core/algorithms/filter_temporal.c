@@ -114,10 +114,16 @@ static ew_result execute(ew_op *op) {
 static void release(ew_op *op) { free(op->state); }
 
 const ew_op_type ew_filter_temporal = {
-    "filter", "temporal",
-    "temporal accumulation with reprojection along motion vectors and normal/depth rejection; keeps its "
+    .kind = "filter",
+    .name = "temporal",
+    .summary = "temporal accumulation with reprojection along motion vectors and normal/depth rejection; keeps its "
     "history between executes",
-    images, (int)(sizeof images / sizeof images[0]), params, (int)(sizeof params / sizeof params[0]),
-    commit, execute, release, NULL, NULL,
-    0, /* device_memory (issue 8): not ported yet, CPU devices only */
+    .images = images,
+    .num_images = (int)(sizeof images / sizeof images[0]),
+    .params = params,
+    .num_params = (int)(sizeof params / sizeof params[0]),
+    .commit = commit,
+    .execute = execute,
+    .release = release,
+    .device_memory = 0, /* issue 8: not ported yet, CPU devices only */
 };

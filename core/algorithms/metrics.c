@@ -140,3 +140,57 @@ ew_result ew_image_relmse(ew_device *dev, const ew_image *a, const ew_image *b, 
 ew_result ew_image_smape(ew_device *dev, const ew_image *a, const ew_image *b, double *out) {
     return mean_term(dev, a, b, out, smape_term);
 }
+
+/* Temporal stability of one pair of frames (edgewise.h). */
+ew_result ew_image_temporal_diff(ew_device *dev, const ew_image *test_prev, const ew_image *test,
+                                 const ew_image *reference_prev, const ew_image *reference, const ew_image *vector,
+                                 float static_tol, ew_temporal_diff *out) {
+    int C, C2, C3;
+    ew_result r = check_pair(dev, test, reference, out ? &out->test : NULL, &C);
+    if (r != EW_OK) return r;
+    if ((r = check_pair(dev, test_prev, test, &out->test, &C2)) != EW_OK) return r;
+    if ((r = check_pair(dev, reference_prev, reference, &out->test, &C3)) != EW_OK) return r;
+    C = C < C2 ? C : C2;
+    C = C < C3 ? C : C3;
+    if (vector) {
+        const char *why;
+        if (!ew__image_valid(vector, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "vector image: %s", why);
+        if (vector->channels < 2 || vector->width != test->width || vector->height != test->height)
+            return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "vector image is %dx%d with %d channels; %dx%d with 2 needed",
+                            vector->width, vector->height, vector->channels, test->width, test->height);
+    }
+    if (!(static_tol >= 0.0f)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "static_tol must be >= 0");
+    double dt = 0.0, dr = 0.0, ds = 0.0;
+    int64_t ns = 0;
+    for (int y = 0; y < test->height; y++)
+        for (int x = 0; x < test->width; x++) {
+            const float *t0 = ew__pixel(test_prev, x, y), *t1 = ew__pixel(test, x, y);
+            const float *r0 = ew__pixel(reference_prev, x, y), *r1 = ew__pixel(reference, x, y);
+            double pt = 0.0, pr = 0.0;
+            int still = 1;
+            for (int c = 0; c < C; c++) {
+                double et = fabs((double)tonemap(t1[c]) - (double)tonemap(t0[c]));
+                double er = fabs((double)tonemap(r1[c]) - (double)tonemap(r0[c]));
+                pt += et;
+                pr += er;
+                still &= er < (double)static_tol;
+            }
+            if (vector) {
+                const float *v = ew__pixel(vector, x, y);
+                still &= isfinite(v[0]) && isfinite(v[1]) && v[0] * v[0] + v[1] * v[1] < 0.25f;
+            }
+            dt += pt;
+            dr += pr;
+            if (still) {
+                ds += pt;
+                ns++;
+            }
+        }
+    const double n = (double)test->width * test->height * C;
+    out->test = dt / n;
+    out->reference = dr / n;
+    out->excess = out->test - out->reference;
+    out->static_flicker = ns ? ds / ((double)ns * C) : 0.0;
+    out->static_pixels = ns;
+    return EW_OK;
+}

@@ -107,3 +107,68 @@ TEST(non_finite_is_contained_and_reset_works) {
     ew_filter_destroy(f);
     ew_device_destroy(dev);
 }
+
+/* alpha = max(1 / (n + 1), alpha_min), n = frames already accumulated: a
+ * static pixel is the running mean of the first 1 / alpha_min frames, then
+ * an exponential average with weight alpha_min. */
+static double alpha_sequence_error(float alpha_min) {
+    ew_device *dev;
+    ew_filter *f = make(&dev);
+    if (!f) return 1e9;
+    static float color[W * H * 3], out[W * H * 3];
+    const float v[8] = {1.0f, 5.0f, 2.0f, 7.0f, 3.0f, 11.0f, 0.0f, 4.0f};
+    double want = 0.0, worst = 0.0;
+    ew_filter_set_float(f, "alpha_min", alpha_min);
+    for (int t = 0; t < 8; t++) {
+        for (int i = 0; i < W * H * 3; i++) color[i] = v[t];
+        if (!run(f, color, NULL, NULL, out)) worst = 1e9;
+        double a = fmax(1.0 / (t + 1), (double)alpha_min);
+        want = t == 0 ? v[0] : want + a * (v[t] - want);
+        for (int i = 0; i < W * H * 3; i++) worst = fmax(worst, fabs(out[i] - want));
+    }
+    ew_filter_destroy(f);
+    ew_device_destroy(dev);
+    return worst;
+}
+
+TEST(alpha_is_one_over_n_plus_one_then_alpha_min) {
+    CHECK_NEAR(alpha_sequence_error(0.2f), 0.0, 1e-5);
+    CHECK_NEAR(alpha_sequence_error(0.5f), 0.0, 1e-5);
+    /* the default is 0.2 */
+    ew_param_info p;
+    CHECK_EQ_INT(ew_method_param("filter", "temporal", 0, &p), EW_OK);
+    CHECK(!strcmp(p.name, "alpha_min"));
+    CHECK_NEAR(p.default_value, 0.2, 1e-7);
+}
+
+TEST(normal_disagreement_rejects_history) {
+    ew_device *dev;
+    ew_filter *f = make(&dev);
+    CHECK(f);
+    static float color[W * H * 3], out[W * H * 3], normal[W * H * 3];
+    ew_image c = ew_image_packed(color, W, H, 3), o = ew_image_packed(out, W, H, 3), n = ew_image_packed(normal, W, H, 3);
+    CHECK_EQ_INT(ew_filter_set_image(f, "color", &c), EW_OK);
+    CHECK_EQ_INT(ew_filter_set_image(f, "output", &o), EW_OK);
+    CHECK_EQ_INT(ew_filter_set_image(f, "normal", &n), EW_OK);
+    for (int i = 0; i < W * H; i++) {
+        color[i * 3] = color[i * 3 + 1] = color[i * 3 + 2] = 1.0f;
+        normal[i * 3] = 0.0f, normal[i * 3 + 1] = 0.0f, normal[i * 3 + 2] = 1.0f;
+    }
+    CHECK(ew_filter_commit(f) == EW_OK && ew_filter_execute(f) == EW_OK);
+    for (int i = 0; i < W * H; i++) {
+        color[i * 3] = color[i * 3 + 1] = color[i * 3 + 2] = 3.0f;
+        if (i % W >= W / 2) { /* right half turns 60 degrees: cos 0.5 < 0.9 */
+            normal[i * 3] = 0.866f;
+            normal[i * 3 + 2] = 0.5f;
+        } else if (i / W == 0) { /* top row of the left half: 20 degrees, cos 0.94 > 0.9, unnormalised */
+            normal[i * 3] = 2.0f * 0.342f;
+            normal[i * 3 + 2] = 2.0f * 0.940f;
+        }
+    }
+    CHECK(ew_filter_commit(f) == EW_OK && ew_filter_execute(f) == EW_OK);
+    CHECK_NEAR(out[(5 * W + 2) * 3], 2.0, 1e-5);     /* kept: mix(1, 3, 1/2) */
+    CHECK_NEAR(out[(0 * W + 2) * 3], 2.0, 1e-5);     /* within the cosine: kept */
+    CHECK_NEAR(out[(5 * W + W - 3) * 3], 3.0, 1e-5); /* rejected: restarts from the frame */
+    ew_filter_destroy(f);
+    ew_device_destroy(dev);
+}

@@ -227,6 +227,35 @@ EW_API ew_result ew_image_ssim(ew_device *dev, const ew_image *test, const ew_im
 EW_API ew_result ew_image_relmse(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
 EW_API ew_result ew_image_smape(ew_device *dev, const ew_image *test, const ew_image *reference, double *out);
 
+/*
+ * Temporal stability of a sequence, one pair of consecutive frames at a
+ * time, on the same tone-mapped values as PSNR (every frame-to-frame
+ * difference below is mean |tm(frame t) - tm(frame t-1)| over pixels and the
+ * first 3 channels; non-finite samples count as 0):
+ *   test       the difference of the method's output,
+ *   reference  the difference of the reference (what really changes: motion,
+ *              lighting, plus the reference's own residual noise),
+ *   excess     test - reference: the change the method adds (its flicker; 0
+ *              when it is as stable as the reference, < 0 when it is
+ *              smoother in time than the reference, e.g. lagging),
+ *   static_flicker  the output's difference over the static pixels only:
+ *              those whose reference changes by less than static_tol in
+ *              every channel and, when `vector` (2 channels, pixels per
+ *              frame, e.g. Cycles Vector.XY of frame t) is given, whose
+ *              motion is shorter than 0.5 pixel; 0 when there are none,
+ *   static_pixels   how many pixels are static.
+ * Over a sequence, average test/reference/excess over its pairs and
+ * static_flicker weighted by static_pixels. All views must have one size.
+ */
+typedef struct ew_temporal_diff {
+    double test, reference, excess;
+    double static_flicker;
+    int64_t static_pixels;
+} ew_temporal_diff;
+EW_API ew_result ew_image_temporal_diff(ew_device *dev, const ew_image *test_prev, const ew_image *test,
+                                        const ew_image *reference_prev, const ew_image *reference,
+                                        const ew_image *vector, float static_tol, ew_temporal_diff *out);
+
 #ifdef __cplusplus
 }
 #endif
