@@ -12,7 +12,7 @@
 #include "src/op.h"
 
 static const ew_image_desc images[] = {
-    {"color", 3, 1, "linear colour with fireflies (a 4th channel, alpha, is left as it is in the output)"},
+    {"color", 3, 1, "linear colour with fireflies (the first 3 channels are read; RGB written to the output)"},
     {"albedo", 3, 0, "albedo: only neighbours of similar albedo are compared (Cycles: Denoising Albedo)"},
     {"normal", 3, 0, "normals: only neighbours of similar orientation are compared (Cycles: Denoising Normal)"},
     {"output", 3, 1, "colour with outliers clamped and NaN/Inf replaced; may be the colour view itself"},

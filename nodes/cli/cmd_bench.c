@@ -11,6 +11,7 @@
 #include <math.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "cli.h"
 #include "method_run.h"
@@ -34,15 +35,41 @@ static const char help[] =
     "  --repeat N           timing runs per method (default 3)\n"
     "  --threads N          worker threads, 0 = all cores (default 0)\n"
     "  --images             also write PNGs (input, outputs, reference, error maps)\n"
-    "  --list               print the methods and exit\n";
+    "  --temporal           sequences instead of frames: OUT_DIR/temporal.csv (see below)\n"
+    "  --list               print the methods and exit\n"
+    "\n"
+    "Methods named 'outlier+M' run the library's filter 'outlier' (firefly\n"
+    "suppression with albedo/normal similarity) on the colour first, then M;\n"
+    "'outlier-blind+M' the same filter without the features; the time is the sum.\n"
+    "\n"
+    "--temporal: every scene folder with two or more frames (fNNNN_spp*.exr with\n"
+    "fNNNN_ref*.exr; g_anim renders) at each --spp (default 1,4). Each method\n"
+    "runs frame by frame with each accumulation mode:\n"
+    "  off           the method alone;\n"
+    "  after         the filter 'temporal' on the method's output (reprojected\n"
+    "                along the Vector pass, normal/depth rejection, alpha 0.2);\n"
+    "  after-demod   the same on the output divided by albedo + 0.01, multiplied\n"
+    "                back with the frame's albedo;\n"
+    "  before-demod  'temporal' on the noisy demodulated colour, then the method.\n"
+    "Columns: scene, spp, method, accumulation, frames, PSNR/SSIM (mean over\n"
+    "frames), tdiff (mean |frame-to-frame change| of the tone-mapped output),\n"
+    "tdiff_ref (of the reference), tdiff_excess (the difference: flicker the\n"
+    "method adds), flicker_static (tdiff over static pixels: reference change\n"
+    "< 0.02 and motion < 0.5 px), static_frac, ms per frame (fastest of\n"
+    "--repeat runs of the sequence; ew_image_temporal_diff in edgewise.h).\n";
 
-#define MAX_METHODS 32
+#define MAX_METHODS 48
 
 static int n_specs;
 static ew_method_spec specs[MAX_METHODS];
+/* issue 9: a pre-filter step run on the colour before specs[m] (ew_method_spec
+ * has none; NULL: none). Its time counts in the method's. */
+static const ew_method_spec *prefilter[MAX_METHODS];
+static ew_method_spec outlier_spec, outlier_blind_spec;
 
 static ew_method_spec *add(const char *label, const char *kind, const char *name, int demod) {
     if (n_specs >= MAX_METHODS) return NULL;
+    prefilter[n_specs] = NULL;
     ew_method_spec *s = &specs[n_specs++];
     memset(s, 0, sizeof *s);
     s->label = label;
@@ -84,6 +111,56 @@ static void build_specs(void) {
         s = add("bilateral-gi", "filter", "bilateral", 1);
         param(s, "model", 1.0f);
     }
+    /* issue 9: firefly / outlier suppression as a node before a method
+     * (with the features, and without them to show what they are for) */
+    if (has_method("filter", "outlier")) {
+        memset(&outlier_spec, 0, sizeof outlier_spec);
+        outlier_spec.label = "outlier";
+        outlier_spec.kind = "filter";
+        outlier_spec.name = "outlier";
+        outlier_blind_spec = outlier_spec;
+        outlier_blind_spec.label = "outlier-blind";
+        param(&outlier_blind_spec, "albedo_tol", 1e4f);
+        param(&outlier_blind_spec, "normal_cos", -1.0f);
+        add("outlier", "filter", "outlier", 0);
+        static const struct { const char *label, *base; int blind; } chains[] = {
+            {"outlier+bgrid", "bgrid", 0},   {"outlier-blind+bgrid", "bgrid", 1},
+            {"outlier+nbg", "nbg", 0},       {"outlier+auto", "auto", 0},
+            {"outlier+pyramid-gi", "pyramid-gi", 0},
+        };
+        for (size_t c = 0; c < sizeof chains / sizeof chains[0]; c++) {
+            int b = -1;
+            for (int m = 0; m < n_specs; m++)
+                if (!strcmp(specs[m].label, chains[c].base) && !prefilter[m]) b = m;
+            if (b < 0 || n_specs >= MAX_METHODS) continue;
+            ew_method_spec base = specs[b];
+            s = &specs[n_specs];
+            *s = base;
+            s->label = chains[c].label;
+            prefilter[n_specs++] = chains[c].blind ? &outlier_blind_spec : &outlier_spec;
+        }
+    }
+}
+
+/* specs[m] on the layer, after its pre-filter if it has one. */
+static int run_method(ew_device *dev, int m, const ew_layer_data *ld, float *out, double *ms, char *err, size_t errlen) {
+    if (!prefilter[m]) return ew_method_run(dev, &specs[m], ld, out, ms, err, errlen);
+    const size_t n = (size_t)ld->width * ld->height * 3;
+    float *pre = (float *)malloc(n * sizeof(float));
+    if (!pre) {
+        snprintf(err, errlen, "out of memory");
+        return 1;
+    }
+    double ms_pre = 0.0;
+    int r = ew_method_run(dev, prefilter[m], ld, pre, &ms_pre, err, errlen);
+    if (r == 0) {
+        ew_layer_data l2 = *ld;
+        l2.color = pre;
+        r = ew_method_run(dev, &specs[m], &l2, out, ms, err, errlen);
+        *ms += ms_pre;
+    }
+    free(pre);
+    return r;
 }
 
 static int in_list(const char *list, const char *name, int substring) {
@@ -145,17 +222,244 @@ static void write_png(const char *path, const float *rgb, const float *ref, int 
     ewio_free(f);
 }
 
+/* ---- --temporal: sequences (issue 9) -------------------------------------- */
+
+#define MAX_FRAMES 64
+
+enum { ACC_OFF, ACC_AFTER, ACC_AFTER_DEMOD, ACC_BEFORE_DEMOD, ACC_MODES };
+static const char *const acc_names[ACC_MODES] = {"off", "after", "after-demod", "before-demod"};
+
+typedef struct {
+    int n, w, h;
+    ew_layer_data ld[MAX_FRAMES];
+    float *ref[MAX_FRAMES];
+} sequence;
+
+static void sequence_free(sequence *q) {
+    for (int t = 0; t < q->n; t++) {
+        ew_layer_data_free(&q->ld[t]);
+        free(q->ref[t]);
+    }
+    q->n = 0;
+}
+
+/* Frames 1, 2, ... of dir at spp, up to the first one without an input or
+ * a reference. Returns the number of frames read. */
+static int sequence_read(const char *dir, int spp, sequence *q) {
+    memset(q, 0, sizeof *q);
+    for (int frame = 1; frame <= MAX_FRAMES; frame++) {
+        char refpath[4096], in[4096], err[1024] = "";
+        struct stat st;
+        if (!find_ref(dir, frame, refpath, sizeof refpath)) break;
+        if (!fmt_path(in, sizeof in, "%s/f%04d_spp%04d.exr", dir, frame, spp) || stat(in, &st) != 0) break;
+        ewio_file *rf = NULL, *f = NULL;
+        if (ewio_read(refpath, &rf, err, sizeof err) != 0) {
+            fprintf(stderr, "edgewise: %s\n", err);
+            break;
+        }
+        float *ref = cli_read_color(rf, NULL, err, sizeof err);
+        const int w = ewio_width(rf), h = ewio_height(rf);
+        ewio_free(rf);
+        ew_layer_passes lp;
+        int bad = !ref || (q->n && (w != q->w || h != q->h));
+        if (!bad)
+            bad = ewio_read(in, &f, err, sizeof err) != 0 || ewio_width(f) != w || ewio_height(f) != h ||
+                  ew_find_layer_passes(f, ewio_layer_name(f, 0), &lp, err, sizeof err) != 0 ||
+                  ew_layer_data_read(f, &lp, &q->ld[q->n], err, sizeof err) != 0;
+        ewio_free(f);
+        if (bad) {
+            fprintf(stderr, "edgewise: %s: %s\n", in, err[0] ? err : "size differs");
+            free(ref);
+            break;
+        }
+        q->ref[q->n] = ref;
+        q->w = w;
+        q->h = h;
+        q->n++;
+    }
+    return q->n;
+}
+
+static double now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return 1e3 * (double)ts.tv_sec + 1e-6 * (double)ts.tv_nsec;
+}
+
+/* As ew_method_run demodulates: a damaged or negative albedo counts as black. */
+static float albedo_factor(const ew_layer_data *ld, size_t i) {
+    if (!ld->albedo) return 1.0f;
+    const float a = ld->albedo[i];
+    return (isfinite(a) && a > 0.0f ? a : 0.0f) + EW_ALBEDO_EPSILON;
+}
+
+/* One frame of the filter "temporal" on buf, in place, with the frame's
+ * normal, depth and motion vectors. */
+static int temporal_step(ew_filter *tf, float *buf, const ew_layer_data *ld, char *err, size_t errlen) {
+    ew_image c = ew_image_packed(buf, ld->width, ld->height, 3);
+    ew_image n = ew_image_packed(ld->normal, ld->width, ld->height, 3);
+    ew_image d = ew_image_packed(ld->depth, ld->width, ld->height, 1);
+    ew_image v = ew_image_packed(ld->vector, ld->width, ld->height, 2);
+    ew_result r = ew_filter_set_image(tf, "color", &c);
+    if (r == EW_OK) r = ew_filter_set_image(tf, "output", &c);
+    if (r == EW_OK) r = ew_filter_set_image(tf, "normal", ld->normal ? &n : NULL);
+    if (r == EW_OK) r = ew_filter_set_image(tf, "depth", ld->depth ? &d : NULL);
+    if (r == EW_OK) r = ew_filter_set_image(tf, "vector", ld->vector ? &v : NULL);
+    if (r == EW_OK) r = ew_filter_commit(tf);
+    if (r == EW_OK) r = ew_filter_execute(tf);
+    if (r != EW_OK) snprintf(err, errlen, "temporal: %s", ew_result_string(r));
+    return r != EW_OK;
+}
+
+/* specs[m] over the sequence with accumulation mode `mode` into outs[t];
+ * *ms: the whole sequence's work (method, pre-filter, temporal filter,
+ * demodulation), file I/O excluded. */
+static int sequence_run(ew_device *dev, int m, int mode, const sequence *q, float **outs, double *ms, char *err,
+                        size_t errlen) {
+    const size_t n3 = (size_t)q->w * q->h * 3;
+    ew_filter *tf = NULL;
+    float *tmp = (float *)malloc(n3 * sizeof(float));
+    int fail = !tmp;
+    if (fail) snprintf(err, errlen, "out of memory");
+    if (!fail && mode != ACC_OFF && ew_filter_create(dev, "temporal", &tf) != EW_OK) {
+        snprintf(err, errlen, "temporal: %s", ew_device_last_error(dev));
+        fail = 1;
+    }
+    *ms = 0.0;
+    for (int t = 0; t < q->n && !fail; t++) {
+        const ew_layer_data *ld = &q->ld[t];
+        double mms = 0.0, t0;
+        if (mode == ACC_BEFORE_DEMOD) {
+            t0 = now_ms();
+            for (size_t i = 0; i < n3; i++) tmp[i] = ld->color[i] / albedo_factor(ld, i);
+            fail = temporal_step(tf, tmp, ld, err, errlen);
+            for (size_t i = 0; i < n3; i++) tmp[i] *= albedo_factor(ld, i);
+            *ms += now_ms() - t0;
+            ew_layer_data l2 = *ld;
+            l2.color = tmp;
+            if (!fail) fail = run_method(dev, m, &l2, outs[t], &mms, err, errlen);
+            *ms += mms;
+            continue;
+        }
+        fail = run_method(dev, m, ld, outs[t], &mms, err, errlen);
+        *ms += mms;
+        if (fail || mode == ACC_OFF) continue;
+        t0 = now_ms();
+        if (mode == ACC_AFTER_DEMOD)
+            for (size_t i = 0; i < n3; i++) outs[t][i] /= albedo_factor(ld, i);
+        fail = temporal_step(tf, outs[t], ld, err, errlen);
+        if (mode == ACC_AFTER_DEMOD)
+            for (size_t i = 0; i < n3; i++) outs[t][i] *= albedo_factor(ld, i);
+        *ms += now_ms() - t0;
+    }
+    ew_filter_destroy(tf);
+    free(tmp);
+    return fail;
+}
+
+static int bench_temporal(ew_device *dev, const char *data, char **names, int n_names, const char *spp_list,
+                          const char *methods, int repeat, const char *outdir) {
+    char path[4096];
+    fmt_path(path, sizeof path, "%s/temporal.csv", outdir);
+    FILE *csv = fopen(path, "w");
+    if (!csv) return cli_fail("cannot write '%s': %s", path, strerror(errno));
+    fprintf(csv, "scene,spp,method,accumulation,frames,psnr,ssim,tdiff,tdiff_ref,tdiff_excess,flicker_static,"
+                 "static_frac,ms,width,height,threads\n");
+    int rows = 0, failures = 0;
+    static sequence q;
+    float *outs[MAX_FRAMES];
+    for (int s = 0; s < n_names; s++) {
+        char dir[4096];
+        fmt_path(dir, sizeof dir, "%s/%s", data, names[s]);
+        char spps[256];
+        snprintf(spps, sizeof spps, "%s", spp_list);
+        char *save = NULL;
+        for (char *tok = strtok_r(spps, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+            const int spp = atoi(tok);
+            if (sequence_read(dir, spp, &q) < 2) {
+                sequence_free(&q);
+                continue;
+            }
+            const size_t n3 = (size_t)q.w * q.h * 3;
+            int ok = 1;
+            for (int t = 0; t < q.n; t++) ok &= (outs[t] = (float *)malloc(n3 * sizeof(float))) != NULL;
+            for (int m = 0; ok && m < n_specs; m++) {
+                if (!in_list(methods, specs[m].label, 0)) continue;
+                for (int mode = 0; mode < ACC_MODES; mode++) {
+                    if (!specs[m].kind && mode == ACC_BEFORE_DEMOD) continue; /* = after-demod for the input */
+                    double best = 1e30, ms = 0.0;
+                    char err[1024] = "";
+                    int fail = 0;
+                    for (int k = 0; k < repeat && !fail; k++) {
+                        fail = sequence_run(dev, m, mode, &q, outs, &ms, err, sizeof err);
+                        if (ms < best) best = ms;
+                    }
+                    if (fail) {
+                        fprintf(stderr, "edgewise: %s %d spp %s %s: %s\n", names[s], spp, specs[m].label,
+                                acc_names[mode], err);
+                        failures++;
+                        continue;
+                    }
+                    double psnr = 0, ssim = 0, td = 0, tr = 0, ex = 0, fs = 0;
+                    int64_t ns = 0;
+                    for (int t = 0; t < q.n; t++) {
+                        ew_image vo = ew_image_packed(outs[t], q.w, q.h, 3), vr = ew_image_packed(q.ref[t], q.w, q.h, 3);
+                        double p, ss;
+                        ew_image_psnr(dev, &vo, &vr, &p);
+                        ew_image_ssim(dev, &vo, &vr, &ss);
+                        psnr += fmin(p, 100.0) / q.n;
+                        ssim += ss / q.n;
+                        if (t == 0) continue;
+                        ew_image vp = ew_image_packed(outs[t - 1], q.w, q.h, 3);
+                        ew_image rp = ew_image_packed(q.ref[t - 1], q.w, q.h, 3);
+                        ew_image vv = ew_image_packed(q.ld[t].vector, q.w, q.h, 2);
+                        ew_temporal_diff d;
+                        if (ew_image_temporal_diff(dev, &vp, &vo, &rp, &vr, q.ld[t].vector ? &vv : NULL, 0.02f, &d) !=
+                            EW_OK)
+                            continue;
+                        td += d.test / (q.n - 1);
+                        tr += d.reference / (q.n - 1);
+                        ex += d.excess / (q.n - 1);
+                        fs += d.static_flicker * (double)d.static_pixels;
+                        ns += d.static_pixels;
+                    }
+                    const double frac = (double)ns / ((double)(q.n - 1) * q.w * q.h);
+                    const double per_frame = specs[m].kind || mode != ACC_OFF ? best / q.n : 0.0;
+                    fprintf(csv, "%s,%d,%s,%s,%d,%.4f,%.5f,%.6f,%.6f,%.6f,%.6f,%.5f,%.3f,%d,%d,%d\n", names[s], spp,
+                            specs[m].label, acc_names[mode], q.n, psnr, ssim, td, tr, ex, ns ? fs / (double)ns : 0.0,
+                            frac, per_frame, q.w, q.h, ew_device_get_num_threads(dev));
+                    fflush(csv);
+                    rows++;
+                    fprintf(stderr, "[%d/%d] %-22s %d spp %-20s %-12s PSNR %6.2f excess %.5f static %.5f %7.1f ms\n",
+                            s + 1, n_names, names[s], spp, specs[m].label, acc_names[mode], psnr, ex,
+                            ns ? fs / (double)ns : 0.0, per_frame);
+                }
+            }
+            for (int t = 0; t < q.n; t++) free(outs[t]);
+            if (!ok) failures++;
+            sequence_free(&q);
+        }
+    }
+    fclose(csv);
+    if (rows == 0)
+        return cli_fail("no sequences (two or more frames with references) found in '%s'", data);
+    fprintf(stderr, "edgewise: %d rows in %s/temporal.csv%s\n", rows, outdir,
+            failures ? " (some methods failed, see above)" : "");
+    return 0;
+}
+
 int cmd_bench(int argc, char **argv) {
     const char *data = NULL, *outdir = NULL, *spp_list = "1,4,16,64", *scenes = NULL, *methods = NULL;
-    int repeat = 3, threads = 0, images = 0, list = 0, frames = 1;
+    int repeat = 3, threads = 0, images = 0, list = 0, frames = 1, temporal = 0, spp_given = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(help, stdout); return 0; }
         else if (!strcmp(a, "--images")) images = 1;
         else if (!strcmp(a, "--list")) list = 1;
+        else if (!strcmp(a, "--temporal")) temporal = 1;
         else if (!v && a[0] == '-') { fprintf(stderr, "edgewise: %s needs a value\n", a); return EW_EXIT_USAGE; }
         else if (!strcmp(a, "-o") || !strcmp(a, "--output")) outdir = argv[++i];
-        else if (!strcmp(a, "--spp")) spp_list = argv[++i];
+        else if (!strcmp(a, "--spp")) { spp_list = argv[++i]; spp_given = 1; }
         else if (!strcmp(a, "--scenes")) scenes = argv[++i];
         else if (!strcmp(a, "--methods")) methods = argv[++i];
         else if (!strcmp(a, "--repeat")) { if (!cli_parse_int(a, argv[++i], 1, 100, &repeat)) return EW_EXIT_USAGE; }
@@ -188,6 +492,14 @@ int cmd_bench(int argc, char **argv) {
         if (e->d_name[0] != '.' && in_list(scenes, e->d_name, 1)) names[n_names++] = strdup(e->d_name);
     closedir(d);
     qsort(names, (size_t)n_names, sizeof names[0], cmp_str);
+    if (temporal) {
+        ew_device *tdev = cli_device(threads);
+        int rc = tdev ? bench_temporal(tdev, data, names, n_names, spp_given ? spp_list : "1,4", methods, repeat, outdir)
+                      : EW_EXIT_FAIL;
+        ew_device_destroy(tdev);
+        for (int s = 0; s < n_names; s++) free(names[s]);
+        return rc;
+    }
 
     fmt_path(path, sizeof path, "%s/results.csv", outdir);
     FILE *csv = fopen(path, "w");
@@ -239,7 +551,7 @@ int cmd_bench(int argc, char **argv) {
                     int ok = 1;
                     for (int k = 0; k < repeat && ok; k++) {
                         err[0] = '\0';
-                        ok = ew_method_run(dev, &specs[m], &ld, out, &ms, err, sizeof err) == 0;
+                        ok = run_method(dev, m, &ld, out, &ms, err, sizeof err) == 0;
                         if (ms < best) best = ms;
                     }
                     if (!ok) {
