@@ -69,12 +69,15 @@ static const char usage[] =
     "                        testing that a resumed run matches an uninterrupted one)\n"
     "  --csv PATH, --svg PATH  validation curve (default MODEL.csv, MODEL.svg)\n"
     "  --split S             --eval: which scenes (default test)\n"
+    "  --extra-train DIR     more scene folders, every one a training scene (never validation or\n"
+    "                        test): e.g. tools/blender/make_dataset.sh -s train output\n"
     "  --bench               time every model at --size (default 1280x720): ms per frame, the share\n"
     "                        of GuideNet, its GFLOP/s against the measured FMA peak, memory at 4K\n";
 
 /* ---- options ---------------------------------------------------------- */
 typedef struct {
     const char *data, *arch, *out, *eval, *emit_c, *init, *rates, *split, *models;
+    const char *extra_train; /* more scenes, all for training (e.g. the project's generator's train split) */
     int bench, bench_w, bench_h;
     char checkpoint[1024], csv[1024], svg[1024];
     unsigned long seed;
@@ -118,6 +121,7 @@ static int parse(int argc, char **argv, options *o) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
 #define VAL() do { if (!v) { fprintf(stderr, "train_nbg: %s needs a value\n", a); return 0; } i++; } while (0)
         if (!strcmp(a, "--data")) { VAL(); o->data = v; }
+        else if (!strcmp(a, "--extra-train")) { VAL(); o->extra_train = v; }
         else if (!strcmp(a, "--arch")) { VAL(); o->arch = v; }
         else if (!strcmp(a, "--out")) { VAL(); o->out = v; }
         else if (!strcmp(a, "--eval")) { VAL(); o->eval = v; }
@@ -215,6 +219,7 @@ static int write_file_atomic(const char *path, const void *data, size_t size) {
 typedef struct {
     char name[256];
     char family[256];
+    const char *dir; /* the data directory holding it */
     long seed;
     int split; /* 0 train, 1 val, 2 test */
 } scene_info;
@@ -248,7 +253,8 @@ static int parse_scene_name(const char *n, scene_info *s) {
     return 1;
 }
 
-static int list_scenes(const char *dir, scene_info *scenes) {
+/* Scenes of dir: split by the rule below, or all training when all_train. */
+static int list_scenes(const char *dir, scene_info *scenes, int max, int all_train) {
     DIR *d = opendir(dir);
     if (!d) {
         fprintf(stderr, "train_nbg: cannot open data directory '%s': %s\n", dir, strerror(errno));
@@ -256,14 +262,16 @@ static int list_scenes(const char *dir, scene_info *scenes) {
     }
     int n = 0;
     struct dirent *e;
-    while ((e = readdir(d)) && n < MAX_SCENES) {
+    while ((e = readdir(d)) && n < max) {
         if (e->d_name[0] == '.') continue;
         scene_info s;
         memset(&s, 0, sizeof s);
+        s.dir = dir;
         if (parse_scene_name(e->d_name, &s)) scenes[n++] = s;
     }
     closedir(d);
     qsort(scenes, (size_t)n, sizeof *scenes, cmp_scene);
+    if (all_train) return n; /* split 0 from the memset */
     /* the split: per family, by seed: last -> test, the one before -> val
      * when the family has >= 4 scenes */
     for (int i = 0; i < n;) {
@@ -329,11 +337,11 @@ typedef struct {
 
 /* Load every frame of the scenes whose split is in split_mask (bit s) and
  * whose spp is in spp_mask. */
-static int load_frames(const char *dir, dataset *ds, int split_mask, int spp_mask) {
+static int load_frames(dataset *ds, int split_mask, int spp_mask) {
     for (int si = 0; si < ds->nscenes; si++) {
         if (!(split_mask & (1 << ds->scenes[si].split))) continue;
         char sdir[4400];
-        snprintf(sdir, sizeof sdir, "%s/%s", dir, ds->scenes[si].name);
+        snprintf(sdir, sizeof sdir, "%s/%s", ds->scenes[si].dir, ds->scenes[si].name);
         DIR *d = opendir(sdir);
         if (!d) continue;
         char names[64][256];
@@ -618,7 +626,7 @@ static int evaluate(const options *o, dataset *ds, ew_device *dev) {
         return 1;
     }
     int split = !strcmp(o->split, "train") ? 0 : !strcmp(o->split, "val") ? 1 : 2;
-    if (load_frames(o->data, ds, 1 << split, o->spp_mask) != 0) return 1;
+    if (load_frames(ds, 1 << split, o->spp_mask) != 0) return 1;
     printf("scene,spp,frame,input_psnr,input_ssim,bgrid_psnr,bgrid_ssim,nbg_psnr,nbg_ssim,nbg_minus_bgrid_db\n");
     summary si, sb, sn;
     memset(&si, 0, sizeof si);
@@ -822,10 +830,18 @@ int main(int argc, char **argv) {
         return rc;
     }
     static dataset ds;
-    ds.nscenes = list_scenes(o.data, ds.scenes);
+    ds.nscenes = list_scenes(o.data, ds.scenes, MAX_SCENES, 0);
     if (ds.nscenes <= 0) {
         if (ds.nscenes == 0) fprintf(stderr, "train_nbg: no scene folders in '%s'\n", o.data);
         return 1;
+    }
+    if (o.extra_train && !o.eval) {
+        int k = list_scenes(o.extra_train, ds.scenes + ds.nscenes, MAX_SCENES - ds.nscenes, 1);
+        if (k <= 0) {
+            if (k == 0) fprintf(stderr, "train_nbg: no scene folders in '%s'\n", o.extra_train);
+            return 1;
+        }
+        ds.nscenes += k;
     }
     ew_device_desc dd = EW_DEVICE_DESC_INIT;
     dd.num_threads = o.threads;
@@ -894,7 +910,7 @@ int main(int argc, char **argv) {
     printf("split (whole scenes; test scenes are not read):\n");
     for (int i = 0; i < ds.nscenes; i++) printf("  %-5s %s\n", split_name(ds.scenes[i].split), ds.scenes[i].name);
     double t_load = now_s();
-    if (load_frames(o.data, &ds, 1 | 2, o.spp_mask) != 0) return 1;
+    if (load_frames(&ds, 1 | 2, o.spp_mask) != 0) return 1;
     static ew_train_frame tframes[MAX_FRAMES];
     static picker pk;
     int ntrain = 0, nval = 0;
