@@ -9,7 +9,9 @@ Reads OUT_DIR/results.csv and writes
   summary.md                       per method and spp: mean PSNR/SSIM/relMSE/SMAPE/ms
   scenes.md                        per scene table
   index.html                       input / outputs / reference / error maps per frame
-                                   (when the bench ran with --images)
+                                   (when the bench ran with --images; every image is
+                                   checked to decode in headless Chromium by
+                                   tests/report, ctest -L browser)
 and, from OUT_DIR/temporal.csv (edgewise bench --temporal),
   temporal.md, temporal_psnr_vs_flicker.png
 Uses Debian's python3-matplotlib.
