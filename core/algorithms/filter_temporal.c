@@ -25,6 +25,9 @@ static const ew_param_desc params[] = {
     {"depth_rel", EW_PARAM_FLOAT, 0.1f, 0.0f, 10.0f, "history whose depth differs by more than this fraction is rejected"},
     {"motion_sign", EW_PARAM_INT, 1.0f, -1.0f, 1.0f, "+1: previous position = pixel + vector (Cycles); -1: pixel - vector"},
     {"max_frames", EW_PARAM_INT, 32.0f, 1.0f, 100000.0f, "cap of the history length"},
+    {"clamp", EW_PARAM_FLOAT, 0.0f, 0.0f, 100.0f,
+     "clamp the history to the frame's 3x3 mean +- this many standard deviations per channel (variance clipping "
+     "against ghosting, for an already denoised frame; 0: off)"},
     {"reset", EW_PARAM_BOOL, 0.0f, 0.0f, 1.0f, "1: drop the history at the next commit (then reads 0 again)"},
 };
 
@@ -37,6 +40,19 @@ typedef struct {
     int cur; /* index of the newest history */
     float mem[];
 } state;
+
+typedef struct {
+    const ew_temporal_params *p;
+    const ew_temporal_buffers *b;
+    float gamma;
+} clip_job;
+
+static void clip_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const clip_job *j = (const clip_job *)ctx;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < j->p->width; x++) ew_temporal_clipped_px(x, (int)y, j->p, j->b, j->gamma);
+}
 
 static ew_result commit(ew_op *op) {
     const ew_image *c = ew_op_image(op, "color");
@@ -101,7 +117,13 @@ static ew_result execute(ew_op *op) {
     b.prev_len = s->valid ? s->hist_len[prev] : NULL;
     b.out_color = s->hist_color[next];
     b.out_len = s->hist_len[next];
-    dev->backend->temporal(dev, &p, &b);
+    const float gamma = ew_op_param(op, "clamp");
+    if (gamma > 0.0f) { /* CPU only, like the rest of this op (device_memory 0): the backend entry has no clamp */
+        clip_job cj = {&p, &b, gamma};
+        ew_pool_run(dev->pool, s->height, 0, clip_rows, &cj);
+    } else {
+        dev->backend->temporal(dev, &p, &b);
+    }
     const size_t n = (size_t)s->width * s->height;
     if (nv) memcpy(s->hist_normal[next], s->normal, n * 3 * sizeof(float));
     if (dv) memcpy(s->hist_depth[next], s->depth, n * sizeof(float));

@@ -51,7 +51,35 @@ EW_HD int ew_temporal_tap_ok(const ew_temporal_params *p, const ew_temporal_buff
     return 1;
 }
 
-EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_temporal_buffers *b) {
+/* Optional history clamp (variance clipping, Salvi 2016, as in TAA and
+ * A-SVGF): the reprojected history is clamped, per channel, to the current
+ * frame's 3x3 mean +- gamma standard deviations before blending, so history
+ * that no longer matches (shading changes, resampling blur, missed
+ * disocclusions) cannot linger. Meant for a frame that is already denoised,
+ * whose neighbourhood statistics are tight. gamma <= 0: off. */
+EW_HD void ew_temporal_clip(int x, int y, const ew_temporal_params *p, const float *color, float gamma, float *hist) {
+    float s1[3] = {0.0f, 0.0f, 0.0f}, s2[3] = {0.0f, 0.0f, 0.0f};
+    int n = 0;
+    for (int yy = ew_maxi(y - 1, 0); yy <= ew_mini(y + 1, p->height - 1); yy++)
+        for (int xx = ew_maxi(x - 1, 0); xx <= ew_mini(x + 1, p->width - 1); xx++) {
+            const float *c = color + ((long)yy * p->width + xx) * 3;
+            if (!ew_finitef(c[0]) || !ew_finitef(c[1]) || !ew_finitef(c[2])) continue;
+            for (int k = 0; k < 3; k++) {
+                s1[k] += c[k];
+                s2[k] += c[k] * c[k];
+            }
+            n++;
+        }
+    if (n == 0) return;
+    for (int k = 0; k < 3; k++) {
+        const float m = s1[k] / (float)n;
+        const float sd = sqrtf(ew_maxf(s2[k] / (float)n - m * m, 0.0f));
+        hist[k] = ew_clampf(hist[k], m - gamma * sd, m + gamma * sd);
+    }
+}
+
+/* One pixel, with the history clamp (gamma > 0) or without. */
+EW_HD void ew_temporal_clipped_px(int x, int y, const ew_temporal_params *p, const ew_temporal_buffers *b, float gamma) {
     const long j = (long)y * p->width + x;
     const float *cur = b->color + j * 3;
     float hist[3] = {0.0f, 0.0f, 0.0f}, wsum = 0.0f, len = 0.0f;
@@ -79,6 +107,7 @@ EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_te
     if (wsum > 1e-4f) {
         for (int c = 0; c < 3; c++) hist[c] /= wsum;
         len /= wsum;
+        if (gamma > 0.0f && cur_ok) ew_temporal_clip(x, y, p, b->color, gamma, hist);
         float alpha = ew_maxf(1.0f / (len + 1.0f), p->alpha_min);
         for (int c = 0; c < 3; c++) out[c] = cur_ok ? hist[c] + alpha * (cur[c] - hist[c]) : hist[c];
         b->out_len[j] = ew_minf(len + (cur_ok ? 1.0f : 0.0f), p->max_frames);
@@ -86,6 +115,10 @@ EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_te
         for (int c = 0; c < 3; c++) out[c] = cur[c];
         b->out_len[j] = cur_ok ? 1.0f : 0.0f;
     }
+}
+
+EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_temporal_buffers *b) {
+    ew_temporal_clipped_px(x, y, p, b, 0.0f);
 }
 
 #endif

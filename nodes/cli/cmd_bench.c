@@ -50,6 +50,8 @@ static const char help[] =
     "                along the Vector pass, normal/depth rejection, alpha 0.2);\n"
     "  after-demod   the same on the output divided by albedo + 0.01, multiplied\n"
     "                back with the frame's albedo;\n"
+    "  after-demod-clamp  the same with the history clamped to the frame's 3x3\n"
+    "                mean +- 1 sigma (the temporal filter's 'clamp' parameter);\n"
     "  before-demod  'temporal' on the noisy demodulated colour, then the method.\n"
     "Columns: scene, spp, method, accumulation, frames, PSNR/SSIM (mean over\n"
     "frames), tdiff (mean |frame-to-frame change| of the tone-mapped output),\n"
@@ -226,8 +228,9 @@ static void write_png(const char *path, const float *rgb, const float *ref, int 
 
 #define MAX_FRAMES 64
 
-enum { ACC_OFF, ACC_AFTER, ACC_AFTER_DEMOD, ACC_BEFORE_DEMOD, ACC_MODES };
-static const char *const acc_names[ACC_MODES] = {"off", "after", "after-demod", "before-demod"};
+enum { ACC_OFF, ACC_AFTER, ACC_AFTER_DEMOD, ACC_AFTER_CLAMP, ACC_BEFORE_DEMOD, ACC_MODES };
+static const char *const acc_names[ACC_MODES] = {"off", "after", "after-demod", "after-demod-clamp", "before-demod"};
+#define BENCH_TEMPORAL_CLAMP 1.0f /* "after-demod-clamp": the temporal filter's history clamp, in sigmas */
 
 typedef struct {
     int n, w, h;
@@ -325,6 +328,10 @@ static int sequence_run(ew_device *dev, int m, int mode, const sequence *q, floa
         snprintf(err, errlen, "temporal: %s", ew_device_last_error(dev));
         fail = 1;
     }
+    if (!fail && mode == ACC_AFTER_CLAMP && ew_filter_set_float(tf, "clamp", BENCH_TEMPORAL_CLAMP) != EW_OK) {
+        snprintf(err, errlen, "temporal: %s", ew_device_last_error(dev));
+        fail = 1;
+    }
     *ms = 0.0;
     for (int t = 0; t < q->n && !fail; t++) {
         const ew_layer_data *ld = &q->ld[t];
@@ -345,10 +352,11 @@ static int sequence_run(ew_device *dev, int m, int mode, const sequence *q, floa
         *ms += mms;
         if (fail || mode == ACC_OFF) continue;
         t0 = now_ms();
-        if (mode == ACC_AFTER_DEMOD)
+        const int demod = mode == ACC_AFTER_DEMOD || mode == ACC_AFTER_CLAMP;
+        if (demod)
             for (size_t i = 0; i < n3; i++) outs[t][i] /= albedo_factor(ld, i);
         fail = temporal_step(tf, outs[t], ld, err, errlen);
-        if (mode == ACC_AFTER_DEMOD)
+        if (demod)
             for (size_t i = 0; i < n3; i++) outs[t][i] *= albedo_factor(ld, i);
         *ms += now_ms() - t0;
     }

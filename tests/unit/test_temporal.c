@@ -172,3 +172,26 @@ TEST(normal_disagreement_rejects_history) {
     ew_filter_destroy(f);
     ew_device_destroy(dev);
 }
+
+/* clamp > 0: history outside the frame's 3x3 mean +- clamp sigma is pulled
+ * in (no ghost of a changed surface); history inside is left alone. */
+TEST(history_clamp_limits_ghosting_only) {
+    ew_device *dev;
+    ew_filter *f = make(&dev);
+    CHECK(f);
+    static float color[W * H * 3], out[W * H * 3];
+    CHECK_EQ_INT(ew_filter_set_float(f, "clamp", 1.0f), EW_OK);
+    for (int i = 0; i < W * H * 3; i++) color[i] = 1.0f;
+    CHECK(run(f, color, NULL, NULL, out));
+    /* left half: the surface changed to 3 (flat: sigma 0, history clamped to
+     * 3); right half: a stripe pattern 0.5 / 1.5 that keeps history 1 inside */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) color[(y * W + x) * 3 + c] = x < W / 2 ? 3.0f : (x % 2 ? 1.5f : 0.5f);
+    CHECK(run(f, color, NULL, NULL, out));
+    CHECK_NEAR(out[(5 * W + 3) * 3], 3.0, 1e-5);                     /* without the clamp: 2 */
+    CHECK_NEAR(out[(5 * W + W - 4) * 3], 0.5 * (1.0 + 0.5), 1e-5);   /* x even: mix(1, 0.5, 1/2) */
+    CHECK_NEAR(out[(5 * W + W - 3) * 3 + 1], 0.5 * (1.0 + 1.5), 1e-5); /* x odd */
+    ew_filter_destroy(f);
+    ew_device_destroy(dev);
+}
