@@ -125,10 +125,13 @@ static void build_specs(void) {
         param(&outlier_blind_spec, "albedo_tol", 1e4f);
         param(&outlier_blind_spec, "normal_cos", -1.0f);
         add("outlier", "filter", "outlier", 0);
+        s = add("outlier-blind", "filter", "outlier", 0);
+        param(s, "albedo_tol", 1e4f);
+        param(s, "normal_cos", -1.0f);
         static const struct { const char *label, *base; int blind; } chains[] = {
-            {"outlier+bgrid", "bgrid", 0},   {"outlier-blind+bgrid", "bgrid", 1},
-            {"outlier+nbg", "nbg", 0},       {"outlier+auto", "auto", 0},
-            {"outlier+pyramid-gi", "pyramid-gi", 0},
+            {"outlier+bgrid", "bgrid", 0},           {"outlier-blind+bgrid", "bgrid", 1},
+            {"outlier+nbg", "nbg", 0},               {"outlier+auto", "auto", 0},
+            {"outlier+pyramid-gi", "pyramid-gi", 0}, {"outlier-blind+pyramid-gi", "pyramid-gi", 1},
         };
         for (size_t c = 0; c < sizeof chains / sizeof chains[0]; c++) {
             int b = -1;
