@@ -2,9 +2,10 @@
  * guidenet_cpu.c — CPU convolutions for GuideNet (see guidenet_cpu.h and
  * the SIMD body in guidenet_cpu_kernel.h).
  *
- * The body is compiled twice: with AVX2 + FMA intrinsics for x86-64
- * processors that have them (picked at run time, so the library still runs
- * on any x86-64), and with GCC's portable vector extension otherwise. The
+ * The body is compiled three times: with AVX-512 and with AVX2 + FMA
+ * intrinsics for x86-64 processors that have them (picked at run time, so
+ * the library still runs on any x86-64; both give the same bits), and with
+ * GCC's portable vector extension otherwise. The
  * build uses ISO C (-std=c11), where GCC does not contract a * b + c into
  * an FMA by itself, hence the explicit intrinsics.
  */
@@ -29,6 +30,9 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_VZERO() ((ew_v8){0, 0, 0, 0, 0, 0, 0, 0})
 #define EW_VFMA(a, b, c) ((a) * (b) + (c))
 #define EW_SUFFIX(name) name##_generic
+#define EW_VW 8
+#define EW_XB4 3
+#define EW_XB5 2
 #include "algorithms/guidenet_cpu_kernel.h"
 #undef EW_V
 #undef EW_VLOAD
@@ -37,6 +41,9 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #undef EW_VZERO
 #undef EW_VFMA
 #undef EW_SUFFIX
+#undef EW_VW
+#undef EW_XB4
+#undef EW_XB5
 
 /* ---- AVX2 + FMA ------------------------------------------------------- */
 #if defined(__GNUC__) && defined(__x86_64__)
@@ -51,6 +58,9 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_VZERO() _mm256_setzero_ps()
 #define EW_VFMA(a, b, c) _mm256_fmadd_ps((a), (b), (c))
 #define EW_SUFFIX(name) name##_avx2
+#define EW_VW 8
+#define EW_XB4 3
+#define EW_XB5 2
 #include "algorithms/guidenet_cpu_kernel.h"
 #undef EW_V
 #undef EW_VLOAD
@@ -59,6 +69,40 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #undef EW_VZERO
 #undef EW_VFMA
 #undef EW_SUFFIX
+#undef EW_VW
+#undef EW_XB4
+#undef EW_XB5
+#pragma GCC pop_options
+
+/* ---- AVX-512 (forward blocks only) ----------------------------------- */
+/* 32 vector registers of 16 floats: blocks of 4 channels x 4 vectors (64
+ * pixels; 16 accumulators) and 5 x 4 for the 5-channel layer, so a tap
+ * costs 4 loads and 4-5 broadcasts for 16-20 multiply-adds. */
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx2,fma")
+#define EW_V __m512
+#define EW_VLOAD(p) _mm512_loadu_ps(p)
+#define EW_VSTORE(p, v) _mm512_storeu_ps((p), (v))
+#define EW_VSET1(f) _mm512_set1_ps(f)
+#define EW_VZERO() _mm512_setzero_ps()
+#define EW_VFMA(a, b, c) _mm512_fmadd_ps((a), (b), (c))
+#define EW_SUFFIX(name) name##_avx512
+#define EW_VW 16
+#define EW_XB4 4
+#define EW_XB5 4
+#define EW_NO_DWEIGHT 1
+#include "algorithms/guidenet_cpu_kernel.h"
+#undef EW_V
+#undef EW_VLOAD
+#undef EW_VSTORE
+#undef EW_VSET1
+#undef EW_VZERO
+#undef EW_VFMA
+#undef EW_SUFFIX
+#undef EW_VW
+#undef EW_XB4
+#undef EW_XB5
+#undef EW_NO_DWEIGHT
 #pragma GCC pop_options
 #endif
 
@@ -79,6 +123,21 @@ static double fma_burn(long iters, float seed) {
     return t[0] > -1.0f ? (double)iters * 12 * 8 * 2 : 0.0; /* (use the result) */
 }
 #pragma GCC pop_options
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx2,fma")
+/* The same with 16-float vectors (the AVX-512 convolutions' peak). */
+static double fma_burn512(long iters, float seed) {
+    __m512 a[12], m = _mm512_set1_ps(0.999999f), c = _mm512_set1_ps(1e-7f);
+    for (int k = 0; k < 12; k++) a[k] = _mm512_set1_ps(seed + (float)k);
+    for (long i = 0; i < iters; i++)
+        for (int k = 0; k < 12; k++) a[k] = _mm512_fmadd_ps(a[k], m, c);
+    float t[16];
+    __m512 s = a[0];
+    for (int k = 1; k < 12; k++) s = _mm512_add_ps(s, a[k]);
+    _mm512_storeu_ps(t, s);
+    return t[0] > -1.0f ? (double)iters * 12 * 16 * 2 : 0.0;
+}
+#pragma GCC pop_options
 #endif
 
 typedef struct {
@@ -90,7 +149,9 @@ static void peak_items(void *ctx, int64_t begin, int64_t end, int tid) {
     peak_job *j = (peak_job *)ctx;
     for (int64_t i = begin; i < end; i++) {
 #ifdef EW_HAVE_AVX2_PATH
-        if (ew_conv_cpu_simd_level()) j->flops[tid & 255] += fma_burn(j->iters, (float)i);
+        const int level = ew_conv_cpu_simd_level();
+        if (level == 2) j->flops[tid & 255] += fma_burn512(j->iters / 2, (float)i);
+        else if (level == 1) j->flops[tid & 255] += fma_burn(j->iters, (float)i);
 #else
         (void)j;
 #endif
@@ -114,10 +175,31 @@ double ew_conv_cpu_fma_gflops(ew_device *dev, double *seconds) {
 int ew_conv_cpu_simd_level(void) {
 #ifdef EW_HAVE_AVX2_PATH
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? 1 : 0;
+    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) return 0;
+    return __builtin_cpu_supports("avx512f") ? 2 : 1;
 #else
     return 0;
 #endif
+}
+
+const char *ew_conv_cpu_simd_name(int level) {
+    return level == 2 ? "AVX-512" : (level == 1 ? "AVX2 + FMA" : "portable");
+}
+
+void ew_conv_cpu_rows_level(const ew_conv_args *a, const float *wt, int r0, int r1, int level) {
+#ifdef EW_HAVE_AVX2_PATH
+    if (level > ew_conv_cpu_simd_level()) level = ew_conv_cpu_simd_level();
+    if (level == 2) {
+        conv_rows_avx512(a, wt, r0, r1);
+        return;
+    }
+    if (level == 1) {
+        conv_rows_avx2(a, wt, r0, r1);
+        return;
+    }
+#endif
+    (void)level;
+    conv_rows_generic(a, wt, r0, r1);
 }
 
 void ew_conv_cpu_wt_layout(int cin, int cout, const float *w, float *wt) {
@@ -133,13 +215,7 @@ void ew_conv_cpu_wt_layout(int cin, int cout, const float *w, float *wt) {
 }
 
 void ew_conv_cpu_rows(const ew_conv_args *a, const float *wt, int r0, int r1) {
-#ifdef EW_HAVE_AVX2_PATH
-    if (ew_conv_cpu_simd_level()) {
-        conv_rows_avx2(a, wt, r0, r1);
-        return;
-    }
-#endif
-    conv_rows_generic(a, wt, r0, r1);
+    ew_conv_cpu_rows_level(a, wt, r0, r1, 2);
 }
 
 void ew_conv_cpu_dweight(const ew_conv_args *a, const float *g, long g_rs, long g_ps, float *dw, float *db) {

@@ -1,6 +1,6 @@
 /*
- * guidenet_cpu.h — the CPU's convolutions for GuideNet: SIMD blocks (AVX2 +
- * FMA when the processor has them, chosen at run time; portable vectors
+ * guidenet_cpu.h — the CPU's convolutions for GuideNet: SIMD blocks (AVX-512
+ * or AVX2 + FMA when the processor has them, chosen at run time; portable vectors
  * otherwise), the backend table's conv5 entry that runs them on the
  * device's threads, and the single-threaded pieces the trainer calls per
  * patch.
@@ -28,11 +28,17 @@ void ew_conv_cpu_rows(const ew_conv_args *a, const float *wt, int r0, int r1);
 /* Add dL/dW ([cout][cin][25]) and dL/db (NULL: skip) of a convolution to dw
  * and db, given g = dL/d(pre-activation) with zero padding; this thread. */
 void ew_conv_cpu_dweight(const ew_conv_args *a, const float *g, long g_rs, long g_ps, float *dw, float *db);
-/* 1 when the AVX2 + FMA blocks are in use (for benchmarks to report). */
+/* The forward blocks in use: 2 AVX-512 (16-float vectors), 1 AVX2 + FMA,
+ * 0 portable vectors (for benchmarks to report). The AVX-512 and AVX2 blocks
+ * give the same bits; the weight gradient always uses AVX2 (or portable). */
 int ew_conv_cpu_simd_level(void);
+const char *ew_conv_cpu_simd_name(int level);
+/* ew_conv_cpu_rows with the instruction set capped at `level` (tests). */
+void ew_conv_cpu_rows_level(const ew_conv_args *a, const float *wt, int r0, int r1, int level);
 /* The machine's fused multiply-add throughput as the benchmark sees it: 12
- * independent AVX2 FMA chains per thread on every thread of dev, in
- * GFLOP/s (0 without AVX2). *seconds: the time it took. */
+ * independent FMA chains of the forward blocks' vector width per thread on
+ * every thread of dev, in GFLOP/s (0 without AVX2). *seconds: the time it
+ * took. */
 double ew_conv_cpu_fma_gflops(ew_device *dev, double *seconds);
 
 /* Backend entry (backend.h): the whole convolution on the device's threads. */

@@ -1,12 +1,21 @@
 /*
  * guidenet_cpu_kernel.h — the SIMD body of the CPU convolutions, included
  * by guidenet_cpu.c once per instruction set with these macros defined:
- *   EW_V              vector type of 8 floats
+ *   EW_V              vector type of EW_VW floats (8: AVX2 / portable, 16: AVX-512)
+ *   EW_XB4, EW_XB5    vectors per register block for blocks of 4 (and fewer)
+ *                     output channels and for the 5-channel layer
  *   EW_VLOAD(p)       unaligned load, EW_VSTORE(p, v) unaligned store
  *   EW_VSET1(f)       broadcast, EW_VZERO() zero
  *   EW_VFMA(a, b, c)  a * b + c
  *   EW_SUFFIX(name)   name mangled for the instruction set
+ *   EW_NO_DWEIGHT     defined: leave out conv_dweight (AVX-512 runs forward
+ *                     blocks only; the weight gradient keeps 8-float vectors)
  * Not a header to include anywhere else (no include guard on purpose).
+ *
+ * Every output value is the same chain of operations whatever the vector
+ * width or blocking — bias (or the stored value), then one multiply-add per
+ * input channel and tap in the same order — so the AVX2 and AVX-512 blocks
+ * give the same bits (tests/unit/test_conv.c).
  *
  * Register blocking: CB output channels x XB vectors of 8 pixels of one row
  * are accumulated in registers over cin x 25 taps; each tap costs XB loads
@@ -17,22 +26,23 @@
  */
 
 #define EW_AI static inline __attribute__((always_inline))
+#define EW_XB_MAX (EW_XB4 > EW_XB5 ? EW_XB4 : EW_XB5)
 
 /* One block: CB channels (from co0) x XB vectors at pixel x0 of row r.
  * Lanes at or beyond `valid` are computed but never stored. */
 EW_AI void EW_SUFFIX(conv_block)(const int CB, const int XB, const ew_conv_args *a, const float *wt, int co0, int r,
                                  int x0, int valid) {
-    EW_V acc[5][3];
+    EW_V acc[5][EW_XB_MAX];
     float *out = a->out + (long)co0 * a->out_ps + (long)r * a->out_rs + x0;
-    const int full = valid >= 8 * XB;
+    const int full = valid >= EW_VW * XB;
     for (int k = 0; k < CB; k++)
         for (int v = 0; v < XB; v++) {
             if (a->accumulate) {
                 if (full) {
-                    acc[k][v] = EW_VLOAD(out + k * a->out_ps + 8 * v);
+                    acc[k][v] = EW_VLOAD(out + k * a->out_ps + EW_VW * v);
                 } else {
-                    float t[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-                    for (int i = 0; i < 8 && 8 * v + i < valid; i++) t[i] = out[k * a->out_ps + 8 * v + i];
+                    float t[EW_VW];
+                    for (int i = 0; i < EW_VW; i++) t[i] = EW_VW * v + i < valid ? out[k * a->out_ps + EW_VW * v + i] : 0.0f;
                     acc[k][v] = EW_VLOAD(t);
                 }
             } else {
@@ -46,8 +56,8 @@ EW_AI void EW_SUFFIX(conv_block)(const int CB, const int XB, const ew_conv_args 
         for (int ky = 0; ky < 5; ky++) {
             const float *row = ip + (long)ky * a->in_rs;
             for (int kx = 0; kx < 5; kx++) {
-                EW_V xv[3];
-                for (int v = 0; v < XB; v++) xv[v] = EW_VLOAD(row + kx + 8 * v);
+                EW_V xv[EW_XB_MAX];
+                for (int v = 0; v < XB; v++) xv[v] = EW_VLOAD(row + kx + EW_VW * v);
                 const float *wk = wp + (ky * 5 + kx) * CB;
                 for (int k = 0; k < CB; k++) {
                     EW_V w = EW_VSET1(wk[k]);
@@ -59,11 +69,11 @@ EW_AI void EW_SUFFIX(conv_block)(const int CB, const int XB, const ew_conv_args 
     for (int k = 0; k < CB; k++)
         for (int v = 0; v < XB; v++) {
             if (full) {
-                EW_VSTORE(out + k * a->out_ps + 8 * v, acc[k][v]);
+                EW_VSTORE(out + k * a->out_ps + EW_VW * v, acc[k][v]);
             } else {
-                float t[8];
+                float t[EW_VW];
                 EW_VSTORE(t, acc[k][v]);
-                for (int i = 0; i < 8 && 8 * v + i < valid; i++) out[k * a->out_ps + 8 * v + i] = t[i];
+                for (int i = 0; i < EW_VW && EW_VW * v + i < valid; i++) out[k * a->out_ps + EW_VW * v + i] = t[i];
             }
         }
 }
@@ -72,8 +82,8 @@ EW_AI void EW_SUFFIX(conv_block)(const int CB, const int XB, const ew_conv_args 
 EW_AI void EW_SUFFIX(conv_row_cb)(const int CB, const int XB, const ew_conv_args *a, const float *wt, int co0,
                                   int r) {
     int x = 0;
-    for (; x + 8 * XB <= a->width; x += 8 * XB) EW_SUFFIX(conv_block)(CB, XB, a, wt, co0, r, x, 8 * XB);
-    for (; x < a->width; x += 8) EW_SUFFIX(conv_block)(CB, 1, a, wt, co0, r, x, a->width - x);
+    for (; x + EW_VW * XB <= a->width; x += EW_VW * XB) EW_SUFFIX(conv_block)(CB, XB, a, wt, co0, r, x, EW_VW * XB);
+    for (; x < a->width; x += EW_VW) EW_SUFFIX(conv_block)(CB, 1, a, wt, co0, r, x, a->width - x);
 }
 
 /* Rows [r0, r1): every channel block (the split ew_conv_cpu_wt_layout
@@ -82,14 +92,14 @@ static void EW_SUFFIX(conv_rows)(const ew_conv_args *a, const float *wt, int r0,
     for (int r = r0; r < r1; r++) {
         int co = 0;
         if (a->cout == 5) {
-            EW_SUFFIX(conv_row_cb)(5, 2, a, wt, 0, r);
+            EW_SUFFIX(conv_row_cb)(5, EW_XB5, a, wt, 0, r);
             co = 5;
         }
-        for (; co + 4 <= a->cout; co += 4) EW_SUFFIX(conv_row_cb)(4, 3, a, wt + (long)co * a->cin * 25, co, r);
+        for (; co + 4 <= a->cout; co += 4) EW_SUFFIX(conv_row_cb)(4, EW_XB4, a, wt + (long)co * a->cin * 25, co, r);
         switch (a->cout - co) {
-        case 3: EW_SUFFIX(conv_row_cb)(3, 3, a, wt + (long)co * a->cin * 25, co, r); break;
-        case 2: EW_SUFFIX(conv_row_cb)(2, 3, a, wt + (long)co * a->cin * 25, co, r); break;
-        case 1: EW_SUFFIX(conv_row_cb)(1, 3, a, wt + (long)co * a->cin * 25, co, r); break;
+        case 3: EW_SUFFIX(conv_row_cb)(3, EW_XB4, a, wt + (long)co * a->cin * 25, co, r); break;
+        case 2: EW_SUFFIX(conv_row_cb)(2, EW_XB4, a, wt + (long)co * a->cin * 25, co, r); break;
+        case 1: EW_SUFFIX(conv_row_cb)(1, EW_XB4, a, wt + (long)co * a->cin * 25, co, r); break;
         default: break;
         }
         if (!a->accumulate && a->act != EW_ACT_NONE)
@@ -100,6 +110,7 @@ static void EW_SUFFIX(conv_rows)(const ew_conv_args *a, const float *wt, int r0,
     }
 }
 
+#ifndef EW_NO_DWEIGHT
 /*
  * dL/dW (added to dw, [cout][cin][25]) and dL/db (added to db) from the
  * gradient g w.r.t. the pre-activation output. g must be zero in its padding
@@ -152,4 +163,7 @@ static void EW_SUFFIX(conv_dweight)(const ew_conv_args *a, const float *g, long 
         }
 }
 
+#endif /* EW_NO_DWEIGHT */
+
 #undef EW_AI
+#undef EW_XB_MAX

@@ -142,6 +142,45 @@ TEST(forward_odd_channel_blocks) { CHECK(forward_matches(3, 4, 5, 11, EW_ACT_NON
 TEST(forward_one_pixel_wide) { CHECK(forward_matches(1, 6, 3, 7, EW_ACT_LEAKY, 6)); }
 
 /* Accumulate mode adds the sum (no bias, no activation) to the output. */
+/* Every instruction set the processor has (AVX-512, AVX2 + FMA) computes
+ * each output value by the same chain of operations, so they give the same
+ * bits: the trainer's and the op's convolutions agree whichever runs. Also
+ * in accumulate mode and on widths that leave partial vectors. */
+static int levels_agree(int w, int h, int cin, int cout, int act, int accumulate, unsigned seed) {
+    conv_case c;
+    case_init(&c, w, h, cin, cout, act, seed);
+    float *wt = malloc(sizeof(float) * cin * cout * 25);
+    ew_conv_cpu_wt_layout(cin, cout, c.wgt, wt);
+    const size_t nf = ew_gn_planes_floats(w, h, cout);
+    float *res[3];
+    for (int level = 1; level <= 2; level++) {
+        ew_gn_planes_init(&c.out, c.outmem, w, h, cout);
+        for (int co = 0; co < cout; co++)
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w; x++) ew_gn_plane_row(&c.out, co, y)[x] = 0.25f * (float)((x + 3 * y + co) % 7);
+        ew_conv_args a = case_args(&c);
+        a.accumulate = accumulate;
+        ew_conv_cpu_rows_level(&a, wt, 0, h, level);
+        res[level] = malloc(nf * sizeof(float));
+        memcpy(res[level], c.outmem, nf * sizeof(float));
+    }
+    int same = memcmp(res[1], res[2], nf * sizeof(float)) == 0;
+    if (!same) fprintf(stderr, "  %dx%d %d->%d: AVX-512 and AVX2 differ\n", w, h, cin, cout);
+    free(res[1]); free(res[2]); free(wt);
+    case_free(&c);
+    return same;
+}
+
+TEST(instruction_sets_give_the_same_bits) {
+    if (ew_conv_cpu_simd_level() < 2) fprintf(stderr, "  (no AVX-512 on this processor: both runs use AVX2)\n");
+    CHECK(levels_agree(131, 5, 10, 20, EW_ACT_LEAKY, 0, 31));
+    CHECK(levels_agree(77, 4, 20, 5, EW_ACT_SIGMOID, 0, 32));
+    CHECK(levels_agree(45, 3, 20, 1, EW_ACT_SIGMOID, 0, 33));
+    CHECK(levels_agree(23, 6, 45, 5, EW_ACT_NONE, 1, 34));
+    CHECK(levels_agree(9, 3, 5, 11, EW_ACT_NONE, 0, 35));
+    CHECK(levels_agree(1, 2, 3, 7, EW_ACT_LEAKY, 0, 36));
+}
+
 TEST(accumulate_adds) {
     conv_case c;
     case_init(&c, 27, 6, 5, 20, EW_ACT_LEAKY, 7);

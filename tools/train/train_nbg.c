@@ -733,8 +733,8 @@ static int bench(const options *o, ew_device *dev) {
            have ? "a_cornell_119 at 1 spp, tiled" : "random colour", ew_device_get_num_threads(dev), reps);
     double peak_s;
     double peak = ew_conv_cpu_fma_gflops(dev, &peak_s);
-    printf("measured FMA peak: %.1f GFLOP/s (AVX2 FMA chains on every thread, %.2f s; %s)\n", peak, peak_s,
-           ew_conv_cpu_simd_level() ? "AVX2 + FMA convolutions" : "portable convolutions");
+    printf("measured FMA peak: %.1f GFLOP/s (%s FMA chains on every thread, %.2f s; %s convolutions)\n", peak,
+           ew_conv_cpu_simd_name(ew_conv_cpu_simd_level()), peak_s, ew_conv_cpu_simd_name(ew_conv_cpu_simd_level()));
     ew_image vc = ew_image_packed(color, W, H, 3), va = ew_image_packed(albedo, W, H, 3);
     ew_image vn = ew_image_packed(normal, W, H, 3), vd = ew_image_packed(depth, W, H, 1), vo = ew_image_packed(out, W, H, 3);
     /* the hand-made-guide grid, for reference */

@@ -146,14 +146,28 @@ typedef struct {
     int simd;
 } splat_job;
 
-/* Cell += w * (I, 1): the kernel's cell[c] += w * px[c]; cell[C] += w. */
-#define EW_SPLAT_ADD(cell, w, b0, b1, b2)                                                                   \
+/* A pixel as (I0, I1, I2, 1); cell += w * that: the kernel's
+ * cell[c] += w * px[c]; cell[C] += w (w * 1 = w), a multiply then an add
+ * per lane, as in the scalar code. SSE2 is part of x86-64. */
+#if defined(__SSE2__)
+#include <emmintrin.h>
+typedef __m128 px4;
+#define PX4(b0, b1, b2) _mm_setr_ps((b0), (b1), (b2), 1.0f)
+#define SPLAT_ADD(cell, w, b) _mm_storeu_ps((cell), _mm_add_ps(_mm_loadu_ps(cell), _mm_mul_ps(_mm_set1_ps(w), (b))))
+#else
+typedef struct {
+    float v[4];
+} px4;
+static inline px4 px4_make(float b0, float b1, float b2) {
+    px4 r = {{b0, b1, b2, 1.0f}};
+    return r;
+}
+#define PX4(b0, b1, b2) px4_make((b0), (b1), (b2))
+#define SPLAT_ADD(cell, w, b)                                                                               \
     do {                                                                                                    \
-        (cell)[0] += (w) * (b0);                                                                            \
-        (cell)[1] += (w) * (b1);                                                                            \
-        (cell)[2] += (w) * (b2);                                                                            \
-        (cell)[3] += (w);                                                                                   \
+        for (int c_ = 0; c_ < 4; c_++) (cell)[c_] += (w) * (b).v[c_];                                       \
     } while (0)
+#endif
 
 static void splat_row3(const splat_job *j, int v, run_weights *r) {
     const ew_bgrid_params *p = j->p;
@@ -175,6 +189,7 @@ static void splat_row3(const splat_job *j, int v, run_weights *r) {
                 const float *px = irow + (long)(x0 + i) * 3;
                 const float b0 = px[0], b1 = px[1], b2 = px[2];
                 if (!(ew_finitef(grow[x0 + i]) & ew_finitef(b0) & ew_finitef(b1) & ew_finitef(b2))) continue;
+                const px4 b = PX4(b0, b1, b2);
                 const int z0 = r->z0[i], u0 = r->u0[i];
                 const float t0 = r->tz0[i], t1 = r->tz1[i];
                 const int has0 = z0 >= 0 && z0 < gd, has1 = z0 + 1 >= 0 && z0 + 1 < gd;
@@ -187,11 +202,11 @@ static void splat_row3(const splat_job *j, int v, run_weights *r) {
                     const long k = (long)u * colf + (long)z0 * 4; /* cell z0 (may be -1: then unused) */
                     if (has0) {
                         const float w = wxy * t0;
-                        if (w > 0.0f) EW_SPLAT_ADD(row + k, w, b0, b1, b2);
+                        if (w > 0.0f) SPLAT_ADD(row + k, w, b);
                     }
                     if (has1) {
                         const float w = wxy * t1;
-                        if (w > 0.0f) EW_SPLAT_ADD(row + k + 4, w, b0, b1, b2);
+                        if (w > 0.0f) SPLAT_ADD(row + k + 4, w, b);
                     }
                 }
             }
@@ -227,6 +242,13 @@ void ew_cpu_bgrid_splat(ew_device *dev, const ew_bgrid_params *p, const float *i
 }
 
 /* ---- slice ----------------------------------------------------------------- */
+#define PREFETCH 16 /* pixels ahead */
+#if defined(__GNUC__)
+#define prefetch(p) __builtin_prefetch((p), 0, 3)
+#else
+#define prefetch(p) ((void)(p))
+#endif
+
 typedef struct {
     const ew_bgrid_params *p;
     const float *grid, *guide;
@@ -249,10 +271,50 @@ static void slice_row3(const slice_job *j, int y, run_weights *r) {
         const int n = W - x0 < RUN ? W - x0 : RUN;
         run_weights_compute(j->simd, p, x0, n, grow + x0, r);
         for (int i = 0; i < n; i++) {
+            if (i + PREFETCH < n) {
+                /* the first cells of a pixel ahead (the grid was written by
+                 * the whole splat pass before, so its rows are rarely still
+                 * in the cache) */
+                const int pu = r->u0[i + PREFETCH], pz = r->z0[i + PREFETCH];
+                const long pk = (long)(pu < 0 ? 0 : (pu >= gw ? gw - 1 : pu)) * colf +
+                                (long)(pz < 0 ? 0 : (pz >= gd ? gd - 1 : pz)) * 4;
+                if (hv[0]) prefetch(j->grid + rows[0] + pk);
+                if (hv[1]) prefetch(j->grid + rows[1] + pk);
+                if (pu + 1 < gw) {
+                    if (hv[0]) prefetch(j->grid + rows[0] + pk + colf);
+                    if (hv[1]) prefetch(j->grid + rows[1] + pk + colf);
+                }
+            }
             const int u0 = r->u0[i], z0 = r->z0[i];
             const int hu[2] = {u0 >= 0 && u0 < gw, u0 + 1 >= 0 && u0 + 1 < gw};
             const int hz[2] = {z0 >= 0 && z0 < gd, z0 + 1 >= 0 && z0 + 1 < gd};
             const float wx[2] = {r->wx0[i], r->wx1[i]}, tz[2] = {r->tz0[i], r->tz1[i]};
+#if defined(__SSE2__)
+            /* acc += w * (G0, G1, G2, 1) for the non-empty cells, in the
+             * kernel's order; an empty cell adds +0 (masked), which leaves
+             * the sums as they are */
+            const __m128 one3 = _mm_setr_ps(0.0f, 0.0f, 0.0f, 1.0f);
+            const __m128 keep3 = _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0));
+            __m128 acc = _mm_setzero_ps();
+            for (int dv = 0; dv < 2; dv++) {
+                if (!hv[dv]) continue;
+                for (int du = 0; du < 2; du++) {
+                    if (!hu[du]) continue;
+                    const float wxy = wx[du] * wy[dv];
+                    const long k = rows[dv] + (long)(u0 + du) * colf + (long)z0 * 4;
+                    for (int dz = 0; dz < 2; dz++) {
+                        if (!hz[dz]) continue;
+                        const __m128 cell = _mm_loadu_ps(j->grid + k + 4 * dz);
+                        const __m128 full = _mm_cmpgt_ps(_mm_shuffle_ps(cell, cell, 0xff), _mm_setzero_ps());
+                        const __m128 g1 = _mm_and_ps(_mm_or_ps(_mm_and_ps(cell, keep3), one3), full);
+                        acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(wxy * tz[dz]), g1));
+                    }
+                }
+            }
+            float av[4];
+            _mm_storeu_ps(av, acc);
+            const float a0 = av[0], a1 = av[1], a2 = av[2], a3 = av[3];
+#else
             float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, a3 = 0.0f;
             for (int dv = 0; dv < 2; dv++) {
                 if (!hv[dv]) continue;
@@ -272,6 +334,7 @@ static void slice_row3(const slice_job *j, int y, run_weights *r) {
                     }
                 }
             }
+#endif
             float *o = orow + (long)(x0 + i) * 3;
             if (a3 > 0.0f) {
                 const float inv = 1.0f / a3;
