@@ -32,6 +32,8 @@ static const node_spec filters[] = {
     {"filter", "dof", "Edgewise Depth of Field", {NULL, NULL}},
     /* radius 0 and iterations 0: zero a-trous iterations */
     {"filter", "atrous", "Edgewise A-Trous Filter", {"radius", "iterations"}},
+    /* firefly suppression before any filter of the host's (issue 9) */
+    {"filter", "outlier", "Edgewise Firefly Suppression", {NULL, NULL}},
 };
 
 /* Library images that are not inputs: the result, and extra outputs a

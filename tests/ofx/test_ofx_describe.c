@@ -21,8 +21,8 @@ static int expected_identifiers(char ids[][64], int max) {
         if (ew_method_get("denoiser", i, &name, NULL, NULL, NULL) == EW_OK)
             snprintf(ids[n++], 64, "org.edgewise.denoise.%s", name);
     }
-    const char *filters[] = {"pyramid", "dof", "atrous"};
-    for (int k = 0; k < 3 && n < max; k++)
+    const char *filters[] = {"pyramid", "dof", "atrous", "outlier"};
+    for (int k = 0; k < 4 && n < max; k++)
         for (int32_t i = 0; i < ew_method_count("filter"); i++) {
             const char *name = NULL;
             if (ew_method_get("filter", i, &name, NULL, NULL, NULL) == EW_OK && !strcmp(name, filters[k]))
