@@ -102,8 +102,20 @@ static void build_specs(void) {
     ew_method_spec *s = add("bgrid-features", "denoiser", "bgrid", 0);
     param(s, "color_weight", 0.0f);
     add("bgrid", "denoiser", "bgrid", 0);
-    if (has_method("denoiser", "nbg")) add("nbg", "denoiser", "nbg", 0);
-    if (has_method("denoiser", "auto")) add("auto", "denoiser", "auto", 0);
+    if (has_method("denoiser", "nbg")) {
+        add("nbg", "denoiser", "nbg", 0); /* built-in model 0: 2layer-3grid */
+        static const struct { const char *label; int model; } models[] = {
+            {"nbg-1grid", 1}, {"nbg-7layer", 2}, {"nbg-1spp", 3}};
+        for (size_t k = 0; k < sizeof models / sizeof models[0]; k++) {
+            s = add(models[k].label, "denoiser", "nbg", 0);
+            param(s, "model", (float)models[k].model);
+        }
+    }
+    if (has_method("denoiser", "auto")) {
+        add("auto", "denoiser", "auto", 0); /* the sample count from the file's Cycles metadata */
+        s = add("auto-noise", "denoiser", "auto", 0); /* as if the count were unknown: the noise estimate */
+        param(s, "samples", 0.0f);
+    }
     if (has_method("filter", "atrous")) add("atrous", "filter", "atrous", 1);
     if (has_method("filter", "pyramid")) {
         s = add("pyramid-gi", "filter", "pyramid", 1);
