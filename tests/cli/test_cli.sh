@@ -97,5 +97,18 @@ sample_gain() { # SPP MIN_GAIN
 sample_gain 0001 6.0
 sample_gain 0004 3.0
 
+# ---- the default method, auto, says what it picked, from the file's sample
+# count (Cycles metadata) unless --samples overrides it
+picks() { # NAME EXPECTED_SUBSTRING ARGS...
+  local name=$1 want=$2; shift 2
+  "$EW" denoise "$@" -o "$T/pick.exr" 2>"$T/err" >/dev/null
+  if grep -qF "$want" "$T/err"; then ok "$name"; else bad "$name (stderr: $(head -c 300 "$T/err"))"; fi
+}
+picks auto_1spp_nbg_1spp_model "nbg 2layer-3grid-1spp (1 spp)" "$SAMPLE/cornell/f0001_spp0001.exr"
+picks auto_4spp_nbg "nbg 2layer-3grid (4 spp)" "$SAMPLE/cornell/f0001_spp0004.exr"
+picks auto_samples_option_overrides "bgrid finest grid 2/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64
+picks auto_no_features_grid "bgrid coarse grid" "$T/no_albedo.exr" --samples 1
+picks model_implies_nbg "nbg 2layer-1grid" "$SAMPLE/cornell/f0001_spp0004.exr" --model 2layer-1grid
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
