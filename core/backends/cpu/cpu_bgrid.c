@@ -192,6 +192,19 @@ static void splat_row3(const splat_job *j, int v, run_weights *r) {
                 const px4 b = PX4(b0, b1, b2);
                 const int z0 = r->z0[i], u0 = r->u0[i];
                 const float t0 = r->tz0[i], t1 = r->tz1[i];
+                if (u0 >= 0 && u0 + 1 < gw && z0 >= 0 && z0 + 1 < gd) {
+                    /* inside the grid (most pixels): all 4 cells, no tests.
+                     * A zero weight adds +-0, which leaves a cell as it is
+                     * (a sum that starts at +0 is never -0), so skipping
+                     * those as the kernel does gives the same bits. */
+                    const float wxy0 = r->wx0[i] * wy, wxy1 = r->wx1[i] * wy;
+                    float *c0 = row + (long)u0 * colf + (long)z0 * 4, *c1 = c0 + colf;
+                    SPLAT_ADD(c0, wxy0 * t0, b);
+                    SPLAT_ADD(c0 + 4, wxy0 * t1, b);
+                    SPLAT_ADD(c1, wxy1 * t0, b);
+                    SPLAT_ADD(c1 + 4, wxy1 * t1, b);
+                    continue;
+                }
                 const int has0 = z0 >= 0 && z0 < gd, has1 = z0 + 1 >= 0 && z0 + 1 < gd;
                 for (int du = 0; du < 2; du++) {
                     const int u = u0 + du;
@@ -296,21 +309,36 @@ static void slice_row3(const slice_job *j, int y, run_weights *r) {
             const __m128 one3 = _mm_setr_ps(0.0f, 0.0f, 0.0f, 1.0f);
             const __m128 keep3 = _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0));
             __m128 acc = _mm_setzero_ps();
+#define SLICE_ADD(off, w)                                                                                   \
+    do {                                                                                                    \
+        const __m128 cell_ = _mm_loadu_ps(j->grid + (off));                                                 \
+        const __m128 full_ = _mm_cmpgt_ps(_mm_shuffle_ps(cell_, cell_, 0xff), _mm_setzero_ps());            \
+        acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(w), _mm_and_ps(_mm_or_ps(_mm_and_ps(cell_, keep3), one3), full_))); \
+    } while (0)
+            if (hv[0] & hv[1] & hu[0] & hu[1] & hz[0] & hz[1]) {
+                /* inside the grid (most pixels): the 8 cells in the kernel's order */
+                const long k0 = rows[0] + (long)u0 * colf + (long)z0 * 4, k1 = rows[1] + (long)u0 * colf + (long)z0 * 4;
+                const float w00 = wx[0] * wy[0], w01 = wx[1] * wy[0], w10 = wx[0] * wy[1], w11 = wx[1] * wy[1];
+                SLICE_ADD(k0, w00 * tz[0]);
+                SLICE_ADD(k0 + 4, w00 * tz[1]);
+                SLICE_ADD(k0 + colf, w01 * tz[0]);
+                SLICE_ADD(k0 + colf + 4, w01 * tz[1]);
+                SLICE_ADD(k1, w10 * tz[0]);
+                SLICE_ADD(k1 + 4, w10 * tz[1]);
+                SLICE_ADD(k1 + colf, w11 * tz[0]);
+                SLICE_ADD(k1 + colf + 4, w11 * tz[1]);
+            } else
             for (int dv = 0; dv < 2; dv++) {
                 if (!hv[dv]) continue;
                 for (int du = 0; du < 2; du++) {
                     if (!hu[du]) continue;
                     const float wxy = wx[du] * wy[dv];
                     const long k = rows[dv] + (long)(u0 + du) * colf + (long)z0 * 4;
-                    for (int dz = 0; dz < 2; dz++) {
-                        if (!hz[dz]) continue;
-                        const __m128 cell = _mm_loadu_ps(j->grid + k + 4 * dz);
-                        const __m128 full = _mm_cmpgt_ps(_mm_shuffle_ps(cell, cell, 0xff), _mm_setzero_ps());
-                        const __m128 g1 = _mm_and_ps(_mm_or_ps(_mm_and_ps(cell, keep3), one3), full);
-                        acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(wxy * tz[dz]), g1));
-                    }
+                    for (int dz = 0; dz < 2; dz++)
+                        if (hz[dz]) SLICE_ADD(k + 4 * dz, wxy * tz[dz]);
                 }
             }
+#undef SLICE_ADD
             float av[4];
             _mm_storeu_ps(av, acc);
             const float a0 = av[0], a1 = av[1], a2 = av[2], a3 = av[3];
@@ -359,7 +387,9 @@ static void slice_rows(void *ctx, int64_t begin, int64_t end, int tid) {
         return;
     }
     run_weights r;
-    for (int64_t y = begin; y < end; y++) slice_row3(j, (int)y, &r);
+    /* bottom row first: the splat wrote the grid top to bottom, so its last
+     * rows are the ones most likely still in the cache */
+    for (int64_t i = begin; i < end; i++) slice_row3(j, j->p->height - 1 - (int)i, &r);
 }
 
 void ew_cpu_bgrid_slice(ew_device *dev, const ew_bgrid_params *p, const float *grid, const float *guide,
