@@ -20,6 +20,10 @@ long ew_bf_pack_image(const ew_image *img, int C, float *dst);
  * channel (alpha) is copied from alpha_from (the input view) unfiltered.
  * Returns how many pixels were written as 0. */
 long ew_bf_unpack_image(const float *src, int C, const ew_image *img, const ew_image *alpha_from);
+/* The same with planes (EW_BF_CH planes of width x height: the pyramid's
+ * layout) instead of interleaved pixels. */
+long ew_bf_pack_image_planes(const ew_image *img, int C, float *dst);
+long ew_bf_unpack_image_planes(const float *src, int C, const ew_image *img, const ew_image *alpha_from);
 
 /* Attribute packers. Non-finite attribute values become 0 and are counted
  * in *bad (may be NULL). pack_channels: the first min(view channels, stride)
@@ -30,6 +34,10 @@ void ew_bf_pack_channels(const ew_image *view, int stride, float *attr, long *ba
  * roughness: diffuse). depth may be NULL (0), normal may be NULL (zero). */
 void ew_bf_pack_gi(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr,
                    long *bad);
+/* The same into planes (one per attribute channel). */
+void ew_bf_pack_channels_planes(const ew_image *view, int stride, float *attr, long *bad);
+void ew_bf_pack_gi_planes(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr,
+                          long *bad);
 
 /* Brute force, rows [y0, y1) of b (b->out must not alias b->image). */
 void ew_bilateral_brute_rows(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b);

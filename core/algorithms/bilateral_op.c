@@ -96,14 +96,20 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     int levels = 0;
     ew_pyr_table tbl;
     const ew_pyr_table *table = NULL;
-    const int uniform = m.kind != EW_RANGE_GI;
+    /* one sigma for every pixel, so weight rows rather than the per-pixel
+     * table: all but GI with a roughness image (diffuse GI's sigma is
+     * (s_alpha + 1) / 3 everywhere) */
+    const int uniform = m.kind != EW_RANGE_GI || !m.use_roughness;
+    ew_bf_model pm = m; /* the plan's model: GI's uniform sigma in .sigma (GI's range ignores it) */
+    if (m.kind == EW_RANGE_GI) pm.sigma = (m.sigma_alpha + 1.0f) / 3.0f;
     if (method == EW_BF_PYRAMID) {
         ew_result r = ew_bf_op_table(op, (int)ew_op_param(op, "weights"), &tbl, &table);
         if (r != EW_OK) return r;
         levels = m.radius == 0 ? 0 : ew_pyr_levels(ew_pyr_sigma_max(&m), w, h);
     }
     const size_t n = (size_t)w * (size_t)h;
-    size_t need = n * (size_t)(2 * EW_BF_CH + m.attrs);
+    /* the pyramid packs into its plan's planes; the others use interleaved buffers */
+    size_t need = method == EW_BF_PYRAMID ? 0 : n * (size_t)(2 * EW_BF_CH + m.attrs);
     if (method == EW_BF_SEPARABLE) need += n * (size_t)EW_BF_CH;
     if (method == EW_BF_PYRAMID) need += ew_pyr_scratch_floats(&m, w, h, levels, uniform);
     if (op->state) ew_bf_op_release(op);
@@ -119,13 +125,15 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     s->guide_is_color = m.kind == EW_RANGE_COLOR && !guide;
     s->depth_from_color = m.kind == EW_RANGE_DEPTH && !depth;
     float *p = s->mem;
-    s->image = p;
-    p += n * (size_t)EW_BF_CH;
-    s->out = p;
-    p += n * (size_t)EW_BF_CH;
-    s->attr = p;
-    p += n * (size_t)m.attrs;
-    s->tmp = NULL;
+    s->image = s->out = s->attr = s->tmp = NULL;
+    if (method != EW_BF_PYRAMID) {
+        s->image = p;
+        p += n * (size_t)EW_BF_CH;
+        s->out = p;
+        p += n * (size_t)EW_BF_CH;
+        s->attr = p;
+        p += n * (size_t)m.attrs;
+    }
     if (method == EW_BF_SEPARABLE) {
         s->tmp = p;
         p += n * (size_t)EW_BF_CH;
@@ -135,10 +143,10 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
             s->table = tbl;
             table = &s->table;
         }
-        ew_pyr_plan_init(&s->plan, &m, w, h, levels, uniform, table, 1.0f, p);
+        ew_pyr_plan_init(&s->plan, &pm, w, h, levels, uniform, table, 1.0f, p);
         /* the paper's analytic setting uses gamma = 0 for diffuse GI */
         if (!table && m.kind == EW_RANGE_GI && !m.use_roughness)
-            ew_pyr_plan_init(&s->plan, &m, w, h, levels, uniform, NULL, 0.0f, p);
+            ew_pyr_plan_init(&s->plan, &pm, w, h, levels, uniform, NULL, 0.0f, p);
     }
     return EW_OK;
 }
@@ -150,19 +158,32 @@ ew_result ew_bf_op_execute(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_bf_model *m = &s->model;
     const ew_image *color = ew_op_image(op, "color");
-    ew_bf_pack_image(color, m->channels, s->image);
+    const int planes = s->method == EW_BF_PYRAMID;
+    float *image = planes ? s->plan.down[0] : s->image, *attr = planes ? s->plan.attr[0] : s->attr;
+    if (planes) ew_bf_pack_image_planes(color, m->channels, image);
+    else ew_bf_pack_image(color, m->channels, image);
     long bad = 0;
     switch (m->kind) {
-    case EW_RANGE_COLOR:
-        ew_bf_pack_channels(s->guide_is_color ? color : ew_op_image(op, "guide"), 4, s->attr, &bad);
+    case EW_RANGE_COLOR: {
+        const ew_image *g = s->guide_is_color ? color : ew_op_image(op, "guide");
+        if (planes) ew_bf_pack_channels_planes(g, 4, attr, &bad);
+        else ew_bf_pack_channels(g, 4, attr, &bad);
         break;
+    }
     case EW_RANGE_GI:
-        ew_bf_pack_gi(ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), s->attr,
-                      &bad);
+        if (planes)
+            ew_bf_pack_gi_planes(ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"),
+                                 attr, &bad);
+        else
+            ew_bf_pack_gi(ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), attr,
+                          &bad);
         break;
-    case EW_RANGE_DEPTH:
-        ew_bf_pack_channels(s->depth_from_color ? color : ew_op_image(op, "depth"), 1, s->attr, &bad);
+    case EW_RANGE_DEPTH: {
+        const ew_image *d = s->depth_from_color ? color : ew_op_image(op, "depth");
+        if (planes) ew_bf_pack_channels_planes(d, 1, attr, &bad);
+        else ew_bf_pack_channels(d, 1, attr, &bad);
         break;
+    }
     default:
         break;
     }
@@ -182,11 +203,12 @@ ew_result ew_bf_op_execute(ew_op *op) {
         ew_bilateral_separable(dev, m, s->w, s->h, s->image, s->attr, s->tmp, s->out);
         break;
     case EW_BF_PYRAMID:
-        if (!ew_pyr_run(dev, &s->plan, s->image, s->attr, s->out, report, op))
+        if (!ew_pyr_run_planes(dev, &s->plan, report, op))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;
     }
-    ew_bf_unpack_image(s->out, m->channels, ew_op_image(op, "output"), color);
+    if (planes) ew_bf_unpack_image_planes(s->plan.out, m->channels, ew_op_image(op, "output"), color);
+    else ew_bf_unpack_image(s->out, m->channels, ew_op_image(op, "output"), color);
     return EW_OK;
 }
 

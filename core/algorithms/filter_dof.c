@@ -140,8 +140,11 @@ static ew_result execute(ew_op *op) {
     ew_dof_compute_attributes(dev, &s->cam, s->depth, s->coc, s->tiles, s->attr);
     switch (s->method) {
     case 0:
-        if (!ew_pyr_run(dev, &s->plan, s->image, s->attr, s->out, report, op))
+        ew_pyr_to_planes(s->image, EW_BF_CH, (size_t)s->w * (size_t)s->h, s->plan.down[0]);
+        ew_pyr_to_planes(s->attr, 2, (size_t)s->w * (size_t)s->h, s->plan.attr[0]);
+        if (!ew_pyr_run_planes(dev, &s->plan, report, op))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        ew_pyr_from_planes(s->plan.out, EW_BF_CH, (size_t)s->w * (size_t)s->h, s->out);
         break;
     case 1: {
         const int band = 16;

@@ -139,11 +139,13 @@ void ew_pyr_params_at(const ew_pyr_table *t, float sigma, int level, float analy
 }
 
 static size_t level_floats(const ew_bf_model *m, int w, int h) {
-    return (size_t)w * (size_t)h * (size_t)(2 * EW_BF_CH + m->attrs + (m->kind == EW_RANGE_DOF ? 1 : 0));
+    /* down, attributes, duplicated attributes, duplicated up, duplicated content CoC */
+    return (size_t)w * (size_t)h *
+           (size_t)(EW_BF_CH + 3 * m->attrs + 2 * EW_BF_CH + (m->kind == EW_RANGE_DOF ? 2 : 0));
 }
 
 size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int uniform) {
-    size_t n = 0;
+    size_t n = (size_t)w * (size_t)h * (size_t)(2 * EW_BF_CH + m->attrs); /* level 0: in, attributes, out */
     for (int l = 1; l <= levels; l++) {
         w = (w + 1) / 2;
         h = (h + 1) / 2;
@@ -167,6 +169,13 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
     p->w[0] = w;
     p->h[0] = h;
     float *s = scratch;
+    const size_t n0 = (size_t)w * (size_t)h;
+    p->down[0] = s;
+    s += n0 * EW_BF_CH;
+    p->attr[0] = s;
+    s += n0 * (size_t)m->attrs;
+    p->out = s;
+    s += n0 * EW_BF_CH;
     for (int l = 1; l <= levels; l++) {
         p->w[l] = (p->w[l - 1] + 1) / 2;
         p->h[l] = (p->h[l - 1] + 1) / 2;
@@ -175,11 +184,13 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
         s += n * (size_t)EW_BF_CH;
         p->attr[l] = s;
         s += n * (size_t)m->attrs;
+        p->attr2[l] = s;
+        s += 2 * n * (size_t)m->attrs;
         p->up[l] = s;
-        s += n * (size_t)EW_BF_CH;
+        s += 2 * n * (size_t)EW_BF_CH;
         if (m->kind == EW_RANGE_DOF) {
             p->coc[l] = s;
-            s += n;
+            s += 2 * n;
         }
     }
     ew_pyr_params prm;
@@ -199,6 +210,16 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
     }
 }
 
+void ew_pyr_to_planes(const float *src, int k, size_t n, float *planes) {
+    for (size_t j = 0; j < n; j++)
+        for (int c = 0; c < k; c++) planes[(size_t)c * n + j] = src[j * (size_t)k + (size_t)c];
+}
+
+void ew_pyr_from_planes(const float *planes, int k, size_t n, float *dst) {
+    for (size_t j = 0; j < n; j++)
+        for (int c = 0; c < k; c++) dst[j * (size_t)k + (size_t)c] = planes[(size_t)c * n + j];
+}
+
 /* Squared distance substituted for the coarse samples' range function at
  * level l (only DOF's depends on distance). §4.1 writes sqrt(2^(l+1) - 1)/2;
  * we read the exponent as 2(l+1), i.e. sqrt(4^(l+1) - 1)/2 ~ 2^l pixels, which
@@ -207,57 +228,67 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
  * levels than its CoC allows). */
 float ew_pyr_coarse_d2(int l) { return (float)((pow(4.0, l + 1) - 1.0) / 4.0); }
 
-int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
-               int (*progress)(void *user, double fraction), void *user) {
+int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, int (*progress)(void *user, double fraction),
+                      void *user) {
     const ew_backend *be = dev->backend;
     const ew_bf_model *m = &p->model;
     const size_t n0 = (size_t)p->width * (size_t)p->height * (size_t)EW_BF_CH;
     if (p->levels == 0) {
-        memcpy(out, image, n0 * sizeof(float));
+        memcpy(p->out, p->down[0], n0 * sizeof(float));
         return 1;
     }
-    const float *down[EW_PYR_MAX_LEVELS + 1], *at[EW_PYR_MAX_LEVELS + 1];
-    down[0] = image;
-    at[0] = attr;
     for (int l = 0; l < p->levels; l++) {
         ew_pyr_down_args a;
+        memset(&a, 0, sizeof a);
         a.m = m;
         a.w = p->w[l];
         a.h = p->h[l];
         a.cw = p->w[l + 1];
         a.ch = p->h[l + 1];
-        a.down = down[l];
-        a.attr = at[l];
+        a.down = p->down[l];
+        a.attr = p->attr[l];
         a.cdown = p->down[l + 1];
         a.cattr = p->attr[l + 1];
+        a.cattr2 = p->attr2[l + 1];
+        a.cdown2 = l + 1 == p->levels ? p->up[l + 1] : NULL; /* Up(L) = Down(L) */
         a.d2_unit = (float)(1u << (2 * l));
         a.major_attr = p->major_attr;
         be->pyr_down(dev, &a);
-        down[l + 1] = p->down[l + 1];
-        at[l + 1] = p->attr[l + 1];
     }
     if (progress && !progress(user, 0.3)) return 0;
-    const float *coarse = down[p->levels]; /* Up(L) = Down(L) */
     for (int l = p->levels - 1; l >= 0; l--) {
         ew_pyr_up_args a;
+        memset(&a, 0, sizeof a);
         a.m = m;
         a.w = p->w[l];
         a.h = p->h[l];
         a.cw = p->w[l + 1];
         a.ch = p->h[l + 1];
-        a.down = down[l];
-        a.attr = at[l];
-        a.cup = coarse;
-        a.cattr = at[l + 1];
-        a.up = l == 0 ? out : p->up[l];
+        a.down = p->down[l];
+        a.attr = p->attr[l];
+        a.cup = p->up[l + 1];
+        a.cattr = p->attr2[l + 1];
+        a.up = l == 0 ? p->out : p->up[l];
+        a.dup_out = l > 0;
         a.d2_unit = (float)(1u << (2 * l));
         a.coarse_d2 = ew_pyr_coarse_d2(l);
         a.row = p->uniform ? &p->rows[l] : NULL;
         a.lut = p->uniform ? NULL : p->lut + (size_t)l * EW_PYR_LUT_N;
-        a.ccoc = l + 1 < p->levels ? p->coc[l + 1] : NULL; /* the coarsest: its own C */
+        /* the coarsest level: its own C (the duplicated attributes' plane 1) */
+        if (m->kind == EW_RANGE_DOF)
+            a.ccoc = l + 1 < p->levels ? p->coc[l + 1] : p->attr2[l + 1] + 2 * (size_t)a.cw * (size_t)a.ch;
         a.ucoc = l > 0 ? p->coc[l] : NULL;
         be->pyr_up(dev, &a);
-        coarse = a.up;
     }
+    return 1;
+}
+
+int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
+               int (*progress)(void *user, double fraction), void *user) {
+    const size_t n = (size_t)p->width * (size_t)p->height;
+    ew_pyr_to_planes(image, EW_BF_CH, n, p->down[0]);
+    ew_pyr_to_planes(attr, p->model.attrs, n, p->attr[0]);
+    if (!ew_pyr_run_planes(dev, p, progress, user)) return 0;
+    ew_pyr_from_planes(p->out, EW_BF_CH, n, out);
     return 1;
 }

@@ -71,16 +71,22 @@ typedef struct ew_pyr_plan {
     float analytic_gamma;
     ew_pyr_wrow rows[EW_PYR_MAX_LEVELS];
     ew_pyr_wrow *lut;          /* levels x EW_PYR_LUT_N, in scratch (not uniform) */
+    /* planes (kernels/pyramid.h): down[l], attr[l] of w[l] x h[l]; level 0's
+     * are the input (ew_pyr_run_planes reads them), out the result. attr2[l],
+     * up[l], coc[l] (l >= 1) are duplicated, 2 w[l] x h[l]; up[levels] is
+     * Down(levels) duplicated. */
     float *down[EW_PYR_MAX_LEVELS + 1], *attr[EW_PYR_MAX_LEVELS + 1], *up[EW_PYR_MAX_LEVELS + 1];
+    float *attr2[EW_PYR_MAX_LEVELS + 1];
     float *coc[EW_PYR_MAX_LEVELS + 1]; /* DOF: content CoC of Up(l), 1 <= l < levels */
+    float *out;                        /* the result: EW_BF_CH planes of width x height */
 } ew_pyr_plan;
 
 /* Squared distance (full-resolution pixels) substituted for the coarse
  * samples' range function at level l (DOF only; see pyramid.c). */
 float ew_pyr_coarse_d2(int l);
 
-/* Floats of scratch a plan needs (levels 1..L: down, attributes, up; the
- * table). */
+/* Floats of scratch a plan needs (level 0's input and output planes;
+ * levels 1..L: down, attributes, up; the table). */
 size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int uniform);
 
 /* Lay out the plan in scratch (ew_pyr_scratch_floats floats) and fill the
@@ -94,6 +100,13 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
  * given (return 0 to stop: ew_pyr_run then returns 0). */
 int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
                int (*progress)(void *user, double fraction), void *user);
+/* The same on the plan's own planes: p->down[0] (EW_BF_CH planes) and
+ * p->attr[0] (attrs planes) in, p->out out (what the filter ops use: they
+ * pack the views straight into the planes). */
+int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, int (*progress)(void *user, double fraction), void *user);
+/* Interleaved (n x k) <-> planes (k planes of n). */
+void ew_pyr_to_planes(const float *src, int k, size_t n, float *planes);
+void ew_pyr_from_planes(const float *planes, int k, size_t n, float *dst);
 
 /* ---- training (pyramid_train.c) ---- */
 /* The forward pass on the calling thread alone (training runs one image per

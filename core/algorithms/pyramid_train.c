@@ -23,18 +23,19 @@
 
 #include "algorithms/pyramid.h"
 
-static void up_args(const ew_pyr_plan *p, int l, const float *image, const float *attr, const float *out,
-                    ew_pyr_up_args *a) {
+static void up_args(const ew_pyr_plan *p, int l, ew_pyr_up_args *a) {
+    memset(a, 0, sizeof *a);
     a->m = &p->model;
     a->w = p->w[l];
     a->h = p->h[l];
     a->cw = p->w[l + 1];
     a->ch = p->h[l + 1];
-    a->down = l == 0 ? image : p->down[l];
-    a->attr = l == 0 ? attr : p->attr[l];
-    a->cup = l + 1 == p->levels ? p->down[l + 1] : p->up[l + 1];
-    a->cattr = p->attr[l + 1];
-    a->up = l == 0 ? (float *)out : p->up[l];
+    a->down = p->down[l];
+    a->attr = p->attr[l];
+    a->cup = p->up[l + 1];
+    a->cattr = p->attr2[l + 1];
+    a->up = l == 0 ? p->out : p->up[l];
+    a->dup_out = l > 0;
     a->d2_unit = (float)(1u << (2 * l));
     a->coarse_d2 = ew_pyr_coarse_d2(l);
     a->row = &p->rows[l];
@@ -45,21 +46,30 @@ static void up_args(const ew_pyr_plan *p, int l, const float *image, const float
 
 void ew_pyr_forward1(const ew_pyr_plan *p, const float *image, const float *attr, float *out, int downs_done) {
     const ew_bf_model *m = &p->model;
+    const size_t n0 = (size_t)p->width * (size_t)p->height;
+    if (!downs_done) {
+        ew_pyr_to_planes(image, EW_BF_CH, n0, p->down[0]);
+        ew_pyr_to_planes(attr, m->attrs, n0, p->attr[0]);
+    }
     if (p->levels == 0) {
-        memcpy(out, image, (size_t)p->width * (size_t)p->height * EW_BF_CH * sizeof(float));
+        memcpy(p->out, p->down[0], n0 * EW_BF_CH * sizeof(float));
+        ew_pyr_from_planes(p->out, EW_BF_CH, n0, out);
         return;
     }
     for (int l = 0; l < p->levels && !downs_done; l++) {
         ew_pyr_down_args a;
+        memset(&a, 0, sizeof a);
         a.m = m;
         a.w = p->w[l];
         a.h = p->h[l];
         a.cw = p->w[l + 1];
         a.ch = p->h[l + 1];
-        a.down = l == 0 ? image : p->down[l];
-        a.attr = l == 0 ? attr : p->attr[l];
+        a.down = p->down[l];
+        a.attr = p->attr[l];
         a.cdown = p->down[l + 1];
         a.cattr = p->attr[l + 1];
+        a.cattr2 = p->attr2[l + 1];
+        a.cdown2 = l + 1 == p->levels ? p->up[l + 1] : NULL;
         a.d2_unit = (float)(1u << (2 * l));
         a.major_attr = p->major_attr;
         for (int y = 0; y < a.ch; y++)
@@ -67,10 +77,11 @@ void ew_pyr_forward1(const ew_pyr_plan *p, const float *image, const float *attr
     }
     for (int l = p->levels - 1; l >= 0; l--) {
         ew_pyr_up_args a;
-        up_args(p, l, image, attr, out, &a);
+        up_args(p, l, &a);
         for (int y = 0; y < a.h; y++)
             for (int x = 0; x < a.w; x++) ew_pyr_up_px(x, y, &a);
     }
+    ew_pyr_from_planes(p->out, EW_BF_CH, n0, out);
 }
 
 size_t ew_pyr_grad_scratch_floats(int w, int h) {
@@ -81,6 +92,9 @@ size_t ew_pyr_grad_scratch_floats(int w, int h) {
 
 void ew_pyr_backward1(const ew_pyr_plan *p, const float *image, const float *attr, const float *out,
                       const float *dout, float *scratch, double *grad) {
+    (void)image; /* the forward pass left everything in the plan */
+    (void)attr;
+    (void)out;
     const int C = EW_BF_CH;
     const double ln2 = 0.69314718055994531;
     const size_t n0 = (size_t)p->width * (size_t)p->height;
@@ -89,7 +103,7 @@ void ew_pyr_backward1(const ew_pyr_plan *p, const float *image, const float *att
     const float *g_cur = dout;
     for (int l = 0; l < p->levels; l++) {
         ew_pyr_up_args a;
-        up_args(p, l, image, attr, out, &a);
+        up_args(p, l, &a);
         float *g_next = bufs[(l + 1) & 1];
         const int last = l + 1 == p->levels; /* dL/dDown(L) is not needed */
         if (!last) memset(g_next, 0, (size_t)a.cw * (size_t)a.ch * C * sizeof(float));
@@ -98,8 +112,13 @@ void ew_pyr_backward1(const ew_pyr_plan *p, const float *image, const float *att
         for (int y = 0; y < a.h; y++)
             for (int x = 0; x < a.w; x++) {
                 const long j = (long)y * a.w + x;
-                const float *g = g_cur + j * C, *o = a.up + j * C;
+                const float *g = g_cur + j * C;
                 if (g[0] == 0.0f && g[1] == 0.0f && g[2] == 0.0f && g[3] == 0.0f) continue;
+                /* Up(l) of this pixel: the plan's result (l = 0) or the duplicated Up(l) */
+                float o[EW_BF_CH];
+                for (int c = 0; c < C; c++)
+                    o[c] = l == 0 ? a.up[(size_t)c * n0 + (size_t)j]
+                                  : a.up[(size_t)c * 2 * (size_t)a.w * a.h + (size_t)y * 2 * a.w + 2 * (size_t)x];
                 ew_pyr_terms t;
                 ew_pyr_up_terms(x, y, &a, p->model.kind, &t);
                 double comp = 0.0, sff = 0.0, W = 0.0;

@@ -115,9 +115,9 @@ EW_HD float ew_fexp2(float x) {
     p = p * f + 2.4022651e-1f;
     p = p * f + 6.9314718e-1f;
     p = p * f + 1.0f;
-    int i = (int)n;
-    i = i < -126 ? -126 : i;
-    i = i > 127 ? 127 : i;
+    /* the exponent clamped as a float (an integral value: exact; integer
+     * min/max would keep SSE2 loops from vectorising) */
+    const int i = (int)(n < -126.0f ? -126.0f : (n > 127.0f ? 127.0f : n));
     const int bx = ew_float_to_bits(x), zero = -((bx < 0) & (bx > -1023672320)); /* x < -126.0f */
     return ew_bits_to_float(ew_float_to_bits(p * ew_bits_to_float((i + 127) << 23)) & ~zero);
 }
@@ -137,9 +137,7 @@ EW_HD float ew_fexp(float x) {
     p = p * r + 0.5f;
     p = p * r + 1.0f;
     p = p * r + 1.0f;
-    int i = (int)n;
-    i = i < -126 ? -126 : i;
-    i = i > 127 ? 127 : i;
+    const int i = (int)(n < -126.0f ? -126.0f : (n > 127.0f ? 127.0f : n));
     const int bx = ew_float_to_bits(x), zero = -((bx < 0) & (bx > -1028784128)); /* x < -87.0f */
     return ew_bits_to_float(ew_float_to_bits(p * ew_bits_to_float((i + 127) << 23)) & ~zero);
 }
@@ -147,20 +145,20 @@ EW_HD float ew_fexp(float x) {
 /* log2(x) for finite x > 0 (x <= 0 gives about -123, which ew_fexp2 turns
  * into 0). Mantissa in [sqrt(.5), sqrt(2)), atanh series. */
 EW_HD float ew_flog2(float x) {
-    int b = ew_float_to_bits(x);
-    b = b < 0x02081cea ? 0x02081cea : b; /* 1e-37 (and x <= 0, as ints) */
-    int e = ((b >> 23) & 255) - 127;
+    const int b = ew_float_to_bits(x > 1e-37f ? x : 1e-37f); /* x <= 0 and NaN too */
+    /* the exponent as a float (small integers: exact), which keeps the
+     * compiler from narrowing the integer arithmetic in vectorised loops */
+    const float big = ew_float_to_bits(ew_bits_to_float((b & 0x007fffff) | 0x3f800000)) > 0x3fb504f3 ? 1.0f : 0.0f;
     float m = ew_bits_to_float((b & 0x007fffff) | 0x3f800000); /* [1, 2) */
-    int big = ew_float_to_bits(m) > 0x3fb504f3; /* m > sqrt(2), compared as ints */
-    m = m * (1.0f - 0.5f * (float)big);
-    e += big;
+    m = m * (1.0f - 0.5f * big);                                /* m > sqrt(2): halved */
+    const float e = (float)(b >> 23) - 127.0f + big;           /* b > 0 here: the sign bit is clear */
     float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
     float s = 1.0f / 9.0f;
     s = s * t2 + 1.0f / 7.0f;
     s = s * t2 + 1.0f / 5.0f;
     s = s * t2 + 1.0f / 3.0f;
     s = s * t2 + 1.0f;
-    return (float)e + 2.88539008f * t * s; /* 2/ln 2 */
+    return e + 2.88539008f * t * s; /* 2/ln 2 */
 }
 
 EW_HD float ew_smoothstep(float e0, float e1, float x) {
@@ -202,8 +200,12 @@ EW_HD int ew_bf_support(const ew_bf_model *m, float s) {
  * can specialise on a constant. Working in log2 makes f^gamma = 2^(gamma E)
  * free and lets callers batch the exponentials. */
 #define EW_BF_NEVER (-1000.0f)
-EW_HD float ew_bf_energy(const ew_bf_model *m, int kind, const float *EW_RESTRICT ap, const float *EW_RESTRICT aq,
-                         float d2) {
+/* rough: GI compares roughness (m->use_roughness; a separate argument so
+ * that loops specialised on it have no branch). Every conditional below
+ * selects between values already computed, so loops over samples or
+ * pixels if-convert and vectorise. */
+EW_HD float ew_bf_energy_r(const ew_bf_model *m, int kind, int rough, const float *EW_RESTRICT ap,
+                           const float *EW_RESTRICT aq, float d2) {
     if (kind == EW_RANGE_COLOR) { /* written out: 4 lanes for the compiler's SLP */
         const float d0 = ap[0] - aq[0], d1 = ap[1] - aq[1], d2c = ap[2] - aq[2], d3 = ap[3] - aq[3];
         return -1.44269504f * m->inv_2sr2 * ((d0 * d0 + d1 * d1) + (d2c * d2c + d3 * d3));
@@ -212,19 +214,33 @@ EW_HD float ew_bf_energy(const ew_bf_model *m, int kind, const float *EW_RESTRIC
         float pp = ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2];
         float qq = aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2];
         float dot = ap[0] * aq[0] + ap[1] * aq[1] + ap[2] * aq[2];
-        dot = pp < 0.25f && qq < 0.25f ? 1.0f : dot; /* both without a surface */
+        /* both without a surface: a match (the selects as integer masks of
+         * the floats' width, so that vectorised loops keep one mask type) */
+        const int none = -(int)(pp < 0.25f) & -(int)(qq < 0.25f);
+        dot = ew_bits_to_float((ew_float_to_bits(1.0f) & none) | (ew_float_to_bits(dot) & ~none));
         float e = m->sigma_n * ew_flog2(ew_minf(dot, 1.0f)) -
                   1.44269504f * m->sigma_z * fabsf(ap[3]) * fabsf(ap[3] - aq[3]);
-        if (m->use_roughness) e += ew_flog2(1.0f - ew_smoothstep(0.0f, 0.5f, fabsf(aq[4] - ap[4])));
-        return dot > 0.0f ? ew_maxf(e, EW_BF_NEVER) : EW_BF_NEVER;
+        if (rough) e += ew_flog2(1.0f - ew_smoothstep(0.0f, 0.5f, fabsf(aq[4] - ap[4])));
+        const int facing = -(int)(dot > 0.0f);
+        return ew_bits_to_float((ew_float_to_bits(ew_maxf(e, EW_BF_NEVER)) & facing) |
+                                (ew_float_to_bits(EW_BF_NEVER) & ~facing));
     }
     if (kind == EW_RANGE_DEPTH) return -1.44269504f * m->sigma_z * fabsf(ap[0]) * fabsf(ap[0] - aq[0]);
     if (kind == EW_RANGE_DOF) {
-        float mn = ew_minf(ap[0], aq[1]);
-        float e = mn > 0.0f ? -1.44269504f * 18.0f * d2 / (mn * mn) : EW_BF_NEVER;
-        return d2 <= 0.0f ? 0.0f : ew_maxf(e, EW_BF_NEVER);
+        const float mn = ew_minf(ap[0], aq[1]), mm = mn * mn;
+        const int pos = -(int)(mn > 0.0f), far = -(int)(d2 > 0.0f); /* integer masks, as GI's */
+        const float q = -1.44269504f * 18.0f * d2 /
+                        ew_bits_to_float((ew_float_to_bits(mm) & pos) | (ew_float_to_bits(1.0f) & ~pos));
+        const float e = ew_maxf(ew_bits_to_float((ew_float_to_bits(q) & pos) | (ew_float_to_bits(EW_BF_NEVER) & ~pos)),
+                                EW_BF_NEVER);
+        return ew_bits_to_float(ew_float_to_bits(e) & far); /* d2 <= 0: 0 */
     }
     return 0.0f;
+}
+
+EW_HD float ew_bf_energy(const ew_bf_model *m, int kind, const float *EW_RESTRICT ap, const float *EW_RESTRICT aq,
+                         float d2) {
+    return ew_bf_energy_r(m, kind, m->use_roughness, ap, aq, d2);
 }
 
 /* The range function itself. */

@@ -36,6 +36,25 @@
  * uniform sigma the caller passes one row per level; otherwise a table over
  * log2(sigma) in steps of 1/EW_PYR_LUT_STEPS octave, interpolated per pixel.
  *
+ * Layout: planes (structure of arrays), so that a loop over consecutive
+ * pixels reads consecutive floats and vectorises. A level of w x h pixels
+ * is EW_BF_CH value planes and A attribute planes of w*h floats each (plane
+ * c at buf + c w h). The coarse inputs of an upsampling pass (Up(l+1), the
+ * attributes at l+1, DOF's content CoC) are *duplicated horizontally*:
+ * planes of 2cw x ch floats in which columns 2x and 2x+1 both hold coarse
+ * pixel x. The coarse sample floor(p/2) + i of a fine pixel p is then at
+ * column p_x + 2 i_x for both parities ((p_x + 2 i_x) >> 1 = (p_x >> 1) +
+ * i_x), so consecutive fine pixels read consecutive coarse floats. The
+ * downsampling writes the duplicated attributes (and, for the coarsest
+ * level, values) beside the plain ones; the upsampling of level l >= 1
+ * writes its result duplicated, since only level l - 1 reads it.
+ *
+ * Interior pixels (every sample inside: all but two columns and rows at each
+ * border) take a path without bounds logic or branches (ew_pyr_up_in_k,
+ * ew_pyr_down_in_k), which the CPU backend runs over spans of a row with the
+ * compiler vectorising across pixels; the others take the general path. Both
+ * compute the same terms in the same order.
+ *
  * Values are premultiplied with the mask last (see bilateral.h). Samples
  * beyond the image border (the 3x3 patterns, odd-sized 2x2 blocks) count as
  * (0, 0, 0, 0) with range value 1, as zero padding does, so the mask tracks
@@ -56,6 +75,14 @@
 #include "kernels/bilateral.h"
 
 #define EW_PYR_MAX_LEVELS 16
+
+/* Loops over samples and channels unrolled completely, so that a loop over
+ * pixels around them is an innermost loop the compiler can vectorise. */
+#if defined(__GNUC__) && !defined(__clang__) && !defined(__CUDACC__)
+#define EW_PYR_UNROLL _Pragma("GCC unroll 32")
+#else
+#define EW_PYR_UNROLL
+#endif
 /* the table over log2(sigma): from 2^EW_PYR_LUT_LOG2_MIN, EW_PYR_LUT_STEPS per octave */
 #define EW_PYR_LUT_LOG2_MIN (-4)
 #define EW_PYR_LUT_STEPS 8
@@ -79,172 +106,283 @@ EW_HD int ew_pyr_dist(int i, int parity) {
 /* The distance class 0, 1, 2 of d = 1, 3, 5. */
 EW_HD int ew_pyr_dclass(int i, int parity) { return ew_pyr_dist(i, parity) / 2; }
 
+/* c ? a : b, exactly, with integer operations (a float select would be
+ * turned into a branch around the loads). */
+EW_HD float ew_pyr_select(int c, float a, float b) {
+    const int mask = -(c != 0);
+    return ew_bits_to_float((ew_float_to_bits(a) & mask) | (ew_float_to_bits(b) & ~mask));
+}
+
 typedef struct ew_pyr_down_args {
     const ew_bf_model *m;
     int w, h;                  /* fine level size */
     int cw, ch;                /* coarse level size */
-    const float *down, *attr;  /* fine level */
-    float *cdown, *cattr;      /* coarse level, written */
+    const float *down, *attr;  /* fine level: planes of w x h */
+    float *cdown, *cattr;      /* coarse level, written: planes of cw x ch */
     float d2_unit;             /* squared fine pixel pitch in full-resolution pixels: 4^l */
     int major_attr;            /* 1: coarse attributes are the major pixel's */
+    float *cattr2;             /* the coarse attributes duplicated (planes of 2cw x ch), written when not NULL */
+    float *cdown2;             /* the coarse values duplicated, written when not NULL (the coarsest level) */
 } ew_pyr_down_args;
+
+/* Store one coarse pixel's values v and attributes at; dup2: write the
+ * duplicated attributes (bit 0) and values (bit 1) too. */
+EW_HD void ew_pyr_down_store(int x, int y, const ew_pyr_down_args *a, const float *v, const float *at, const int A,
+                             const int dup2) {
+    const long cn = (long)a->cw * a->ch, j = (long)y * a->cw + x;
+    const long cn2 = 2 * cn, j2 = (long)y * 2 * a->cw + 2 * x;
+    EW_PYR_UNROLL
+    for (int c = 0; c < EW_BF_CH; c++) a->cdown[c * cn + j] = v[c];
+    EW_PYR_UNROLL
+    for (int k = 0; k < A; k++) a->cattr[k * cn + j] = at[k];
+    if (dup2 & 1) {
+        EW_PYR_UNROLL
+        for (int k = 0; k < A; k++) a->cattr2[k * cn2 + j2] = a->cattr2[k * cn2 + j2 + 1] = at[k];
+    }
+    if (dup2 & 2) {
+        EW_PYR_UNROLL
+        for (int c = 0; c < EW_BF_CH; c++) a->cdown2[c * cn2 + j2] = a->cdown2[c * cn2 + j2 + 1] = v[c];
+    }
+}
+
+/* The flags of ew_pyr_down_store for a pass. */
+EW_HD int ew_pyr_down_dup2(const ew_pyr_down_args *a) { return (a->cattr2 ? 1 : 0) | (a->cdown2 ? 2 : 0); }
 
 EW_HD void ew_pyr_down_px_k(int x, int y, const ew_pyr_down_args *a, const int kind) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind);
+    const long n = (long)a->w * a->h;
     long idx[4] = {0, 0, 0, 0};
     int cxy[4][2] = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
-    int n = 0;
+    int cnt = 0;
     for (int cy = 0; cy < 2; cy++)
         for (int cx = 0; cx < 2; cx++) {
             int fx = 2 * x + cx, fy = 2 * y + cy;
             if (fx >= a->w || fy >= a->h) continue;
-            idx[n] = (long)fy * a->w + fx;
-            cxy[n][0] = cx;
-            cxy[n][1] = cy;
-            n++;
+            idx[cnt] = (long)fy * a->w + fx;
+            cxy[cnt][0] = cx;
+            cxy[cnt][1] = cy;
+            cnt++;
         }
+    float at[4][EW_BF_MAX_ATTR];
+    for (int q = 0; q < 4; q++)
+        for (int k = 0; k < EW_BF_MAX_ATTR; k++) at[q][k] = q < cnt && k < A ? a->attr[k * n + idx[q]] : 0.0f;
     float abar[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
     for (int k = 0; k < A; k++) {
         float s = 0.0f;
-        for (int q = 0; q < n; q++) s += a->attr[idx[q] * A + k];
-        abar[k] = s / (float)n;
+        for (int q = 0; q < cnt; q++) s += at[q][k];
+        abar[k] = s / (float)cnt;
     }
     /* major pixel: the child the range function finds closest to the mean
      * (all children are at the same distance from the block centre); the
      * argmax of the range is the argmax of its energy */
     int mj = 0;
-    if (n > 1 && kind != EW_RANGE_NONE) {
+    if (cnt > 1 && kind != EW_RANGE_NONE) {
         float best = 2.0f * EW_BF_NEVER;
-        for (int q = 0; q < n; q++) {
-            float e = ew_bf_energy(m, kind, abar, a->attr + idx[q] * A, 0.5f * a->d2_unit);
+        for (int q = 0; q < cnt; q++) {
+            float e = ew_bf_energy(m, kind, abar, at[q], 0.5f * a->d2_unit);
             if (e > best) {
                 best = e;
                 mj = q;
             }
         }
     }
-    const float *am = a->attr + idx[mj] * A;
+    const float *am = at[mj];
     /* children beyond the border: zero values of range 1 */
     float acc[EW_BF_CH + 1], aacc[EW_BF_MAX_ATTR + 1];
     for (int c = 0; c < C; c++) acc[c] = 0.0f;
-    acc[C] = (float)(4 - n);
+    acc[C] = (float)(4 - cnt);
     for (int k = 0; k <= A; k++) aacc[k] = 0.0f;
-    for (int q = 0; q < n; q++) {
+    for (int q = 0; q < cnt; q++) {
         int dx = cxy[q][0] - cxy[mj][0], dy = cxy[q][1] - cxy[mj][1];
-        const float *aq = a->attr + idx[q] * A;
-        float f = q == mj ? 1.0f : ew_fexp2(ew_bf_energy(m, kind, am, aq, (float)(dx * dx + dy * dy) * a->d2_unit));
-        for (int k = 0; k < A; k++) aacc[k] += f * aq[k];
+        float f = q == mj ? 1.0f : ew_fexp2(ew_bf_energy(m, kind, am, at[q], (float)(dx * dx + dy * dy) * a->d2_unit));
+        for (int k = 0; k < A; k++) aacc[k] += f * at[q][k];
         aacc[A] += f;
-        const float *v = a->down + idx[q] * C;
-        for (int c = 0; c < C; c++) acc[c] += f * v[c];
+        for (int c = 0; c < C; c++) acc[c] += f * a->down[c * n + idx[q]];
         acc[C] += f;
     }
-    const long j = (long)y * a->cw + x;
-    float *o = a->cdown + j * C;
-    for (int c = 0; c < C; c++) o[c] = acc[c] / acc[C];
-    float *oa = a->cattr + j * A;
+    float v[EW_BF_CH], oa[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    for (int c = 0; c < C; c++) v[c] = acc[c] / acc[C];
     for (int k = 0; k < A; k++) oa[k] = a->major_attr ? am[k] : aacc[k] / aacc[A];
+    ew_pyr_down_store(x, y, a, v, oa, A, ew_pyr_down_dup2(a));
 }
 
-EW_HD void ew_pyr_down_px(int x, int y, const ew_pyr_down_args *a) { ew_pyr_down_px_k(x, y, a, a->m->kind); }
+/* The same for a coarse pixel with all four children inside (2x + 1 < w,
+ * 2y + 1 < h), without branches: the major pixel by selects. */
+EW_HD void ew_pyr_down_in_k(int x, int y, const ew_pyr_down_args *a, const int kind, const int major,
+                            const int dup2, const int rough) {
+    const ew_bf_model *m = a->m;
+    const int C = EW_BF_CH, A = ew_bf_attrs(kind);
+    const long n = (long)a->w * a->h, i0 = (long)(2 * y) * a->w + 2 * x;
+    long idx[4];
+    idx[0] = i0;
+    idx[1] = i0 + 1;
+    idx[2] = i0 + a->w;
+    idx[3] = i0 + a->w + 1;
+    float at[4][EW_BF_MAX_ATTR];
+    EW_PYR_UNROLL
+    for (int q = 0; q < 4; q++)
+        EW_PYR_UNROLL
+        for (int k = 0; k < EW_BF_MAX_ATTR; k++) at[q][k] = k < A ? a->attr[k * n + idx[q]] : 0.0f;
+    float abar[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    EW_PYR_UNROLL
+    for (int k = 0; k < A; k++) {
+        float s = 0.0f;
+        EW_PYR_UNROLL
+        for (int q = 0; q < 4; q++) s += at[q][k];
+        abar[k] = s / 4.0f;
+    }
+    int mj = 0;
+    if (kind != EW_RANGE_NONE) {
+        float best = 2.0f * EW_BF_NEVER;
+        EW_PYR_UNROLL
+        for (int q = 0; q < 4; q++) {
+            const float e = ew_bf_energy_r(m, kind, rough, abar, at[q], 0.5f * a->d2_unit);
+            const int better = e > best;
+            best = better ? e : best;
+            mj = better ? q : mj;
+        }
+    }
+    float am[EW_BF_MAX_ATTR];
+    EW_PYR_UNROLL
+    for (int k = 0; k < EW_BF_MAX_ATTR; k++)
+        am[k] = mj == 0 ? at[0][k] : mj == 1 ? at[1][k] : mj == 2 ? at[2][k] : at[3][k];
+    float acc[EW_BF_CH + 1], aacc[EW_BF_MAX_ATTR + 1];
+    EW_PYR_UNROLL
+    for (int c = 0; c <= C; c++) acc[c] = 0.0f;
+    EW_PYR_UNROLL
+    for (int k = 0; k <= A; k++) aacc[k] = 0.0f;
+    EW_PYR_UNROLL
+    for (int q = 0; q < 4; q++) {
+        const int dx = (q & 1) - (mj & 1), dy = (q >> 1) - (mj >> 1);
+        const float e = ew_fexp2(ew_bf_energy_r(m, kind, rough, am, at[q], (float)(dx * dx + dy * dy) * a->d2_unit));
+        const float f = q == mj ? 1.0f : e;
+        EW_PYR_UNROLL
+        for (int k = 0; k < A; k++) aacc[k] += f * at[q][k];
+        aacc[A] += f;
+        EW_PYR_UNROLL
+        for (int c = 0; c < C; c++) acc[c] += f * a->down[c * n + idx[q]];
+        acc[C] += f;
+    }
+    float v[EW_BF_CH], oa[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    EW_PYR_UNROLL
+    for (int c = 0; c < C; c++) v[c] = acc[c] / acc[C];
+    EW_PYR_UNROLL
+    for (int k = 0; k < A; k++) {
+        const float mean = aacc[k] / aacc[A];
+        oa[k] = major ? am[k] : mean;
+    }
+    ew_pyr_down_store(x, y, a, v, oa, A, dup2);
+}
+
+EW_HD void ew_pyr_down_px(int x, int y, const ew_pyr_down_args *a) {
+    if (2 * x + 1 < a->w && 2 * y + 1 < a->h)
+        ew_pyr_down_in_k(x, y, a, a->m->kind, a->major_attr, ew_pyr_down_dup2(a), a->m->use_roughness);
+    else ew_pyr_down_px_k(x, y, a, a->m->kind);
+}
 
 typedef struct ew_pyr_up_args {
     const ew_bf_model *m;
     int w, h;                  /* this level (l) */
     int cw, ch;                /* the coarser level (l + 1) */
-    const float *down, *attr;  /* Down(l) and attributes at l */
-    const float *cup, *cattr;  /* Up(l + 1) and attributes at l + 1 */
-    float *up;                 /* Up(l), written */
+    const float *down, *attr;  /* Down(l) and attributes at l: planes of w x h */
+    const float *cup, *cattr;  /* Up(l + 1) and attributes at l + 1: duplicated planes of 2cw x ch */
+    float *up;                 /* Up(l), written: planes of w x h, or of 2w x h duplicated when dup_out */
     float d2_unit;             /* 4^l: squared pitch of a level-l pixel in full-res pixels */
     float coarse_d2;           /* squared distance substituted for coarse samples (DOF) */
     const ew_pyr_wrow *row;    /* the weights when sigma is uniform, else NULL */
     const ew_pyr_wrow *lut;    /* else: this level's EW_PYR_LUT_N rows over log2(sigma) */
-    const float *ccoc;         /* DOF: content CoC of Up(l + 1) (NULL: the coarse attributes' C) */
-    float *ucoc;               /* DOF: content CoC of Up(l), written when not NULL */
+    const float *ccoc;         /* DOF: content CoC of Up(l + 1), duplicated (NULL: the coarse attributes' C;
+                                  the coarsest level passes cattr's C plane: the same numbers) */
+    float *ucoc;               /* DOF: content CoC of Up(l), written when not NULL (duplicated when dup_out) */
+    int dup_out;               /* write Up(l) (and ucoc) duplicated: l >= 1 */
 } ew_pyr_up_args;
 
-/* The weights for a centre of domain sigma s and parity par, interpolated
- * from the table. */
-EW_HD void ew_pyr_lookup(const ew_pyr_wrow *lut, float s, int par, float *wf, float *wdc, float *gamma) {
-    float t = (ew_flog2(ew_maxf(s, 1e-6f)) - (float)EW_PYR_LUT_LOG2_MIN) * (float)EW_PYR_LUT_STEPS;
-    t = ew_clampf(t, 0.0f, (float)(EW_PYR_LUT_N - 1));
-    int i0 = (int)t;
-    int i1 = ew_mini(i0 + 1, EW_PYR_LUT_N - 1);
-    float f = t - (float)i0, g = 1.0f - f;
-    const ew_pyr_wrow *r0 = lut + i0, *r1 = lut + i1;
-    for (int k = 0; k < 9; k++) {
-        wf[k] = g * r0->wf[k] + f * r1->wf[k];
-        wdc[k] = g * r0->wdc[par][k] + f * r1->wdc[par][k];
+/* log2 of the domain sigma at a centre with attributes ap, for the table
+ * (ew_flog2(ew_bf_sigma), written without a square root or branch). */
+EW_HD float ew_pyr_log2_sigma(const ew_bf_model *m, const int kind, const float *ap) {
+    if (kind == EW_RANGE_GI) return ew_flog2(ew_maxf((m->sigma_alpha * ap[4] + 1.0f) * (1.0f / 3.0f), 1e-6f));
+    if (kind == EW_RANGE_DOF) { /* sigma = 1 / sqrt(36 / D^2 + 1 / sigma^2); D <= 0: sigma 0 */
+        const float d = ap[0], s2 = m->sigma * m->sigma;
+        const float extra = 1.0f / ew_maxf(s2, 1e-30f);
+        const float inv = 36.0f / ew_maxf(d * d, 1e-30f) + (m->sigma > 0.0f ? extra : 0.0f);
+        const float l = -0.5f * ew_flog2(inv);
+        return d > 0.0f ? l : -100.0f;
     }
-    *gamma = g * r0->gamma + f * r1->gamma;
+    return ew_flog2(ew_maxf(m->sigma, 1e-6f));
+}
+
+/* The weights for a centre of log2(domain sigma) ls and parity par,
+ * interpolated from the table. */
+EW_HD void ew_pyr_lookup(const ew_pyr_wrow *lut, float ls, int par, float *wf, float *wdc, float *gamma) {
+    float t = (ls - (float)EW_PYR_LUT_LOG2_MIN) * (float)EW_PYR_LUT_STEPS;
+    t = ew_clampf(t, 0.0f, (float)(EW_PYR_LUT_N - 1));
+    const int i0 = (int)t, i1 = (int)ew_minf(t + 1.0f, (float)(EW_PYR_LUT_N - 1)); /* floats: see ew_fexp2 */
+    float f = t - (float)i0, g = 1.0f - f;
+    /* the rows as one float array (indices, not row pointers: a loop over
+     * pixels turns these loads into gathers) */
+    const float *L = (const float *)(const void *)lut;
+    const int RS = (int)(sizeof(ew_pyr_wrow) / sizeof(float));
+    const int r0 = i0 * RS, r1 = i1 * RS, wo = 9 + par * 9;
+    EW_PYR_UNROLL
+    for (int k = 0; k < 9; k++) {
+        wf[k] = g * L[r0 + k] + f * L[r1 + k];
+        wdc[k] = g * L[r0 + wo + k] + f * L[r1 + wo + k];
+    }
+    *gamma = g * L[r0 + RS - 1] + f * L[r1 + RS - 1];
 }
 
 /* The weights of the 18 samples of Up(p, l): coarse 0..8 are
  * Up(floor(p/2) + i, l+1), fine 9..17 are Down(p + i, l), i by offset
- * (iy + 1) * 3 + (ix + 1). Shared by the kernel and the training's backward
- * pass (pyramid_train.c), so both see the same numbers. */
+ * (iy + 1) * 3 + (ix + 1). Shared by the general path of the kernel and the
+ * training's backward pass (pyramid_train.c), so both see the same numbers. */
 typedef struct ew_pyr_terms {
-    const float *V[18]; /* the samples' values (EW_BF_CH floats; zeros beyond the border) */
-    int in[18];         /* inside the image */
-    float E[18];        /* log2 of the range value (0 beyond the border) */
-    float F[18];        /* range value 2^E */
-    float G[9];         /* coarse: f^gamma = 2^(gamma E) */
-    float coc[18];      /* DOF: the samples' content CoC */
+    float V[18][EW_BF_CH]; /* the samples' values (zeros beyond the border) */
+    int in[18];            /* inside the image */
+    float E[18];           /* log2 of the range value (0 beyond the border) */
+    float F[18];           /* range value 2^E */
+    float G[9];            /* coarse: f^gamma = 2^(gamma E) */
+    float coc[18];         /* DOF: the samples' content CoC */
     float wf[9], wdc[9], gamma; /* the domain weights at this pixel */
-    float zero[EW_BF_CH];
 } ew_pyr_terms;
 
-/* kind is a->m->kind (see ew_bf_energy). The range values are computed as
- * energies first and exponentiated in one branch-free loop, so the compiler
- * can vectorise it; f^gamma is 2^(gamma E). */
-EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind, ew_pyr_terms *t) {
-    const ew_bf_model *m = a->m;
-    const int C = EW_BF_CH, A = ew_bf_attrs(kind);
-    const long j = (long)y * a->w + x;
-    const float *ap = a->attr + j * A;
+/* The domain weights of pixel (x, y) with attributes ap. */
+EW_HD void ew_pyr_weights(int x, int y, const ew_pyr_up_args *a, const int kind, const float *ap, float *wf,
+                          float *wdc, float *gamma) {
     const int par = (y & 1) * 2 + (x & 1);
     if (a->row) {
         for (int k = 0; k < 9; k++) {
-            t->wf[k] = a->row->wf[k];
-            t->wdc[k] = a->row->wdc[par][k];
+            wf[k] = a->row->wf[k];
+            wdc[k] = a->row->wdc[par][k];
         }
-        t->gamma = a->row->gamma;
+        *gamma = a->row->gamma;
     } else {
-        ew_pyr_lookup(a->lut, ew_bf_sigma(m, ap), par, t->wf, t->wdc, &t->gamma);
+        ew_pyr_lookup(a->lut, ew_pyr_log2_sigma(a->m, kind, ap), par, wf, wdc, gamma);
     }
-    for (int c = 0; c < C; c++) t->zero[c] = 0.0f;
+}
+
+/* kind is a->m->kind (see ew_bf_energy). */
+EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind, ew_pyr_terms *t) {
+    const ew_bf_model *m = a->m;
+    const int C = EW_BF_CH, A = ew_bf_attrs(kind);
+    const long n = (long)a->w * a->h, j = (long)y * a->w + x;
+    const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch;
+    float ap[EW_BF_MAX_ATTR];
+    for (int k = 0; k < EW_BF_MAX_ATTR; k++) ap[k] = k < A ? a->attr[k * n + j] : 0.0f;
+    ew_pyr_weights(x, y, a, kind, ap, t->wf, t->wdc, &t->gamma);
     const int cx = x >> 1, cy = y >> 1;
-    if (x >= 2 && y >= 2 && x + 1 < a->w && y + 1 < a->h && cx + 1 < a->cw && cy + 1 < a->ch &&
-        kind != EW_RANGE_DOF) {
-        /* every sample inside (almost every pixel): no bounds logic */
-        const long c0 = (long)(cy - 1) * a->cw + (cx - 1), f0 = j - a->w - 1;
-        for (int k = 0; k < 9; k++) {
-            const long ci = c0 + (long)(k / 3) * a->cw + k % 3, fi = f0 + (long)(k / 3) * a->w + k % 3;
-            const int ix = k % 3 - 1, iy = k / 3 - 1;
-            t->in[k] = t->in[9 + k] = 1;
-            t->coc[k] = t->coc[9 + k] = 0.0f;
-            t->V[k] = a->cup + ci * C;
-            t->V[9 + k] = a->down + fi * C;
-            t->E[k] = ew_bf_energy(m, kind, ap, a->cattr + ci * A, a->coarse_d2);
-            t->E[9 + k] = k == 4 ? 0.0f
-                                 : ew_bf_energy(m, kind, ap, a->attr + fi * A, (float)(ix * ix + iy * iy) * a->d2_unit);
-        }
-    } else {
     for (int k = 0; k < 9; k++) {
         const int ix = k % 3 - 1, iy = k / 3 - 1, qx = cx + ix, qy = cy + iy;
         const int in = qx >= 0 && qx < a->cw && qy >= 0 && qy < a->ch;
-        const long i = in ? (long)qy * a->cw + qx : 0;
+        const long i = in ? (long)qy * cw2 + 2 * qx : 0;
+        float aq[EW_BF_MAX_ATTR];
+        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cn2 + i] : 0.0f;
         t->in[k] = in;
-        t->V[k] = in ? a->cup + i * C : t->zero;
-        const float *aq = a->cattr + i * A;
-        float dof_aq[2] = {0.0f, 0.0f};
+        for (int c = 0; c < C; c++) t->V[k][c] = in ? a->cup[c * cn2 + i] : 0.0f;
         t->coc[k] = 0.0f;
         if (kind == EW_RANGE_DOF) { /* the CoC of the content (see the top) */
             t->coc[k] = a->ccoc ? a->ccoc[i] : aq[1];
-            dof_aq[0] = aq[0];
-            dof_aq[1] = t->coc[k];
-            aq = dof_aq;
+            aq[1] = t->coc[k];
         }
         t->E[k] = in ? ew_bf_energy(m, kind, ap, aq, a->coarse_d2) : 0.0f;
     }
@@ -252,22 +390,38 @@ EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind
         const int ix = k % 3 - 1, iy = k / 3 - 1, qx = x + ix, qy = y + iy;
         const int in = qx >= 0 && qx < a->w && qy >= 0 && qy < a->h;
         const long i = in ? (long)qy * a->w + qx : j;
+        float aq[EW_BF_MAX_ATTR];
+        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->attr[kk * n + i] : 0.0f;
         t->in[9 + k] = in;
-        t->V[9 + k] = in ? a->down + i * C : t->zero;
-        t->coc[9 + k] = kind == EW_RANGE_DOF ? a->attr[i * A + 1] : 0.0f;
+        for (int c = 0; c < C; c++) t->V[9 + k][c] = in ? a->down[c * n + i] : 0.0f;
+        t->coc[9 + k] = kind == EW_RANGE_DOF ? aq[1] : 0.0f;
         t->E[9 + k] = !in || k == 4 ? 0.0f
-                                    : ew_bf_energy(m, kind, ap, a->attr + i * A, (float)(ix * ix + iy * iy) * a->d2_unit);
-    }
+                                    : ew_bf_energy(m, kind, ap, aq, (float)(ix * ix + iy * iy) * a->d2_unit);
     }
     for (int k = 0; k < 18; k++) t->F[k] = ew_fexp2(t->E[k]);
-    if (t->gamma == 1.0f) { /* the analytic setting */
-        for (int k = 0; k < 9; k++) t->G[k] = t->F[k];
+    for (int k = 0; k < 9; k++) t->G[k] = t->gamma == 1.0f ? t->F[k] : ew_fexp2(t->gamma * t->E[k]);
+}
+
+/* Store Up(p, l) and, when wcoc (DOF only), its content CoC; dup:
+ * a->dup_out (see the top). */
+EW_HD void ew_pyr_up_store(int x, int y, const ew_pyr_up_args *a, const int kind, const int dup, const int wcoc,
+                           const float *o, float coc) {
+    const long n = (long)a->w * a->h;
+    if (dup) {
+        const long j2 = (long)y * 2 * a->w + 2 * x;
+        EW_PYR_UNROLL
+        for (int c = 0; c < EW_BF_CH; c++) a->up[c * 2 * n + j2] = a->up[c * 2 * n + j2 + 1] = o[c];
+        if (kind == EW_RANGE_DOF && wcoc) a->ucoc[j2] = a->ucoc[j2 + 1] = coc;
     } else {
-        for (int k = 0; k < 9; k++) t->G[k] = ew_fexp2(t->gamma * t->E[k]);
+        const long j = (long)y * a->w + x;
+        EW_PYR_UNROLL
+        for (int c = 0; c < EW_BF_CH; c++) a->up[c * n + j] = o[c];
+        if (kind == EW_RANGE_DOF && wcoc) a->ucoc[j] = coc;
     }
 }
 
-EW_HD void ew_pyr_up_px_k(int x, int y, const ew_pyr_up_args *a, const int kind) {
+/* Eq. 2 from the terms: the general path. */
+EW_HD void ew_pyr_up_general_k(int x, int y, const ew_pyr_up_args *a, const int kind) {
     ew_pyr_terms t;
     ew_pyr_up_terms(x, y, a, kind, &t);
     const int C = EW_BF_CH;
@@ -298,14 +452,136 @@ EW_HD void ew_pyr_up_px_k(int x, int y, const ew_pyr_up_args *a, const int kind)
             cocw += w;
         }
     }
-    const long j = (long)y * a->w + x;
-    float *o = a->up + j * C;
-    if (acc[C] > 0.0f) {
-        for (int c = 0; c < C; c++) o[c] = acc[c] / acc[C];
-    } else { /* every weight 0 (a trained centre weight of 0 and nothing else): the pixel itself */
-        for (int c = 0; c < C; c++) o[c] = t.V[13][c];
+    float o[EW_BF_CH];
+    /* every weight 0 (a trained centre weight of 0 and nothing else): the pixel itself */
+    const float den = acc[C] > 0.0f ? acc[C] : 1.0f;
+    for (int c = 0; c < C; c++) o[c] = acc[C] > 0.0f ? acc[c] / den : t.V[13][c];
+    const float cden = cocw > 0.0f ? cocw : 1.0f;
+    ew_pyr_up_store(x, y, a, kind, a->dup_out, a->ucoc != 0, o, cocw > 0.0f ? cocn / cden : t.coc[13]);
+}
+
+/* The interior columns [x0, x1) and whether row y is interior: every sample
+ * of such a pixel is inside (x - 1 >= 0, x + 1 < w, floor(x/2) +- 1 inside
+ * the coarse level; the same for y). */
+EW_HD int ew_pyr_up_interior(int y, const ew_pyr_up_args *a, int *x0, int *x1) {
+    *x0 = 2;
+    *x1 = ew_mini(a->w - 1, 2 * a->cw - 2);
+    return y >= 2 && y + 1 < a->h && (y >> 1) + 1 < a->ch && *x1 > *x0;
+}
+
+/* Eq. 2 for an interior pixel, in the order of the general path but
+ * without bounds logic or branches, so that a loop over a row's interior
+ * vectorises. The variant is fixed by constants: uniform (weights a->row,
+ * else the table a->lut; GI compares roughness exactly when not uniform),
+ * g1 (uniform with gamma 1: f^gamma = f), dup (a->dup_out; DOF writes
+ * a->ucoc exactly when dup). ew_pyr_up_in_ok says when a pass fits. */
+EW_HD int ew_pyr_up_in_ok(const ew_pyr_up_args *a, const int kind) {
+    return (kind != EW_RANGE_DOF || ((a->ucoc != 0) == (a->dup_out != 0) && a->ccoc)) &&
+           (kind != EW_RANGE_GI || (a->m->use_roughness != 0) == (a->row == 0));
+}
+
+EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind, const int uniform, const int g1,
+                          const int dup) {
+    const ew_bf_model *m = a->m;
+    const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform;
+    const long n = (long)a->w * a->h, j = (long)y * a->w + x;
+    const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch, cj = (long)(y >> 1) * cw2 + x;
+    float ap[EW_BF_MAX_ATTR];
+    EW_PYR_UNROLL
+    for (int k = 0; k < EW_BF_MAX_ATTR; k++) ap[k] = k < A ? a->attr[k * n + j] : 0.0f;
+    float wf[9], wdc[9], gamma;
+    if (uniform) {
+        const int py = (y & 1) * 2, odd = x & 1;
+        EW_PYR_UNROLL
+        for (int k = 0; k < 9; k++) {
+            const float we = a->row->wdc[py][k], wo = a->row->wdc[py + 1][k];
+            wf[k] = a->row->wf[k];
+            wdc[k] = ew_pyr_select(odd, wo, we);
+        }
+        gamma = a->row->gamma;
+    } else {
+        ew_pyr_lookup(a->lut, ew_pyr_log2_sigma(m, kind, ap), (y & 1) * 2 + (x & 1), wf, wdc, &gamma);
     }
-    if (kind == EW_RANGE_DOF && a->ucoc) a->ucoc[j] = cocw > 0.0f ? cocn / cocw : t.coc[13];
+    float E[18], F[18], G[9], coc[18];
+    const float *ccoc = kind == EW_RANGE_DOF ? a->ccoc : a->cattr; /* DOF: ew_pyr_up_in_ok */
+    EW_PYR_UNROLL
+    for (int k = 0; k < 9; k++) {
+        const long i = cj + (long)(k / 3 - 1) * cw2 + 2 * (k % 3 - 1);
+        float aq[EW_BF_MAX_ATTR];
+        EW_PYR_UNROLL
+        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cn2 + i] : 0.0f;
+        coc[k] = 0.0f;
+        if (kind == EW_RANGE_DOF) {
+            coc[k] = ccoc[i];
+            aq[1] = coc[k];
+        }
+        E[k] = ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
+    }
+    EW_PYR_UNROLL
+    for (int k = 0; k < 9; k++) {
+        const int ix = k % 3 - 1, iy = k / 3 - 1;
+        const long i = j + (long)iy * a->w + ix;
+        float aq[EW_BF_MAX_ATTR];
+        EW_PYR_UNROLL
+        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->attr[kk * n + i] : 0.0f;
+        coc[9 + k] = kind == EW_RANGE_DOF ? aq[1] : 0.0f;
+        E[9 + k] = k == 4 ? 0.0f : ew_bf_energy_r(m, kind, rough, ap, aq, (float)(ix * ix + iy * iy) * a->d2_unit);
+    }
+    EW_PYR_UNROLL
+    for (int k = 0; k < 18; k++) F[k] = k == 13 ? 1.0f : ew_fexp2(E[k]); /* the centre: 2^0 */
+    EW_PYR_UNROLL
+    for (int k = 0; k < 9; k++) G[k] = g1 ? F[k] : ew_fexp2(gamma * E[k]);
+    float acc[EW_BF_CH + 1], cocn = 0.0f, cocw = 0.0f;
+    EW_PYR_UNROLL
+    for (int c = 0; c <= C; c++) acc[c] = 0.0f;
+    float comp = 0.0f;
+    EW_PYR_UNROLL
+    for (int k = 0; k < 9; k++) {
+        const long i = cj + (long)(k / 3 - 1) * cw2 + 2 * (k % 3 - 1);
+        const float wb = wdc[k] * F[k], w = wb * G[k];
+        comp += wb - w;
+        EW_PYR_UNROLL
+        for (int c = 0; c < C; c++) acc[c] += w * a->cup[c * cn2 + i];
+        acc[C] += w;
+        if (kind == EW_RANGE_DOF) {
+            cocn += w * coc[k];
+            cocw += w;
+        }
+    }
+    float sff = 0.0f;
+    EW_PYR_UNROLL
+    for (int k = 9; k < 18; k++) sff += F[k];
+    const float cs = comp / sff;
+    EW_PYR_UNROLL
+    for (int k = 0; k < 9; k++) {
+        const long i = j + (long)(k / 3 - 1) * a->w + (k % 3 - 1);
+        const float w = F[9 + k] * (wf[k] + cs);
+        EW_PYR_UNROLL
+        for (int c = 0; c < C; c++) acc[c] += w * a->down[c * n + i];
+        acc[C] += w;
+        if (kind == EW_RANGE_DOF) {
+            cocn += w * coc[9 + k];
+            cocw += w;
+        }
+    }
+    /* every weight 0: the pixel itself (selects by integer operations, so
+     * the compiler keeps them branch-free) */
+    float o[EW_BF_CH];
+    const int pos = acc[C] > 0.0f, cpos = cocw > 0.0f;
+    const float den = ew_pyr_select(pos, acc[C], 1.0f), cden = ew_pyr_select(cpos, cocw, 1.0f);
+    EW_PYR_UNROLL
+    for (int c = 0; c < C; c++) o[c] = ew_pyr_select(pos, acc[c] / den, a->down[c * n + j]);
+    ew_pyr_up_store(x, y, a, kind, dup, dup, o, ew_pyr_select(cpos, cocn / cden, coc[13]));
+}
+
+EW_HD void ew_pyr_up_px_k(int x, int y, const ew_pyr_up_args *a, const int kind) {
+    int x0, x1;
+    if (ew_pyr_up_interior(y, a, &x0, &x1) && x >= x0 && x < x1 && ew_pyr_up_in_ok(a, kind)) {
+        const int uniform = a->row != 0, g1 = uniform && a->row->gamma == 1.0f;
+        ew_pyr_up_in_k(x, y, a, kind, uniform, g1, a->dup_out != 0);
+    } else {
+        ew_pyr_up_general_k(x, y, a, kind);
+    }
 }
 
 EW_HD void ew_pyr_up_px(int x, int y, const ew_pyr_up_args *a) { ew_pyr_up_px_k(x, y, a, a->m->kind); }

@@ -169,6 +169,8 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
         pd.cattr = cattr;
         pd.d2_unit = 1.0f;
         pd.major_attr = kind == EW_RANGE_GI;
+        pd.cattr2 = scratch + 5888; /* duplicated coarse planes for the upsampling (kernels/pyramid.h) */
+        pd.cdown2 = scratch + 6144;
         {
             const ew_launch l2 = ew_kl_pyr_down(&pd);
             EW_PROBE_FOR_THREADS(l2, t, ew_kb_pyr_down(&t, &pd, &m))
@@ -187,9 +189,12 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
         pu.ch = pd.ch;
         pu.down = image;
         pu.attr = attr;
-        pu.cup = cdown;
-        pu.cattr = cattr;
+        pu.cup = pd.cdown2;
+        pu.cattr = pd.cattr2;
         pu.up = up;
+        pu.ccoc = 0;
+        pu.ucoc = 0;
+        pu.dup_out = 0;
         pu.d2_unit = 1.0f;
         pu.coarse_d2 = 0.75f;
         pu.row = &row;

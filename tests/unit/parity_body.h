@@ -407,17 +407,21 @@ TEST(pyramid_down_and_up_rows_and_table) {
         const int A = m.attrs, cw = (W + 1) / 2, ch = (H + 1) / 2;
         const size_t nc = (size_t)cw * ch;
         float *down = hrand_px(N, EW_BF_CH, 0.0f, 1.0f, 47);
+        /* planes; the coarse attributes also duplicated (kernels/pyramid.h) */
         ew_pyr_down_args hd = {&m, W, H, cw, ch, down, attr, hnan(nc * EW_BF_CH), hnan(nc * (size_t)A), 4.0f,
-                               kinds[k] == EW_RANGE_GI};
+                               kinds[k] == EW_RANGE_GI, hnan(2 * nc * (size_t)A), NULL};
         ew_pyr_down_args dd = hd;
         dd.down = dup_to(p.dut, down, N * EW_BF_CH);
         dd.attr = dup_to(p.dut, attr, N * (size_t)A);
         dd.cdown = dnan(p.dut, nc * EW_BF_CH);
         dd.cattr = dnan(p.dut, nc * (size_t)A);
+        dd.cattr2 = dnan(p.dut, 2 * nc * (size_t)A);
         ew_cpu_backend.pyr_down(p.cpu, &hd);
         p.dut->backend->pyr_down(p.dut, &dd);
         int ok = match(back(p.dut, dd.cdown, nc * EW_BF_CH), hd.cdown, nc * EW_BF_CH, "coarse values") &&
-                 match(back(p.dut, dd.cattr, nc * (size_t)A), hd.cattr, nc * (size_t)A, "coarse attributes");
+                 match(back(p.dut, dd.cattr, nc * (size_t)A), hd.cattr, nc * (size_t)A, "coarse attributes") &&
+                 match(back(p.dut, dd.cattr2, 2 * nc * (size_t)A), hd.cattr2, 2 * nc * (size_t)A,
+                       "duplicated coarse attributes");
 
         /* up: one row of weights (uniform sigma), then the table over sigma */
         ew_pyr_params prm;
@@ -430,13 +434,13 @@ TEST(pyramid_down_and_up_rows_and_table) {
             ew_pyr_analytic(exp2f((float)EW_PYR_LUT_LOG2_MIN + (float)i / EW_PYR_LUT_STEPS), 0, 0.5f, &prm);
             ew_pyr_expand(&prm, &lut[i]);
         }
-        float *cup = hrand_px(nc, EW_BF_CH, 0.0f, 1.0f, 89);
-        ew_pyr_up_args hu = {&m, W, H, cw, ch, down, attr, cup, hd.cattr, hnan(N * EW_BF_CH), 1.0f, 0.75f, &row, NULL, NULL, NULL};
+        float *cup = hrand_px(2 * nc, EW_BF_CH, 0.0f, 1.0f, 89); /* duplicated coarse planes */
+        ew_pyr_up_args hu = {&m, W, H, cw, ch, down, attr, cup, hd.cattr2, hnan(N * EW_BF_CH), 1.0f, 0.75f, &row, NULL, NULL, NULL, 0};
         ew_pyr_up_args du = hu;
         du.down = dd.down;
         du.attr = dd.attr;
-        du.cup = dup_to(p.dut, cup, nc * EW_BF_CH);
-        du.cattr = dup_to(p.dut, hd.cattr, nc * (size_t)A);
+        du.cup = dup_to(p.dut, cup, 2 * nc * EW_BF_CH);
+        du.cattr = dup_to(p.dut, hd.cattr2, 2 * nc * (size_t)A);
         du.up = dnan(p.dut, N * EW_BF_CH);
         for (int table = 0; table <= 1 && ok; table++) {
             if (table) {

@@ -12,6 +12,14 @@
  * and the pyramid all get the same treatment, so their speed ratios compare
  * the algorithms, not the effort spent on each.
  */
+/* Every loop here is compiled without trapping math (no FP exception is ever
+ * enabled or read in the library), so the compiler may if-convert
+ * conditionals around float arithmetic and vectorise the per-pixel
+ * functions across pixels; IEEE results are unchanged. Before the includes,
+ * so the kernels' inline functions get it too; the same for every filter. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("no-trapping-math")
+#endif
 #include "src/backend.h"
 #include "src/internal.h"
 
@@ -64,17 +72,93 @@ void ew_cpu_bf_separable(ew_device *dev, const ew_bf_model *m, int axis, const e
     ew_pool_run(dev->pool, b->height, 0, sep_rows(m->kind), &j);
 }
 
-EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args,
-                 for (int64_t y = begin; y < end; y++)
-                     for (int x = 0; x < j->cw; x++) ew_pyr_down_px_k(x, (int)y, j, kind);)
+/* The pyramid's passes: interior spans of a row through the branch-free
+ * per-pixel functions, which the compiler vectorises across pixels (the
+ * buffers are planes, see kernels/pyramid.h); the border pixels through the
+ * general ones. The args, model and weight row are copied to locals first,
+ * so the compiler knows the output stores cannot change them. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define EW_IVDEP _Pragma("GCC ivdep")
+#else
+#define EW_IVDEP
+#endif
+
+/* an interior span with constant variant flags, so each loop has no branch */
+#define EW_PYR_DOWN_SPAN(MAJOR, DUP2, ROUGH)                                                                    \
+    do {                                                                                                       \
+        EW_IVDEP                                                                                               \
+        for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, MAJOR, DUP2, ROUGH);               \
+    } while (0)
+
+static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int64_t end, const int kind) {
+    const ew_bf_model lm = *j->m;
+    ew_pyr_down_args a = *j;
+    a.m = &lm;
+    const int xin = a.w / 2; /* coarse pixels with both children in x */
+    const int major = a.major_attr != 0, dup2 = ew_pyr_down_dup2(&a), rough = lm.use_roughness != 0;
+    for (int64_t y = begin; y < end; y++) {
+        if (2 * y + 1 < a.h) {
+            if (kind == EW_RANGE_GI) {
+                if (major && dup2 == 1 && !rough) EW_PYR_DOWN_SPAN(1, 1, 0);
+                else if (major && dup2 == 3 && !rough) EW_PYR_DOWN_SPAN(1, 3, 0);
+                else if (major && dup2 == 1 && rough) EW_PYR_DOWN_SPAN(1, 1, 1);
+                else if (major && dup2 == 3 && rough) EW_PYR_DOWN_SPAN(1, 3, 1);
+                else
+                    for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, major, dup2, rough);
+            } else {
+                if (!major && dup2 == 1) EW_PYR_DOWN_SPAN(0, 1, 0);
+                else if (!major && dup2 == 3) EW_PYR_DOWN_SPAN(0, 3, 0);
+                else
+                    for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, major, dup2, rough);
+            }
+            for (int x = xin; x < a.cw; x++) ew_pyr_down_px_k(x, (int)y, &a, kind);
+        } else {
+            for (int x = 0; x < a.cw; x++) ew_pyr_down_px_k(x, (int)y, &a, kind);
+        }
+    }
+}
+
+EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args, down_rows_body(j, begin, end, kind);)
 
 void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a) {
     ew_pool_run(dev->pool, a->ch, 0, down_rows(a->m->kind), (void *)a);
 }
 
-EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args,
-                 for (int64_t y = begin; y < end; y++)
-                     for (int x = 0; x < j->w; x++) ew_pyr_up_px_k(x, (int)y, j, kind);)
+#define EW_PYR_UP_SPAN(UNIFORM, G1, DUP)                                                                        \
+    do {                                                                                                       \
+        EW_IVDEP                                                                                               \
+        for (int x = x0; x < x1; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP);                   \
+    } while (0)
+
+static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind) {
+    const ew_bf_model lm = *j->m;
+    ew_pyr_wrow lr;
+    ew_pyr_up_args a = *j;
+    a.m = &lm;
+    if (j->row) {
+        lr = *j->row;
+        a.row = &lr;
+    }
+    const int fast = ew_pyr_up_in_ok(&a, kind), uniform = a.row != 0, g1 = uniform && lr.gamma == 1.0f;
+    const int dup = a.dup_out != 0;
+    for (int64_t y = begin; y < end; y++) {
+        int x0, x1;
+        if (!fast || !ew_pyr_up_interior((int)y, &a, &x0, &x1)) {
+            for (int x = 0; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
+            continue;
+        }
+        for (int x = 0; x < x0; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
+        if (uniform && g1 && dup) EW_PYR_UP_SPAN(1, 1, 1);
+        else if (uniform && g1) EW_PYR_UP_SPAN(1, 1, 0);
+        else if (uniform && dup) EW_PYR_UP_SPAN(1, 0, 1);
+        else if (uniform) EW_PYR_UP_SPAN(1, 0, 0);
+        else if (dup) EW_PYR_UP_SPAN(0, 0, 1);
+        else EW_PYR_UP_SPAN(0, 0, 0);
+        for (int x = x1; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
+    }
+}
+
+EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind);)
 
 void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     ew_pool_run(dev->pool, a->h, 0, up_rows(a->m->kind), (void *)a);
