@@ -128,7 +128,8 @@ TEST(grid_size_follows_eq8) {
     CHECK(!ew_bgrid_params_init(&p, 10, 10, 8, 4, 5));
 }
 
-/* Same result whatever the thread count: splat is a gather, no races. */
+/* Same result whatever the thread count: every splat work item fills its own
+ * grid row (CPU) or column (kernels), so there are no races. */
 TEST(result_independent_of_thread_count) {
     ew_bgrid_params p;
     CHECK(ew_bgrid_params_init(&p, 64, 48, 4, 8, 3));
