@@ -38,7 +38,11 @@ EW_HD void ew_denoise_prepare_px(long j, const ew_denoise_buffers *b) {
     for (int k = 0; k < 3; k++) {
         float a = b->albedo ? ew_maxf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f) : 1.0f;
         float den = b->albedo ? a + EW_ALBEDO_EPS : 1.0f;
-        r[k] = c[k] / den; /* non-finite stays non-finite: the splat skips it */
+        /* Negative radiance is not light (a compositing or reconstruction
+         * artefact): splatted, one such sample darkens the whole cell
+         * around it, so it counts as black. NaN and +-Inf stay non-finite
+         * and the splat skips them as missing. */
+        r[k] = (c[k] < 0.0f && ew_finitef(c[k]) ? 0.0f : c[k]) / den;
     }
     /* Guide: the mean of the normalised features (Meng et al. Fig. 7
      * baseline); without features, the gamma-encoded luminance. */

@@ -53,7 +53,7 @@ static const char help[] =
     "%s"
     "\n"
     "Non-finite colour samples (NaN, Inf from half overflow) are treated as missing\n"
-    "and rebuilt from their neighbourhood; negative samples are kept as they are.\n";
+    "and rebuilt from their neighbourhood; negative samples count as black.\n";
 
 #define MAX_SET 16
 
