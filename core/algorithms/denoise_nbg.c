@@ -101,6 +101,7 @@ typedef struct {
     void *dmem;              /* the one device allocation */
     double *rows;            /* host: row_out read back */
     float *stage;            /* host staging, or NULL when views need none */
+    char choice[96];         /* ew_denoiser_describe: the model in use */
     double host[];
 } state;
 
@@ -169,6 +170,10 @@ static ew_result commit(ew_op *op) {
     }
     s->builtin = builtin;
     s->m = m;
+    if (builtin)
+        snprintf(s->choice, sizeof s->choice, "nbg %s", ew_nbg_model_name((int)ew_op_param(op, "model")));
+    else
+        snprintf(s->choice, sizeof s->choice, "nbg weights %s", m->net.arch);
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->row_out = (double *)s->dmem;
@@ -270,6 +275,11 @@ static ew_result execute(ew_op *op) {
  * every buffer comes from ew_dev_alloc and only the views cross between
  * host and device (issue 8), so it may run on a CUDA device, whose table
  * has the conv5 / gn_input / nbg_* kernels. */
+static const char *describe(const ew_op *op) {
+    const state *s = (const state *)op->state;
+    return s ? s->choice : NULL;
+}
+
 const ew_op_type ew_denoise_nbg = {
     .kind = "denoiser",
     .name = "nbg",
@@ -285,4 +295,5 @@ const ew_op_type ew_denoise_nbg = {
     .set_data = set_data,
     .release_data = release_data,
     .device_memory = 1,
+    .describe = describe,
 };

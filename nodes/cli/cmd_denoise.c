@@ -281,8 +281,8 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(orig);
         return cli_fail("denoising layer '%s' failed: %s", layer, j->err);
     }
-    if (!strcmp(method, "nbg")) /* a built-in model's name, or the weights file's path */
-        snprintf(chosen, sizeof chosen, "nbg %s", j->o->model_index >= 0 ? builtin[j->o->model_index] : j->o->model);
+    if (!strcmp(method, "nbg") && j->o->model_index < 0) /* the weights file's path */
+        snprintf(chosen, sizeof chosen, "nbg %s", j->o->model);
     /* Keep the noisy original beside the result, as Blender does. */
     int put = 0;
     if (strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0')

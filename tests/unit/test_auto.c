@@ -82,8 +82,9 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, NULL, 0, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
     CHECK_STR_CONTAINS(what, "1 spp");
-    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, "model", 3, f.out2, NULL, 0), EW_OK);
+    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, "model", 3, f.out2, what, sizeof what), EW_OK);
     CHECK(same(f.out, f.out2));
+    CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp"); /* nbg names its model too */
 
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, NULL, 0, f.out, what, sizeof what), EW_OK);
     CHECK(strstr(what, "nbg 2layer-3grid (") != NULL);
