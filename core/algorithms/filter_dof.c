@@ -132,7 +132,9 @@ static int report(void *user, double f) { return ew_op_report((ew_op *)user, f);
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
-    ew_bf_pack_image(ew_op_image(op, "color"), s->C, s->image);
+    const int planes = s->method == 0; /* the pyramid packs straight into its planes */
+    if (planes) ew_bf_pack_image_planes(ew_op_image(op, "color"), s->C, s->plan.down[0]);
+    else ew_bf_pack_image(ew_op_image(op, "color"), s->C, s->image);
     const ew_image *dv = ew_op_image(op, "depth");
     long j = 0;
     for (int y = 0; y < s->h; y++)
@@ -140,11 +142,9 @@ static ew_result execute(ew_op *op) {
     ew_dof_compute_attributes(dev, &s->cam, s->depth, s->coc, s->tiles, s->attr);
     switch (s->method) {
     case 0:
-        ew_pyr_to_planes(s->image, EW_BF_CH, (size_t)s->w * (size_t)s->h, s->plan.down[0]);
         ew_pyr_to_planes(s->attr, 2, (size_t)s->w * (size_t)s->h, s->plan.attr[0]);
         if (!ew_pyr_run_planes(dev, &s->plan, report, op))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-        ew_pyr_from_planes(s->plan.out, EW_BF_CH, (size_t)s->w * (size_t)s->h, s->out);
         break;
     case 1: {
         const int band = 16;
@@ -160,7 +160,8 @@ static ew_result execute(ew_op *op) {
         ew_bilateral_separable(dev, &s->model, s->w, s->h, s->image, s->attr, s->tmp, s->out);
         break;
     }
-    ew_bf_unpack_image(s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
+    if (planes) ew_bf_unpack_image_planes(s->plan.out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
+    else ew_bf_unpack_image(s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
     const ew_image *cv = ew_op_image(op, "coc");
     if (cv) {
         j = 0;

@@ -145,6 +145,27 @@ EW_HD float ew_fexp(float x) {
 /* log2(x) for finite x > 0 (x <= 0 gives about -123, which ew_fexp2 turns
  * into 0). Mantissa in [sqrt(.5), sqrt(2)), atanh series. */
 EW_HD float ew_flog2(float x) {
+    int b = ew_float_to_bits(x);
+    b = b < 0x02081cea ? 0x02081cea : b; /* 1e-37 (and x <= 0, as ints) */
+    int e = ((b >> 23) & 255) - 127;
+    float m = ew_bits_to_float((b & 0x007fffff) | 0x3f800000); /* [1, 2) */
+    int big = ew_float_to_bits(m) > 0x3fb504f3; /* m > sqrt(2), compared as ints */
+    m = m * (1.0f - 0.5f * (float)big);
+    e += big;
+    float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
+    float s = 1.0f / 9.0f;
+    s = s * t2 + 1.0f / 7.0f;
+    s = s * t2 + 1.0f / 5.0f;
+    s = s * t2 + 1.0f / 3.0f;
+    s = s * t2 + 1.0f;
+    return (float)e + 2.88539008f * t * s; /* 2/ln 2 */
+}
+
+/* The same value for every finite x > 0 (and x <= 0), written for loops
+ * vectorised across pixels: the clamp as a float select, the exponent as a
+ * float, so that the compiler keeps one lane width (ew_flog2 is faster in
+ * scalar code). */
+EW_HD float ew_flog2v(float x) {
     const int b = ew_float_to_bits(x > 1e-37f ? x : 1e-37f); /* x <= 0 and NaN too */
     /* the exponent as a float (small integers: exact), which keeps the
      * compiler from narrowing the integer arithmetic in vectorised loops */
@@ -214,18 +235,47 @@ EW_HD float ew_bf_energy_r(const ew_bf_model *m, int kind, int rough, const floa
         float pp = ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2];
         float qq = aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2];
         float dot = ap[0] * aq[0] + ap[1] * aq[1] + ap[2] * aq[2];
+        dot = pp < 0.25f && qq < 0.25f ? 1.0f : dot; /* both without a surface */
+        float e = m->sigma_n * ew_flog2(ew_minf(dot, 1.0f)) -
+                  1.44269504f * m->sigma_z * fabsf(ap[3]) * fabsf(ap[3] - aq[3]);
+        if (rough) e += ew_flog2(1.0f - ew_smoothstep(0.0f, 0.5f, fabsf(aq[4] - ap[4])));
+        return dot > 0.0f ? ew_maxf(e, EW_BF_NEVER) : EW_BF_NEVER;
+    }
+    if (kind == EW_RANGE_DEPTH) return -1.44269504f * m->sigma_z * fabsf(ap[0]) * fabsf(ap[0] - aq[0]);
+    if (kind == EW_RANGE_DOF) {
+        float mn = ew_minf(ap[0], aq[1]);
+        float e = mn > 0.0f ? -1.44269504f * 18.0f * d2 / (mn * mn) : EW_BF_NEVER;
+        return d2 <= 0.0f ? 0.0f : ew_maxf(e, EW_BF_NEVER);
+    }
+    return 0.0f;
+}
+
+EW_HD float ew_bf_energy(const ew_bf_model *m, int kind, const float *EW_RESTRICT ap, const float *EW_RESTRICT aq,
+                         float d2) {
+    return ew_bf_energy_r(m, kind, m->use_roughness, ap, aq, d2);
+}
+
+/* The same values, written for loops vectorised across pixels (the
+ * pyramid's interior paths): GI's and DOF's selects as integer masks of the
+ * floats' width and ew_flog2v, so the compiler keeps one lane width and no
+ * branch. (In scalar loops ew_bf_energy_r's branches are cheaper.) */
+EW_HD float ew_bf_energy_v(const ew_bf_model *m, int kind, int rough, const float *EW_RESTRICT ap,
+                           const float *EW_RESTRICT aq, float d2) {
+    if (kind == EW_RANGE_GI) {
+        float pp = ap[0] * ap[0] + ap[1] * ap[1] + ap[2] * ap[2];
+        float qq = aq[0] * aq[0] + aq[1] * aq[1] + aq[2] * aq[2];
+        float dot = ap[0] * aq[0] + ap[1] * aq[1] + ap[2] * aq[2];
         /* both without a surface: a match (the selects as integer masks of
          * the floats' width, so that vectorised loops keep one mask type) */
         const int none = -(int)(pp < 0.25f) & -(int)(qq < 0.25f);
         dot = ew_bits_to_float((ew_float_to_bits(1.0f) & none) | (ew_float_to_bits(dot) & ~none));
-        float e = m->sigma_n * ew_flog2(ew_minf(dot, 1.0f)) -
+        float e = m->sigma_n * ew_flog2v(ew_minf(dot, 1.0f)) -
                   1.44269504f * m->sigma_z * fabsf(ap[3]) * fabsf(ap[3] - aq[3]);
-        if (rough) e += ew_flog2(1.0f - ew_smoothstep(0.0f, 0.5f, fabsf(aq[4] - ap[4])));
+        if (rough) e += ew_flog2v(1.0f - ew_smoothstep(0.0f, 0.5f, fabsf(aq[4] - ap[4])));
         const int facing = -(int)(dot > 0.0f);
         return ew_bits_to_float((ew_float_to_bits(ew_maxf(e, EW_BF_NEVER)) & facing) |
                                 (ew_float_to_bits(EW_BF_NEVER) & ~facing));
     }
-    if (kind == EW_RANGE_DEPTH) return -1.44269504f * m->sigma_z * fabsf(ap[0]) * fabsf(ap[0] - aq[0]);
     if (kind == EW_RANGE_DOF) {
         const float mn = ew_minf(ap[0], aq[1]), mm = mn * mn;
         const int pos = -(int)(mn > 0.0f), far = -(int)(d2 > 0.0f); /* integer masks, as GI's */
@@ -235,12 +285,7 @@ EW_HD float ew_bf_energy_r(const ew_bf_model *m, int kind, int rough, const floa
                                 EW_BF_NEVER);
         return ew_bits_to_float(ew_float_to_bits(e) & far); /* d2 <= 0: 0 */
     }
-    return 0.0f;
-}
-
-EW_HD float ew_bf_energy(const ew_bf_model *m, int kind, const float *EW_RESTRICT ap, const float *EW_RESTRICT aq,
-                         float d2) {
-    return ew_bf_energy_r(m, kind, m->use_roughness, ap, aq, d2);
+    return ew_bf_energy_r(m, kind, rough, ap, aq, d2);
 }
 
 /* The range function itself. */

@@ -237,7 +237,7 @@ EW_HD void ew_pyr_down_in_k(int x, int y, const ew_pyr_down_args *a, const int k
         float best = 2.0f * EW_BF_NEVER;
         EW_PYR_UNROLL
         for (int q = 0; q < 4; q++) {
-            const float e = ew_bf_energy_r(m, kind, rough, abar, at[q], 0.5f * a->d2_unit);
+            const float e = ew_bf_energy_v(m, kind, rough, abar, at[q], 0.5f * a->d2_unit);
             const int better = e > best;
             best = better ? e : best;
             mj = better ? q : mj;
@@ -255,7 +255,7 @@ EW_HD void ew_pyr_down_in_k(int x, int y, const ew_pyr_down_args *a, const int k
     EW_PYR_UNROLL
     for (int q = 0; q < 4; q++) {
         const int dx = (q & 1) - (mj & 1), dy = (q >> 1) - (mj >> 1);
-        const float e = ew_fexp2(ew_bf_energy_r(m, kind, rough, am, at[q], (float)(dx * dx + dy * dy) * a->d2_unit));
+        const float e = ew_fexp2(ew_bf_energy_v(m, kind, rough, am, at[q], (float)(dx * dx + dy * dy) * a->d2_unit));
         const float f = q == mj ? 1.0f : e;
         EW_PYR_UNROLL
         for (int k = 0; k < A; k++) aacc[k] += f * at[q][k];
@@ -301,15 +301,15 @@ typedef struct ew_pyr_up_args {
 /* log2 of the domain sigma at a centre with attributes ap, for the table
  * (ew_flog2(ew_bf_sigma), written without a square root or branch). */
 EW_HD float ew_pyr_log2_sigma(const ew_bf_model *m, const int kind, const float *ap) {
-    if (kind == EW_RANGE_GI) return ew_flog2(ew_maxf((m->sigma_alpha * ap[4] + 1.0f) * (1.0f / 3.0f), 1e-6f));
+    if (kind == EW_RANGE_GI) return ew_flog2v(ew_maxf((m->sigma_alpha * ap[4] + 1.0f) * (1.0f / 3.0f), 1e-6f));
     if (kind == EW_RANGE_DOF) { /* sigma = 1 / sqrt(36 / D^2 + 1 / sigma^2); D <= 0: sigma 0 */
         const float d = ap[0], s2 = m->sigma * m->sigma;
         const float extra = 1.0f / ew_maxf(s2, 1e-30f);
         const float inv = 36.0f / ew_maxf(d * d, 1e-30f) + (m->sigma > 0.0f ? extra : 0.0f);
-        const float l = -0.5f * ew_flog2(inv);
+        const float l = -0.5f * ew_flog2v(inv);
         return d > 0.0f ? l : -100.0f;
     }
-    return ew_flog2(ew_maxf(m->sigma, 1e-6f));
+    return ew_flog2v(ew_maxf(m->sigma, 1e-6f));
 }
 
 /* The weights for a centre of log2(domain sigma) ls and parity par,
@@ -515,7 +515,10 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
             coc[k] = ccoc[i];
             aq[1] = coc[k];
         }
-        E[k] = ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
+        /* the vectorising form where the loop vectorises (uniform), the
+         * branchy one where it stays scalar (the table's gathers) */
+        E[k] = uniform ? ew_bf_energy_v(m, kind, rough, ap, aq, a->coarse_d2)
+                       : ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
     }
     EW_PYR_UNROLL
     for (int k = 0; k < 9; k++) {
@@ -525,7 +528,9 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
         EW_PYR_UNROLL
         for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->attr[kk * n + i] : 0.0f;
         coc[9 + k] = kind == EW_RANGE_DOF ? aq[1] : 0.0f;
-        E[9 + k] = k == 4 ? 0.0f : ew_bf_energy_r(m, kind, rough, ap, aq, (float)(ix * ix + iy * iy) * a->d2_unit);
+        const float d2 = (float)(ix * ix + iy * iy) * a->d2_unit;
+        E[9 + k] = k == 4 ? 0.0f
+                 : uniform ? ew_bf_energy_v(m, kind, rough, ap, aq, d2) : ew_bf_energy_r(m, kind, rough, ap, aq, d2);
     }
     EW_PYR_UNROLL
     for (int k = 0; k < 18; k++) F[k] = k == 13 ? 1.0f : ew_fexp2(E[k]); /* the centre: 2^0 */

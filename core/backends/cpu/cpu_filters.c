@@ -152,8 +152,8 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
         else if (uniform && g1) EW_PYR_UP_SPAN(1, 1, 0);
         else if (uniform && dup) EW_PYR_UP_SPAN(1, 0, 1);
         else if (uniform) EW_PYR_UP_SPAN(1, 0, 0);
-        else if (dup) EW_PYR_UP_SPAN(0, 0, 1);
-        else EW_PYR_UP_SPAN(0, 0, 0);
+        else /* the table's gathers keep these loops scalar: the general path is as fast */
+            for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
         for (int x = x1; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
     }
 }
