@@ -62,8 +62,10 @@ def chart(m, metric, ylabel, path):
     methods = sorted({k[0] for k in m})
     spps = sorted({k[1] for k in m})
     markers = "osD^v<>ph*"
-    cmap = plt.get_cmap("tab10")
-    fig, ax = plt.subplots(figsize=(8, 5.5))
+    # one colour per method (tab20 has 20; tab10 repeated colours past ten methods)
+    cmap = plt.get_cmap("tab20" if len(methods) > 10 else "tab10")
+    ncol = 20 if len(methods) > 10 else 10
+    fig, ax = plt.subplots(figsize=(10, 5.5))
     for si, spp in enumerate(spps):
         pts = []
         for mi, meth in enumerate(methods):
@@ -71,8 +73,9 @@ def chart(m, metric, ylabel, path):
             if not v:
                 continue
             ms = max(v["ms"], 0.01)  # the noisy input costs nothing: draw it at the left edge
-            ax.scatter(ms, v[metric], color=cmap(mi % 10), marker=markers[si % len(markers)], s=45, zorder=3,
-                       label=meth if si == 0 else None)
+            auto = meth.startswith("auto")  # the default: outlined so it can be found on the front
+            ax.scatter(ms, v[metric], color=cmap(mi % ncol), marker=markers[si % len(markers)], s=45, zorder=3,
+                       edgecolors="k" if auto else "none", linewidths=1.2, label=meth if si == 0 else None)
             pts.append((ms, v[metric], meth))
         front = pareto(pts)
         ax.plot([p[0] for p in front], [p[1] for p in front], color="0.5", lw=1, ls="--", zorder=2)
@@ -88,7 +91,7 @@ def chart(m, metric, ylabel, path):
     for si, spp in enumerate(spps):
         handles.append(plt.Line2D([], [], color="k", marker=markers[si % len(markers)], ls=""))
         labels.append(f"{spp} spp")
-    ax.legend(handles, labels, fontsize=8, loc="lower right")
+    ax.legend(handles, labels, fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
