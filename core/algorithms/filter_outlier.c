@@ -97,7 +97,17 @@ static ew_result execute(ew_op *op) {
     j.b.normal = s->normal;
     j.b.out = s->out;
     ew_pool_run(op->dev->pool, s->h, 0, rows, &j);
-    ew_view_unpack(s->out, 3, ew_op_image(op, "output"));
+    const ew_image *cv = ew_op_image(op, "color"), *ov = ew_op_image(op, "output");
+    ew_view_unpack(s->out, 3, ov);
+    /* channels past RGB (alpha) pass through: a 4-channel output must not
+     * keep whatever its memory held */
+    const int extra = (ov->channels < cv->channels ? ov->channels : cv->channels) - 3;
+    for (int y = 0; extra > 0 && y < s->h; y++)
+        for (int x = 0; x < s->w; x++) {
+            const float *c = ew__pixel(cv, x, y);
+            float *o = ew__pixel(ov, x, y);
+            for (int k = 3; k < 3 + extra; k++) o[k] = c[k];
+        }
     return EW_OK;
 }
 

@@ -234,3 +234,31 @@ TEST(random_frames_match_the_rule) {
     CHECK(clamped > 20); /* the comparison saw the clamp at work */
     ew_device_destroy(dev);
 }
+
+/* RGBA in, RGBA out: alpha passes through untouched (OFX hosts hand over
+ * 4-channel images; the output's alpha must not keep stale memory). */
+TEST(alpha_passes_through) {
+    ew_device *dev;
+    CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
+    static float rgba[N * 4], orgba[N * 4];
+    background(5);
+    for (int i = 0; i < N; i++) {
+        for (int c = 0; c < 3; c++) rgba[i * 4 + c] = color[i * 3 + c];
+        rgba[i * 4 + 3] = (float)(i % 7) / 7.0f;
+        orgba[i * 4 + 3] = -123.0f; /* stale */
+    }
+    ew_filter *f = NULL;
+    CHECK_EQ_INT(ew_filter_create(dev, "outlier", &f), EW_OK);
+    ew_image c = ew_image_packed(rgba, W, H, 4), o = ew_image_packed(orgba, W, H, 4);
+    CHECK_EQ_INT(ew_filter_set_image(f, "color", &c), EW_OK);
+    CHECK_EQ_INT(ew_filter_set_image(f, "output", &o), EW_OK);
+    CHECK_EQ_INT(ew_filter_commit(f), EW_OK);
+    CHECK_EQ_INT(ew_filter_execute(f), EW_OK);
+    ew_filter_destroy(f);
+    CHECK(run(dev, NULL, NULL, 3.0f, out)); /* the same colour as RGB */
+    for (int i = 0; i < N; i++) {
+        CHECK_NEAR(orgba[i * 4 + 3], (float)(i % 7) / 7.0f, 0.0);
+        for (int k = 0; k < 3; k++) CHECK_NEAR(orgba[i * 4 + k], out[i * 3 + k], 0.0);
+    }
+    ew_device_destroy(dev);
+}
