@@ -1,7 +1,7 @@
 /*
  * node_library.c — nodes that run a libedgewise method: "denoise" and
  * "filter" (method chosen by a parameter) and nodes bound to one filter
- * ("pyramid", "bilateral", "atrous", "dof"). Their images and parameters
+ * ("pyramid", "bilateral", "atrous", "dof", "outlier"). Their images and parameters
  * come from the library's introspection (node_registry.c); here they are
  * handed to ew_denoiser_* / ew_filter_* unchanged.
  */
@@ -135,6 +135,10 @@ LIB_NODE(ew_node_atrous, "atrous", "filter", "edge-avoiding à-trous wavelet fil
          "filter", "atrous", NULL, 0);
 LIB_NODE(ew_node_dof, "dof", "filter", "depth of field from depth and camera values (libedgewise filter 'dof')",
          "filter", "dof", NULL, 0);
+LIB_NODE(ew_node_outlier, "outlier", "filter",
+         "firefly suppression among neighbours of similar albedo and normal, NaN/Inf rebuilt (libedgewise filter "
+         "'outlier')",
+         "filter", "outlier", NULL, 0);
 /* The history lives in the library filter between executes; prepare creates
  * the filter once per run, so every run starts from an empty history and
  * frames are accumulated in run order. */

@@ -1,7 +1,7 @@
 /*
  * node_pixel.c — small per-pixel nodes written here because the library has
- * no public method for them: firefly suppression, albedo demodulation and
- * remodulation, and the arithmetic that wires passes together (add,
+ * no public method for them: albedo demodulation and remodulation (firefly
+ * suppression is the library's filter "outlier", node_library.c), and the arithmetic that wires passes together (add,
  * multiply, mix, channel shuffle).
  */
 #include <math.h>
@@ -9,10 +9,6 @@
 #include <string.h>
 
 #include "graph.h"
-
-static float lum(const float *p, int c) {
-    return c >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
-}
 
 /* b's channel k for a's channel k: a one-channel b applies to every
  * channel; channels b lacks (alpha) are left alone (returns 0). */
@@ -26,94 +22,6 @@ static int b_value(const ew_image *b, const float *bp, int k, float *out) {
     *out = bp[k];
     return 1;
 }
-
-/* ---- outlier (firefly) suppression --------------------------------------- */
-
-static const ew_port_desc outlier_in[] = {{"color", EW_PASS_ANY, 1, 1, "image with fireflies (linear)"}};
-static const ew_port_desc outlier_out[] = {{"output", EW_PASS_ANY, 1, 0, "the image with outliers clamped"}};
-static const ew_nparam_desc outlier_params[] = {
-    {"k", EW_NODE_PARAM_FLOAT, 3.0, 0.0, 100.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Threshold",
-     "clamp a pixel whose luminance exceeds its neighbours' mean + k standard deviations; 0 only replaces NaN/Inf"},
-    {"radius", EW_NODE_PARAM_INT, 2.0, 1.0, 16.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Radius",
-     "window radius in pixels (2: the 5x5 window of the bgrid denoiser)"},
-};
-
-/* Summed-area tables of luminance, its square and the count of finite
- * pixels make the window statistics O(1) per pixel. */
-static ew_result outlier_execute(ew_gnode *n, ew_run *r) {
-    const ew_image *in = ew_node_in(n, "color");
-    const int w = in->width, h = in->height, c = in->channels;
-    const float k = (float)ew_node_num(n, "k");
-    const int rad = (int)ew_node_num(n, "radius");
-    ew_image out;
-    ew_result res = ew_run_output(r, n, 0, w, h, c, &out);
-    if (res != EW_OK) return res;
-    const size_t sw = (size_t)w + 1, cells = sw * ((size_t)h + 1);
-    double *sat = (double *)calloc(cells * 3, sizeof(double));
-    if (!sat) return ew_node_fail(n, EW_ERR_OUT_OF_MEMORY, "out of memory");
-    double *s1 = sat, *s2 = sat + cells, *sn = sat + 2 * cells;
-    for (int y = 0; y < h; y++) {
-        double r1 = 0, r2 = 0, rn = 0;
-        for (int x = 0; x < w; x++) {
-            float l = lum(ew_px(in, x, y), c);
-            if (isfinite(l)) {
-                r1 += l;
-                r2 += (double)l * l;
-                rn += 1;
-            }
-            size_t i = (size_t)(y + 1) * sw + (size_t)(x + 1), up = (size_t)y * sw + (size_t)(x + 1);
-            s1[i] = s1[up] + r1;
-            s2[i] = s2[up] + r2;
-            sn[i] = sn[up] + rn;
-        }
-    }
-    for (int y = 0; y < h; y++) {
-        int y0 = y - rad < 0 ? 0 : y - rad, y1 = y + rad + 1 > h ? h : y + rad + 1;
-        for (int x = 0; x < w; x++) {
-            int x0 = x - rad < 0 ? 0 : x - rad, x1 = x + rad + 1 > w ? w : x + rad + 1;
-            size_t a = (size_t)y0 * sw + x0, b = (size_t)y0 * sw + x1, cc = (size_t)y1 * sw + x0, d = (size_t)y1 * sw + x1;
-            const float *p = ew_px(in, x, y);
-            float *o = ew_px(&out, x, y);
-            float l = lum(p, c);
-            /* the neighbours' statistics, without the pixel itself: a lone
-             * firefly would otherwise raise its own threshold */
-            double cnt = sn[d] - sn[b] - sn[cc] + sn[a];
-            double t1 = s1[d] - s1[b] - s1[cc] + s1[a], t2 = s2[d] - s2[b] - s2[cc] + s2[a];
-            if (isfinite(l)) {
-                cnt -= 1;
-                t1 -= l;
-                t2 -= (double)l * l;
-            }
-            double m = cnt > 0 ? t1 / cnt : 0.0;
-            double var = cnt > 0 ? t2 / cnt - m * m : 0.0;
-            double limit = m + k * sqrt(var > 0 ? var : 0);
-            int bad = 0;
-            for (int ch = 0; ch < c; ch++) bad |= !isfinite(p[ch]);
-            if (bad) {
-                /* a missing sample: the window's mean grey level */
-                for (int ch = 0; ch < c; ch++) o[ch] = ch < 3 ? (float)m : (isfinite(p[ch]) ? p[ch] : 1.0f);
-            } else if (k > 0.0f && l > limit && l > 0.0f) {
-                float s = (float)(limit / l);
-                for (int ch = 0; ch < c; ch++) o[ch] = ch < 3 ? p[ch] * s : p[ch];
-            } else {
-                memcpy(o, p, (size_t)c * sizeof(float));
-            }
-        }
-        if ((y & 63) == 0 && !ew_run_progress(r, (double)y / h)) {
-            free(sat);
-            return ew_node_fail(n, EW_ERR_CANCELLED, "cancelled (frame %d)", r->frame);
-        }
-    }
-    free(sat);
-    return EW_OK;
-}
-
-const ew_node_type ew_node_outlier = {
-    .name = "outlier", .version = 1, .category = "filter",
-    .summary = "firefly suppression: clamp pixels far brighter than their neighbourhood, replace NaN/Inf",
-    .inputs = outlier_in, .num_inputs = 1, .outputs = outlier_out, .num_outputs = 1,
-    .params = outlier_params, .num_params = 2, .inplace_input = -1, .execute = outlier_execute,
-};
 
 /* ---- albedo demodulation ------------------------------------------------- */
 

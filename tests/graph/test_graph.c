@@ -236,7 +236,7 @@ TEST(wrong_parameter_type_and_range) {
 TEST(connection_errors_name_both_ends) {
     char j[1024];
     snprintf(j, sizeof j, HEAD "%s\"x\": {\"type\": \"outlier\", \"inputs\": {\"colour\": \"in\"}}}}", in_out);
-    EXPECT_INVALID(j, EW_ERR_INVALID_ARGUMENT, "node 'x': unknown input 'colour' (inputs: color)");
+    EXPECT_INVALID(j, EW_ERR_INVALID_ARGUMENT, "node 'x': unknown input 'colour' (inputs: color, albedo, normal)");
     snprintf(j, sizeof j, HEAD "%s\"x\": {\"type\": \"outlier\", \"inputs\": {\"color\": \"nowhere\"}}}}", in_out);
     EXPECT_INVALID(j, EW_ERR_INVALID_ARGUMENT, "node 'x' input 'color': no node 'nowhere' in the graph");
     snprintf(j, sizeof j, HEAD "%s\"x\": {\"type\": \"outlier\", \"inputs\": {\"color\": \"in.rgb\"}}}}", in_out);
