@@ -261,16 +261,20 @@ def _finite_progress(progress, cancel, base, span):
     return cb
 
 
-def denoise_file(path, layers, settings, progress=None, cancel=None):
+def denoise_file(path, layers, settings, progress=None, cancel=None, methods=None):
     """Denoise view layers `layers` of multilayer EXR `path`. Returns
     {layer: (H, W, 4) float32 array, top row first} (alpha from Combined.A
-    when present, else 1). progress(fraction); cancel: a threading.Event."""
+    when present, else 1). progress(fraction); cancel: a threading.Event;
+    methods: a dict that receives {layer: what the denoiser ran}, e.g. the
+    model "auto" picked."""
     ew = load_edgewise(settings.library_path)
     out = {}
     for i, layer in enumerate(layers):
         g = _graph(ew, path, layer, settings)
         g.add("output", id="out", image=g.node("denoise")["output"])
-        g.run(_finite_progress(progress, cancel, float(i) / len(layers), 1.0 / len(layers)))
+        report = g.run(_finite_progress(progress, cancel, float(i) / len(layers), 1.0 / len(layers)))
+        if methods is not None:
+            methods[layer] = report["frames"][0].get("methods", {}).get("denoise", settings.method)
         rgb = g.output("out")
         h, w = rgb.shape[:2]
         import numpy as np

@@ -72,15 +72,19 @@ def start_still_job(scene):
     path = save_render_exr(scene, core.temp_exr_path())
     layers = render_layers(scene)
 
+    methods = {}
+
     def run(progress=None, cancel=None):
         try:
-            return core.denoise_file(path, layers, settings, progress=progress, cancel=cancel)
+            return core.denoise_file(path, layers, settings, progress=progress, cancel=cancel, methods=methods)
         finally:
             try:
                 os.remove(path)
             except OSError:
                 pass
-    return core.Job(run), layers
+    job = core.Job(run)
+    job.methods = methods  # {layer: what ran}, filled by the worker
+    return job, layers
 
 
 class EDGEWISE_OT_setup_passes(bpy.types.Operator):
@@ -128,7 +132,9 @@ class EDGEWISE_OT_denoise_render(bpy.types.Operator):
                         "Edgewise: cancelled" if job.cancelled else core.error_text(job.error))
             return {"CANCELLED"}
         imgs = apply_results(job.result, len(layers))
-        self.report({"INFO"}, "Edgewise: denoised %s" % ", ".join(i.name for i in imgs))
+        used = sorted(set(getattr(job, "methods", {}).values()))
+        self.report({"INFO"}, "Edgewise: denoised %s%s" % (", ".join(i.name for i in imgs),
+                                                          " with " + "; ".join(used) if used else ""))
         return {"FINISHED"}
 
     def invoke(self, context, event):  # interactive: worker thread + modal timer, Esc cancels

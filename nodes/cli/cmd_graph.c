@@ -130,8 +130,9 @@ static void print_summary(const char *report) {
         json_t *w = json_object_get(fr, "written"), *m = json_object_get(fr, "metrics");
         size_t k;
         json_t *v;
-        json_array_foreach(w, k, v) printf(" wrote %s;", json_string_value(v));
         const char *id;
+        json_object_foreach(json_object_get(fr, "methods"), id, v) printf(" %s: %s;", id, json_string_value(v));
+        json_array_foreach(w, k, v) printf(" wrote %s;", json_string_value(v));
         json_object_foreach(m, id, v) {
             json_t *p = json_object_get(v, "psnr"), *s = json_object_get(v, "ssim");
             if (json_is_null(p)) printf(" %s: PSNR inf dB", id);

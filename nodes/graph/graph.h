@@ -142,6 +142,8 @@ ew_result ew_run_output(ew_run *r, ew_gnode *n, int port, int w, int h, int c, e
 int ew_run_progress(ew_run *r, double node_fraction);
 void ew_run_report_number(ew_run *r, const ew_gnode *n, const char *key, double value);
 void ew_run_report_written(ew_run *r, const char *path);
+/* What node n ran this frame, in words (a denoiser's ew_denoiser_describe), under "methods". */
+void ew_run_report_method(ew_run *r, const ew_gnode *n, const char *what);
 
 static inline float *ew_px(const ew_image *im, int x, int y) {
     int64_t ps = im->pixel_stride ? im->pixel_stride : (int64_t)im->channels * (int64_t)sizeof(float);

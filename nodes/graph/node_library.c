@@ -103,6 +103,7 @@ static ew_result lib_execute(ew_gnode *n, ew_run *r) {
     s->run = NULL;
     if (res == EW_ERR_CANCELLED || r->cancelled) return ew_node_fail(n, EW_ERR_CANCELLED, "cancelled (frame %d)", r->frame);
     if (res != EW_OK) return lib_error(n, res, "");
+    if (s->den) ew_run_report_method(r, n, ew_denoiser_describe(s->den)); /* e.g. what "auto" picked */
     return EW_OK;
 }
 

@@ -131,6 +131,17 @@ void ew_run_report_number(ew_run *r, const ew_gnode *n, const char *key, double 
     json_object_set_new(node, key, isfinite(value) ? json_real(value) : json_null());
 }
 
+void ew_run_report_method(ew_run *r, const ew_gnode *n, const char *what) {
+    json_t *frame = (json_t *)r->report_frame;
+    if (!frame || !what) return;
+    json_t *m = json_object_get(frame, "methods");
+    if (!m) {
+        m = json_object();
+        json_object_set_new(frame, "methods", m);
+    }
+    json_object_set_new(m, n->id, json_string(what));
+}
+
 void ew_run_report_written(ew_run *r, const char *path) {
     json_t *frame = (json_t *)r->report_frame;
     if (!frame) return;

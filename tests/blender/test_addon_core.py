@@ -113,6 +113,12 @@ class WithLibrary(unittest.TestCase):
         self.assertTrue((img[:, :, 3] == 1).all())
 
     @unittest.skipUnless(os.path.isfile(SAMPLE), "no sample EXR")
+    def test_denoise_file_says_what_auto_picked(self):
+        methods = {}
+        core.denoise_file(SAMPLE, [""], core.Settings("auto", samples=1), methods=methods)
+        self.assertEqual(methods, {"": "nbg 2layer-3grid-1spp (1 spp)"})
+
+    @unittest.skipUnless(os.path.isfile(SAMPLE), "no sample EXR")
     def test_threads_setting(self):
         import numpy as np
         a = core.denoise_file(SAMPLE, [""], core.Settings("bgrid", threads=1))[""]

@@ -109,6 +109,19 @@ class TestGraphs(TempDirTest):
         self.assertEqual(st["frames_done"], 1)
         self.assertGreaterEqual(st["planned_buffers"], 1)
 
+    def test_report_says_what_auto_picked(self):
+        g = ew.Graph()
+        r = g.add("read", path=RENDER)
+        g.add("denoise", id="given", samples=4, color=r.color, albedo=r.albedo, normal=r.normal, depth=r.depth)
+        g.add("denoise", id="estimated", color=r.color, albedo=r.albedo, normal=r.normal, depth=r.depth)
+        g.add("denoise", id="plain", method="bgrid", color=r.color, albedo=r.albedo)
+        for n in ("given", "estimated", "plain"):
+            g.add("output", id="o_" + n, image=g.node(n)["output"])
+        methods = g.run()["frames"][0]["methods"]
+        self.assertEqual(methods["given"], "nbg 2layer-3grid (4 spp)")
+        self.assertIn("noise estimate", methods["estimated"])
+        self.assertEqual(methods["plain"], "bgrid")
+
     def test_write_and_read_back(self):
         img = rand(12, 10, 3)
         g = ew.Graph()
