@@ -29,6 +29,7 @@
 
 #include "algorithms/nbg.h"
 #include "algorithms/noise.h"
+#include "src/backend.h"
 #include "src/op.h"
 
 static const ew_image_desc images[] = {
@@ -68,6 +69,31 @@ static const char *const grid_names[NUM_LEVELS] = {"coarse", "medium", "fine", "
 static int level_of(int samples, float noise) {
     if (samples > 0) return samples <= 2 ? 0 : samples <= 8 ? 1 : samples <= 32 ? 2 : 3;
     return noise > 0.031f ? 0 : noise > 0.0153f ? 1 : noise > 0.0087f ? 2 : 3;
+}
+
+/* The noise estimate of the frame's colour (and albedo). It reads pixels on
+ * the host: views that are device pointers (ew_device_desc.device_images)
+ * are packed on the device and downloaded first; this happens at commit,
+ * where an op may allocate. Returns a negative value when that fails. */
+static float frame_noise(ew_op *op) {
+    const ew_image *c = ew_op_image(op, "color"), *a = ew_op_image(op, "albedo");
+    ew_device *dev = op->dev;
+    if (!dev->device_images) return ew_estimate_noise(c, a);
+    const size_t n = (size_t)c->width * (size_t)c->height, planes = a ? 2 : 1;
+    float *d = (float *)ew_dev_alloc(dev, n * 3 * planes * sizeof(float));
+    float *h = (float *)malloc(n * 3 * planes * sizeof(float));
+    ew_result r = d && h ? EW_OK : EW_ERR_OUT_OF_MEMORY;
+    if (r == EW_OK) r = ew_dev_put_view(dev, c, 3, d, NULL);
+    if (r == EW_OK && a) r = ew_dev_put_view(dev, a, 3, d + n * 3, NULL);
+    if (r == EW_OK) r = dev->backend->mem_download(dev, h, d, n * 3 * planes * sizeof(float));
+    float noise = -1.0f;
+    if (r == EW_OK) {
+        ew_image hc = ew_image_packed(h, c->width, c->height, 3), ha = ew_image_packed(h + n * 3, c->width, c->height, 3);
+        noise = ew_estimate_noise(&hc, a ? &ha : NULL);
+    }
+    ew_dev_free(dev, d);
+    free(h);
+    return noise;
 }
 
 typedef struct {
@@ -112,7 +138,9 @@ static ew_result commit(ew_op *op) {
         op->state = s;
     }
     const int samples = (int)ew_op_param(op, "samples");
-    const float noise = samples > 0 ? 0.0f : ew_estimate_noise(ew_op_image(op, "color"), ew_op_image(op, "albedo"));
+    const float noise = samples > 0 ? 0.0f : frame_noise(op);
+    if (noise < 0.0f)
+        return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "auto: cannot read the colour back for its noise estimate");
     const int level = level_of(samples, noise);
     char why[64];
     if (samples > 0)
@@ -166,4 +194,7 @@ const ew_op_type ew_denoise_auto = {
     .execute = execute,
     .release = release,
     .describe = describe,
+    /* it runs whatever its inner op runs on (bgrid and nbg are ported),
+     * and reads the views only through the device (frame_noise) */
+    .device_memory = 1,
 };
