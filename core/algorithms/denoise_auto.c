@@ -44,21 +44,22 @@ static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 1e7f, "samples per pixel of the render (0: unknown, estimate the noise)"},
 };
 
-#define NUM_LEVELS 4
 #define NBG_1SPP 3 /* nbg's built-in models (algorithms/nbg.h) */
 #define NBG_ALL_SPP 0
 
-typedef struct { float spatial, range, prepass; } grid_setting;
+/* One row per level of the table above. */
+typedef struct {
+    int nbg_model;    /* nbg's built-in model with all features, or -1 for the grid */
+    const char *grid; /* the bgrid settings otherwise */
+    float spatial, range, prepass;
+} level_choice;
 
-static const grid_setting grids[NUM_LEVELS] = {
-    {8.0f, 8.0f, 8.0f}, /* coarse */
-    {4.0f, 8.0f, 4.0f}, /* medium */
-    {2.0f, 8.0f, 4.0f}, /* fine */
-    {2.0f, 4.0f, 4.0f}, /* finest */
+static const level_choice levels[] = {
+    {NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f},
+    {NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f},
+    {-1, "fine", 2.0f, 8.0f, 4.0f},
+    {-1, "finest", 2.0f, 4.0f, 4.0f},
 };
-/* nbg's built-in model per level, or -1 for the grid */
-static const int nbg_model[NUM_LEVELS] = {NBG_1SPP, NBG_ALL_SPP, -1, -1};
-static const char *const grid_names[NUM_LEVELS] = {"coarse", "medium", "fine", "finest"};
 
 /* Noise-estimate thresholds between the levels: the geometric means of the
  * estimate's medians per sample count over the training scenes, 0.048
@@ -98,7 +99,6 @@ static float frame_noise(ew_op *op) {
 
 typedef struct {
     ew_op *inner;
-    const char *inner_name; /* "nbg" or "bgrid" */
     char choice[160];
 } state;
 
@@ -113,15 +113,13 @@ static void release(ew_op *op) {
 static ew_result bind(ew_op *op, state *s, const char *name) {
     ew_op_destroy(s->inner);
     s->inner = NULL;
-    s->inner_name = name;
     ew_result r = ew_op_create(op->dev, "denoiser", name, &s->inner);
     for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
         r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));
     return r;
 }
 
-static ew_result commit_grid(ew_op *op, state *s, int level) {
-    const grid_setting *g = &grids[level];
+static ew_result commit_grid(ew_op *op, state *s, const level_choice *g) {
     ew_result r = bind(op, s, "bgrid");
     if (r == EW_OK) r = ew_op_set_param(s->inner, "spatial_rate", g->spatial, 0);
     if (r == EW_OK) r = ew_op_set_param(s->inner, "range_rate", g->range, 0);
@@ -141,7 +139,7 @@ static ew_result commit(ew_op *op) {
     const float noise = samples > 0 ? 0.0f : frame_noise(op);
     if (noise < 0.0f)
         return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "auto: cannot read the colour back for its noise estimate");
-    const int level = level_of(samples, noise);
+    const level_choice *lv = &levels[level_of(samples, noise)];
     char why[64];
     if (samples > 0)
         snprintf(why, sizeof why, "%d spp", samples);
@@ -149,7 +147,7 @@ static ew_result commit(ew_op *op) {
         snprintf(why, sizeof why, "noise estimate %.4f", (double)noise);
 
     const int features = ew_op_image(op, "albedo") && ew_op_image(op, "normal") && ew_op_image(op, "depth");
-    const int model = features ? nbg_model[level] : -1;
+    const int model = features ? lv->nbg_model : -1;
     if (model >= 0) {
         ew_result r = bind(op, s, "nbg");
         if (r == EW_OK) r = ew_op_set_param(s->inner, "model", (float)model, 1);
@@ -161,10 +159,10 @@ static ew_result commit(ew_op *op) {
         if (r != EW_ERR_UNSUPPORTED) return r;
         /* this build has no weights for that model: the hand-made guide */
     }
-    ew_result r = commit_grid(op, s, level);
+    ew_result r = commit_grid(op, s, lv);
     if (r == EW_OK)
-        snprintf(s->choice, sizeof s->choice, "bgrid %s grid %g/%g (%s)", grid_names[level],
-                 (double)grids[level].spatial, (double)grids[level].range, why);
+        snprintf(s->choice, sizeof s->choice, "bgrid %s grid %g/%g (%s)", lv->grid, (double)lv->spatial,
+                 (double)lv->range, why);
     return r;
 }
 
