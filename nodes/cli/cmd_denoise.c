@@ -55,7 +55,7 @@ static const char help[] =
     "Non-finite colour samples (NaN, Inf from half overflow) are treated as missing\n"
     "and rebuilt from their neighbourhood; negative samples count as black.\n";
 
-#define MAX_SET 16
+#define MAX_SET (EW_RUN_MAX_PARAMS - 1) /* method parameters; one more slot is nbg's "model" */
 
 typedef struct {
     const char *in, *out, *layer, *method, *reference;
@@ -132,7 +132,7 @@ static int parse(int argc, char **argv, options *o) {
         else if (!strcmp(a, "--half")) o->type = EWIO_HALF;
         else if (!strcmp(a, "--float")) o->type = EWIO_FLOAT;
         else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) o->quiet = 1;
-        else if (a[0] == '-' && a[1] == '-' && strlen(a) < 64 && o->num_set < MAX_SET) {
+        else if (a[0] == '-' && a[1] == '-' && strlen(a) < 64) {
             char name[64];
             ew_param_info p;
             snprintf(name, sizeof name, "%s", a + 2);
@@ -140,6 +140,10 @@ static int parse(int argc, char **argv, options *o) {
                 if (*c == '-') *c = '_';
             if (!find_param(name, &p)) {
                 fprintf(stderr, "edgewise: unknown option '%s' (see 'edgewise denoise --help')\n", a);
+                return 0;
+            }
+            if (o->num_set == MAX_SET) {
+                fprintf(stderr, "edgewise: at most %d method parameters\n", MAX_SET);
                 return 0;
             }
             NEED_VALUE();
@@ -208,7 +212,7 @@ typedef struct {
 /* What runs on a layer: the library method and its settings (bench and the
  * stability suite run the same ew_method_run, so their figures are what
  * this command gives). */
-static int make_spec(const job *j, const ew_layer_passes *lp, const char *method, ew_method_spec *spec) {
+static void make_spec(const job *j, const char *method, ew_method_spec *spec) {
     memset(spec, 0, sizeof *spec);
     spec->label = method;
     spec->kind = "denoiser";
@@ -223,12 +227,10 @@ static int make_spec(const job *j, const ew_layer_passes *lp, const char *method
             spec->data_size = j->o->model_size;
         }
     }
-    for (int k = 0; k < j->o->num_set && spec->num_params < EW_RUN_MAX_PARAMS; k++) {
+    for (int k = 0; k < j->o->num_set; k++) { /* MAX_SET leaves room for "model" */
         spec->param_names[spec->num_params] = j->o->set_name[k];
         spec->param_values[spec->num_params++] = j->o->set_value[k];
     }
-    (void)lp;
-    return 0;
 }
 
 /* Denoise one layer in memory and put the result back into the file. */
@@ -269,7 +271,7 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     }
     ew_method_spec spec;
     char chosen[200] = "";
-    make_spec(j, lp, method, &spec);
+    make_spec(j, method, &spec);
     spec.chosen = chosen;
     spec.chosen_len = sizeof chosen;
     double ms = 0.0;
