@@ -114,19 +114,20 @@ int ew_run_progress(ew_run *r, double node_fraction) {
     return 1;
 }
 
+/* The object under `key` of `parent`, made empty when it is not there yet. */
+static json_t *child_object(json_t *parent, const char *key) {
+    json_t *o = json_object_get(parent, key);
+    if (!o) {
+        o = json_object();
+        json_object_set_new(parent, key, o);
+    }
+    return o;
+}
+
 void ew_run_report_number(ew_run *r, const ew_gnode *n, const char *key, double value) {
     json_t *frame = (json_t *)r->report_frame;
     if (!frame) return;
-    json_t *metrics = json_object_get(frame, "metrics");
-    if (!metrics) {
-        metrics = json_object();
-        json_object_set_new(frame, "metrics", metrics);
-    }
-    json_t *node = json_object_get(metrics, n->id);
-    if (!node) {
-        node = json_object();
-        json_object_set_new(metrics, n->id, node);
-    }
+    json_t *node = child_object(child_object(frame, "metrics"), n->id);
     /* JSON has no infinity: an identical image's PSNR is null */
     json_object_set_new(node, key, isfinite(value) ? json_real(value) : json_null());
 }
@@ -134,12 +135,7 @@ void ew_run_report_number(ew_run *r, const ew_gnode *n, const char *key, double 
 void ew_run_report_method(ew_run *r, const ew_gnode *n, const char *what) {
     json_t *frame = (json_t *)r->report_frame;
     if (!frame || !what) return;
-    json_t *m = json_object_get(frame, "methods");
-    if (!m) {
-        m = json_object();
-        json_object_set_new(frame, "methods", m);
-    }
-    json_object_set_new(m, n->id, json_string(what));
+    json_object_set_new(child_object(frame, "methods"), n->id, json_string(what));
 }
 
 void ew_run_report_written(ew_run *r, const char *path) {
