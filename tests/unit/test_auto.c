@@ -48,10 +48,14 @@ static void make_frame(frame *f, float noise, unsigned seed) {
         }
 }
 
+/* A method parameter by name; lists end with {NULL}. */
+typedef struct { const char *name; float value; } param;
+
 /* Run `method` on f (features when `features`), with `samples` when the
- * method takes it; returns what it says it ran (copied into `what`). */
-static ew_result run(ew_device *dev, const char *method, frame *f, int features, int samples, const char *pname,
-                     float pvalue, float *out, char *what, size_t len) {
+ * method takes it (>= 0) and the parameters `ps` (may be NULL); returns
+ * what it says it ran (copied into `what`). */
+static ew_result run(ew_device *dev, const char *method, frame *f, int features, int samples, const param *ps,
+                     float *out, char *what, size_t len) {
     ew_denoiser *d = NULL;
     ew_result r = ew_denoiser_create(dev, method, &d);
     ew_image c = ew_image_packed(f->color, W, H, 3), a = ew_image_packed(f->albedo, W, H, 3),
@@ -63,8 +67,9 @@ static ew_result run(ew_device *dev, const char *method, frame *f, int features,
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "normal", &n);
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "depth", &z);
     if (r == EW_OK && samples >= 0) r = ew_denoiser_set_int(d, "samples", samples);
-    if (r == EW_OK && pname) /* "model" is nbg's one integer parameter */
-        r = strcmp(pname, "model") ? ew_denoiser_set_float(d, pname, pvalue) : ew_denoiser_set_int(d, pname, (int32_t)pvalue);
+    for (; r == EW_OK && ps && ps->name; ps++) /* "model" is nbg's one integer parameter */
+        r = strcmp(ps->name, "model") ? ew_denoiser_set_float(d, ps->name, ps->value)
+                                      : ew_denoiser_set_int(d, ps->name, (int32_t)ps->value);
     if (r == EW_OK) r = ew_denoiser_commit(d);
     if (r == EW_OK && what) snprintf(what, len, "%s", ew_denoiser_describe(d));
     if (r == EW_OK) r = ew_denoiser_execute(d);
@@ -79,40 +84,26 @@ TEST(sample_count_picks_the_model) {
     static frame f;
     make_frame(&f, 0.5f, 1);
     char what[200];
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
     CHECK_STR_CONTAINS(what, "1 spp");
-    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, "model", 3, f.out2, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 3}, {NULL, 0}}, f.out2, what, sizeof what), EW_OK);
     CHECK(same(f.out, f.out2));
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp"); /* nbg names its model too */
 
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, NULL, f.out, what, sizeof what), EW_OK);
     CHECK(strstr(what, "nbg 2layer-3grid (") != NULL);
-    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, "model", 0, f.out2, NULL, 0), EW_OK);
+    CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 0}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
 
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid finest grid 2/4");
     /* the finest grid is bgrid with those rates */
-    ew_denoiser *d = NULL;
-    CHECK_EQ_INT(ew_denoiser_create(dev, "bgrid", &d), EW_OK);
-    ew_image c = ew_image_packed(f.color, W, H, 3), a = ew_image_packed(f.albedo, W, H, 3),
-             n = ew_image_packed(f.normal, W, H, 3), z = ew_image_packed(f.depth, W, H, 1),
-             o = ew_image_packed(f.out2, W, H, 3);
-    ew_denoiser_set_image(d, "color", &c);
-    ew_denoiser_set_image(d, "albedo", &a);
-    ew_denoiser_set_image(d, "normal", &n);
-    ew_denoiser_set_image(d, "depth", &z);
-    ew_denoiser_set_image(d, "output", &o);
-    ew_denoiser_set_float(d, "spatial_rate", 2.0f);
-    ew_denoiser_set_float(d, "range_rate", 4.0f);
-    ew_denoiser_set_float(d, "prepass_rate", 4.0f);
-    CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
-    CHECK_STR_CONTAINS(ew_denoiser_describe(d), "bgrid");
-    CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
-    ew_denoiser_destroy(d);
+    static const param finest[] = {{"spatial_rate", 2.0f}, {"range_rate", 4.0f}, {"prepass_rate", 4.0f}, {NULL, 0}};
+    CHECK_EQ_INT(run(dev, "bgrid", &f, 1, -1, finest, f.out2, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid");
     CHECK(same(f.out, f.out2));
     ew_device_destroy(dev);
 }
@@ -122,9 +113,9 @@ TEST(without_features_it_uses_the_grid) {
     static frame f;
     make_frame(&f, 0.5f, 2);
     char what[200];
-    CHECK_EQ_INT(run(dev, "auto", &f, 0, 1, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 0, 1, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid coarse grid 8/8");
-    CHECK_EQ_INT(run(dev, "auto", &f, 0, 4, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 0, 4, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid medium grid 4/8");
     for (int i = 0; i < N * 3; i++) CHECK(isfinite(f.out[i]));
     ew_device_destroy(dev);
@@ -135,11 +126,11 @@ TEST(noise_estimate_when_the_count_is_unknown) {
     static frame f;
     char what[200];
     make_frame(&f, 0.9f, 3); /* very noisy: the 1-spp level */
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "1spp");
     CHECK_STR_CONTAINS(what, "noise estimate");
     make_frame(&f, 0.0f, 3); /* clean: the finest grid */
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, 0, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "finest");
     ew_device_destroy(dev);
 }
