@@ -1098,6 +1098,16 @@ def build_texture(rng, ctx):
     return {"texture_kinds": kinds}
 
 
+def mesh_object(name, verts, faces, mat):
+    """A linked object of a mesh built from vertices and faces, with material mat."""
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    ob = link(bpy.data.objects.new(name, me))
+    assign(ob, mat)
+    return ob
+
+
 def add_segments(name, segs, mat):
     """One mesh of thin square-section beams; segs = [(p0, p1, radius), ...]."""
     verts, faces = [], []
@@ -1114,12 +1124,7 @@ def add_segments(name, segs, mat):
         faces += [(base + i, base + (i + 1) % 4, base + 4 + (i + 1) % 4, base + 4 + i)
                   for i in range(4)]
         faces += [(base + 3, base + 2, base + 1, base), (base + 4, base + 5, base + 6, base + 7)]
-    me = bpy.data.meshes.new(name)
-    me.from_pydata(verts, [], faces)
-    me.update()
-    ob = link(bpy.data.objects.new(name, me))
-    assign(ob, mat)
-    return ob
+    return mesh_object(name, verts, faces, mat)
 
 
 def add_blades(name, blades, mat):
@@ -1132,12 +1137,7 @@ def add_blades(name, blades, mat):
         k = len(verts)
         verts += [(bx - dx, by - dy, bz), (bx + dx, by + dy, bz), tuple(tip)]
         faces.append((k, k + 1, k + 2))
-    me = bpy.data.meshes.new(name)
-    me.from_pydata(verts, [], faces)
-    me.update()
-    ob = link(bpy.data.objects.new(name, me))
-    assign(ob, mat)
-    return ob
+    return mesh_object(name, verts, faces, mat)
 
 
 def build_thin(rng, ctx):
