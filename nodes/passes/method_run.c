@@ -6,7 +6,6 @@
 #include <string.h>
 #include <time.h>
 
-
 void ew_layer_data_free(ew_layer_data *d) {
     free(d->color);
     free(d->albedo);
@@ -83,6 +82,9 @@ static ew_result set_float(int f, void *op, const char *nm, float v) {
 }
 static ew_result set_int(int f, void *op, const char *nm, int32_t v) {
     return f ? ew_filter_set_int((ew_filter *)op, nm, v) : ew_denoiser_set_int((ew_denoiser *)op, nm, v);
+}
+static ew_result set_data(int f, void *op, const char *nm, const void *data, size_t size) {
+    return f ? ew_filter_set_data((ew_filter *)op, nm, data, size) : ew_denoiser_set_data((ew_denoiser *)op, nm, data, size);
 }
 static ew_result commit(int f, void *op) {
     return f ? ew_filter_commit((ew_filter *)op) : ew_denoiser_commit((ew_denoiser *)op);
@@ -162,9 +164,7 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     }
     if (r == EW_OK && !samples_set && in->samples > 0 && has_param(spec, "samples"))
         r = set_int(is_filter, op, "samples", in->samples);
-    if (r == EW_OK && spec->data_name)
-        r = is_filter ? ew_filter_set_data(fop, spec->data_name, spec->data, spec->data_size)
-                      : ew_denoiser_set_data(dop, spec->data_name, spec->data, spec->data_size);
+    if (r == EW_OK && spec->data_name) r = set_data(is_filter, op, spec->data_name, spec->data, spec->data_size);
     double t0 = now_ms();
     if (r == EW_OK) r = commit(is_filter, op);
     if (r == EW_OK) r = execute(is_filter, op);
