@@ -109,6 +109,12 @@ picks auto_4spp_nbg "nbg 2layer-3grid (4 spp)" "$SAMPLE/cornell/f0001_spp0004.ex
 picks auto_samples_option_overrides "bgrid finest grid 2/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64
 picks auto_no_features_grid "bgrid coarse grid" "$T/no_albedo.exr" --samples 1
 picks model_implies_nbg "nbg 2layer-1grid" "$SAMPLE/cornell/f0001_spp0004.exr" --model 2layer-1grid
+picks model_file "nbg $SAMPLE/../models/nbg/2layer-1grid.ewm" "$SAMPLE/cornell/f0001_spp0004.exr" \
+  --model "$SAMPLE/../models/nbg/2layer-1grid.ewm"
+rm -f "$T/bad_model_out.exr"
+expect model_file_not_weights 1 "not an Edgewise weights file" -- denoise "$SAMPLE/cornell/f0001_spp0004.exr" \
+  -o "$T/bad_model_out.exr" --model "$T/text.exr"
+[ ! -e "$T/bad_model_out.exr" ] && ok model_file_not_weights_writes_nothing || bad model_file_not_weights_writes_nothing
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
