@@ -307,7 +307,7 @@ EW_HD float ew_pyr_log2_sigma(const ew_bf_model *m, const int kind, const float 
         const float extra = 1.0f / ew_maxf(s2, 1e-30f);
         const float inv = 36.0f / ew_maxf(d * d, 1e-30f) + (m->sigma > 0.0f ? extra : 0.0f);
         const float l = -0.5f * ew_flog2v(inv);
-        return d > 0.0f ? l : -100.0f;
+        return ew_pyr_select(d > 0.0f, l, -100.0f); /* an integer select: see ew_pyr_lookup */
     }
     return ew_flog2v(ew_maxf(m->sigma, 1e-6f));
 }
@@ -315,9 +315,13 @@ EW_HD float ew_pyr_log2_sigma(const ew_bf_model *m, const int kind, const float 
 /* The weights for a centre of log2(domain sigma) ls and parity par,
  * interpolated from the table. */
 EW_HD void ew_pyr_lookup(const ew_pyr_wrow *lut, float ls, int par, float *wf, float *wdc, float *gamma) {
-    float t = (ls - (float)EW_PYR_LUT_LOG2_MIN) * (float)EW_PYR_LUT_STEPS;
-    t = ew_clampf(t, 0.0f, (float)(EW_PYR_LUT_N - 1));
-    const int i0 = (int)t, i1 = (int)ew_minf(t + 1.0f, (float)(EW_PYR_LUT_N - 1)); /* floats: see ew_fexp2 */
+    /* the clamps as integer selects: with float ones the compiler threads
+     * the constant rows at the ends into separate paths, and a loop over
+     * pixels is no longer branch-free (it would not vectorise) */
+    const float t0 = (ls - (float)EW_PYR_LUT_LOG2_MIN) * (float)EW_PYR_LUT_STEPS, top = (float)(EW_PYR_LUT_N - 1);
+    const float tl = ew_pyr_select(t0 > 0.0f, t0, 0.0f); /* NaN: 0 */
+    const float t = ew_pyr_select(tl < top, tl, top);
+    const int i0 = (int)t, i1 = (int)ew_pyr_select(t + 1.0f < top, t + 1.0f, top); /* floats: see ew_fexp2 */
     float f = t - (float)i0, g = 1.0f - f;
     /* the rows as one float array (indices, not row pointers: a loop over
      * pixels turns these loads into gathers) */
@@ -480,10 +484,17 @@ EW_HD int ew_pyr_up_in_ok(const ew_pyr_up_args *a, const int kind) {
            (kind != EW_RANGE_GI || (a->m->use_roughness != 0) == (a->row == 0));
 }
 
+/* Whether a loop over ew_pyr_up_in_k of this variant vectorises on the CPU
+ * (GCC 12): with uniform weights, and with DOF's table (its lookup as
+ * gathers). GI's table (roughness) does not yet ("no vectype" for its
+ * attribute loads): there the energies take the branchy form that is
+ * cheaper in scalar code, and the CPU backend the general path. */
+EW_HD int ew_pyr_up_in_vec(const int kind, const int uniform) { return uniform || kind == EW_RANGE_DOF; }
+
 EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind, const int uniform, const int g1,
                           const int dup) {
     const ew_bf_model *m = a->m;
-    const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform;
+    const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform, vec = ew_pyr_up_in_vec(kind, uniform);
     const long n = (long)a->w * a->h, j = (long)y * a->w + x;
     const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch, cj = (long)(y >> 1) * cw2 + x;
     float ap[EW_BF_MAX_ATTR];
@@ -515,10 +526,10 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
             coc[k] = ccoc[i];
             aq[1] = coc[k];
         }
-        /* the vectorising form where the loop vectorises (uniform), the
-         * branchy one where it stays scalar (the table's gathers) */
-        E[k] = uniform ? ew_bf_energy_v(m, kind, rough, ap, aq, a->coarse_d2)
-                       : ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
+        /* the vectorising form where the loop vectorises, the branchy one
+         * where it stays scalar (ew_pyr_up_in_vec) */
+        E[k] = vec ? ew_bf_energy_v(m, kind, rough, ap, aq, a->coarse_d2)
+                   : ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
     }
     EW_PYR_UNROLL
     for (int k = 0; k < 9; k++) {
@@ -529,8 +540,7 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
         for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->attr[kk * n + i] : 0.0f;
         coc[9 + k] = kind == EW_RANGE_DOF ? aq[1] : 0.0f;
         const float d2 = (float)(ix * ix + iy * iy) * a->d2_unit;
-        E[9 + k] = k == 4 ? 0.0f
-                 : uniform ? ew_bf_energy_v(m, kind, rough, ap, aq, d2) : ew_bf_energy_r(m, kind, rough, ap, aq, d2);
+        E[9 + k] = k == 4 ? 0.0f : vec ? ew_bf_energy_v(m, kind, rough, ap, aq, d2) : ew_bf_energy_r(m, kind, rough, ap, aq, d2);
     }
     EW_PYR_UNROLL
     for (int k = 0; k < 18; k++) F[k] = k == 13 ? 1.0f : ew_fexp2(E[k]); /* the centre: 2^0 */

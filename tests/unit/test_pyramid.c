@@ -330,6 +330,9 @@ TEST(matches_eq2_eq3_color_trained) { CHECK(check_against_reference(EW_RANGE_COL
 TEST(matches_eq2_eq3_depth_trained) { CHECK(check_against_reference(EW_RANGE_DEPTH, EW_BF_CH, 24, 24, 2.0f, 1, 3)); }
 TEST(matches_eq2_eq3_gi_per_pixel_sigma) { CHECK(check_against_reference(EW_RANGE_GI, EW_BF_CH, 16, 16, 1.5f, 1, 4)); }
 TEST(matches_eq2_eq3_dof_per_pixel_sigma) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 32, 16, 2.0f, 1, 5)); }
+/* wide rows: the CPU backend's vectorised interior span with DOF's per-pixel
+ * table lookup (gathers) runs many full vectors, against the same reference */
+TEST(matches_eq2_eq3_dof_per_pixel_sigma_wide) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 72, 24, 2.5f, 1, 8)); }
 TEST(matches_eq2_eq3_dof_analytic) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 16, 16, 2.0f, 0, 6)); }
 TEST(matches_eq2_eq3_gaussian_odd_size) { CHECK(check_against_reference(EW_RANGE_NONE, EW_BF_CH, 23, 17, 1.7f, 1, 7)); }
 

@@ -152,7 +152,9 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
         else if (uniform && g1) EW_PYR_UP_SPAN(1, 1, 0);
         else if (uniform && dup) EW_PYR_UP_SPAN(1, 0, 1);
         else if (uniform) EW_PYR_UP_SPAN(1, 0, 0);
-        else /* the table's gathers keep these loops scalar: the general path is as fast */
+        else if (ew_pyr_up_in_vec(kind, 0) && dup) EW_PYR_UP_SPAN(0, 0, 1); /* DOF: the table's lookup as gathers */
+        else if (ew_pyr_up_in_vec(kind, 0)) EW_PYR_UP_SPAN(0, 0, 0);
+        else /* GI's table: scalar either way, and the general path is as fast */
             for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
         for (int x = x1; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
     }
