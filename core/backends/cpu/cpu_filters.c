@@ -29,15 +29,30 @@
 #define EW_FLATTEN
 #endif
 
+/* Every row function below (exact, separable, pyramid, a-trous, DoF
+ * attributes alike) is also compiled for AVX-512F and AVX2 and the CPU picks
+ * one at load time (an ifunc), so the speed ratios compare algorithms on the
+ * machine's vector width, not one filter's build against another's (and
+ * SSE2 alone lacks the blends, gathers and integer ops the branch-free
+ * kernels need). No FMA is requested and the C11 build contracts nothing
+ * (-ffp-contract=off in ISO mode), so every variant computes the same IEEE
+ * operations and results do not depend on the CPU. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && !defined(EW_NO_MULTIVERSION)
+#define EW_MULTIVERSION __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define EW_MULTIVERSION
+#endif
+#define EW_ROW_FN EW_MULTIVERSION EW_FLATTEN
+
 /* One row function per kind: NAME_<kind>(ctx, begin, end, tid) runs
  * BODY(kind) for rows [begin, end); NAME picks one by kind. */
 #define EW_ROWS_PER_KIND(NAME, CTX_T, BODY)                                                                    \
     static EW_FLATTEN void NAME##_k(const CTX_T *j, int64_t begin, int64_t end, const int kind) { BODY }        \
-    static EW_FLATTEN void NAME##_color(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_COLOR); } \
-    static EW_FLATTEN void NAME##_gi(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_GI); } \
-    static EW_FLATTEN void NAME##_depth(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DEPTH); } \
-    static EW_FLATTEN void NAME##_dof(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DOF); } \
-    static EW_FLATTEN void NAME##_none(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_NONE); } \
+    static EW_ROW_FN void NAME##_color(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_COLOR); } \
+    static EW_ROW_FN void NAME##_gi(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_GI); } \
+    static EW_ROW_FN void NAME##_depth(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DEPTH); } \
+    static EW_ROW_FN void NAME##_dof(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DOF); } \
+    static EW_ROW_FN void NAME##_none(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_NONE); } \
     static ew_range_fn NAME(int kind) {                                                                         \
         switch (kind) {                                                                                         \
         case EW_RANGE_COLOR: return NAME##_color;                                                               \
@@ -166,7 +181,7 @@ void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     ew_pool_run(dev->pool, a->h, 0, up_rows(a->m->kind), (void *)a);
 }
 
-static void atrous_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+static EW_ROW_FN void atrous_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const ew_atrous_args *a = (const ew_atrous_args *)ctx;
     for (int64_t y = begin; y < end; y++)
@@ -182,7 +197,7 @@ typedef struct {
     int step;
 } dof_job;
 
-static void dof_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+static EW_ROW_FN void dof_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const dof_job *j = (const dof_job *)ctx;
     const ew_dof_args *a = j->a;
