@@ -88,6 +88,7 @@ static int build(ew_ofx_node *n, const char *kind, const char *method, const cha
 
     for (int32_t i = 0; i < np; i++) {
         if (ew_method_param(kind, method, i, &n->params[i]) != EW_OK || !plain_name(n->params[i].name)) return 0;
+        n->param_pixels[i] = ew_method_param_is_pixels(kind, method, i) == 1;
     }
     n->num_params = (int)np;
 

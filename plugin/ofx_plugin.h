@@ -45,6 +45,8 @@ typedef struct ew_ofx_node {
     const char *identity_params[2];
     int num_params;
     ew_param_info params[EW_OFX_MAX_PARAMS];
+    /* 1: a length in pixels, multiplied by the render scale (proxies) */
+    int param_pixels[EW_OFX_MAX_PARAMS];
     int num_aux;
     ew_ofx_aux aux[EW_OFX_MAX_AUX];
 } ew_ofx_node;

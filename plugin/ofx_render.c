@@ -16,6 +16,7 @@
  */
 #include "ofx_plugin.h"
 
+#include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <string.h>
@@ -30,6 +31,7 @@ typedef struct {
     ew_ofx_instance *inst;
     OfxImageEffectHandle effect;
     OfxTime time;
+    double scale;    /* the render scale (proxies): pixel-sized parameters are multiplied by it */
     OfxRectI window; /* clipped to the output image */
     OfxRectI dom;    /* what the library filters: the source image's bounds */
     int channels;    /* of the source handed to the library */
@@ -75,7 +77,13 @@ static ew_result op_image(render_job *r, const char *name, const ew_image *v) {
     return r->den ? ew_denoiser_set_image(r->den, name, v) : ew_filter_set_image(r->flt, name, v);
 }
 
-static ew_result op_param(render_job *r, const ew_param_info *p, double v) {
+static ew_result op_param(render_job *r, const ew_param_info *p, int pixels, double v) {
+    if (pixels && r->scale != 1.0) {
+        v *= r->scale;
+        if (p->type != EW_PARAM_FLOAT) v = floor(v + 0.5);
+        if (v < p->min_value) v = p->min_value;
+        if (v > p->max_value) v = p->max_value;
+    }
     if (p->type == EW_PARAM_FLOAT)
         return r->den ? ew_denoiser_set_float(r->den, p->name, (float)v) : ew_filter_set_float(r->flt, p->name, (float)v);
     return r->den ? ew_denoiser_set_int(r->den, p->name, (int32_t)v) : ew_filter_set_int(r->flt, p->name, (int32_t)v);
@@ -175,6 +183,14 @@ static OfxStatus read_args(render_job *r, OfxPropertySetHandle in) {
     r->window.y1 = w[1];
     r->window.x2 = w[2];
     r->window.y2 = w[3];
+    /* Proxies: a radius of 8 at full size is 4 at half size, so the look
+     * stays. One factor for both axes (the library's lengths are
+     * isotropic): their mean; hosts that omit it render at 1. */
+    double s[2];
+    if (ew_ofx.prop->propGetDoubleN(in, kOfxImageEffectPropRenderScale, 2, s) == kOfxStatOK && s[0] > 0.0 && s[1] > 0.0)
+        r->scale = 0.5 * (s[0] + s[1]);
+    else
+        r->scale = 1.0;
     return kOfxStatOK;
 }
 
@@ -244,7 +260,7 @@ static OfxStatus run_library(render_job *r) {
             ew_ofx_post_error(r->effect, "Edgewise %s: cannot read parameter %s", n->method, n->params[i].name);
             return st;
         }
-        if ((e = op_param(r, &n->params[i], v)) != EW_OK) return library_status(r, e);
+        if ((e = op_param(r, &n->params[i], n->param_pixels[i], v)) != EW_OK) return library_status(r, e);
     }
     e = r->den ? ew_denoiser_commit(r->den) : ew_filter_commit(r->flt);
     if (e == EW_OK) e = r->den ? ew_denoiser_execute(r->den) : ew_filter_execute(r->flt);

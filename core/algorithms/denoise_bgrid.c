@@ -177,4 +177,5 @@ const ew_op_type ew_denoise_bgrid = {
     commit, execute, release, NULL, NULL,
     1,    /* device_memory: runs on CUDA (issue 8) */
     NULL, /* describe: the method's name */
+    (const char *const[]){"spatial_rate", "prepass_rate", NULL}, /* pixel_params */
 };

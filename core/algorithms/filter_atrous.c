@@ -93,4 +93,5 @@ const ew_op_type ew_filter_atrous = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .pixel_params = (const char *const[]){"radius", NULL},
 };

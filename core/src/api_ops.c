@@ -101,3 +101,11 @@ ew_result ew_method_param(const char *kind, const char *name, int32_t index, ew_
     *out = t->params[index];
     return EW_OK;
 }
+
+int32_t ew_method_param_is_pixels(const char *kind, const char *name, int32_t index) {
+    const ew_op_type *t = kind && name ? ew_op_type_find(kind, name) : NULL;
+    if (!t || index < 0 || index >= t->num_params) return -1;
+    for (const char *const *p = t->pixel_params; p && *p; p++)
+        if (!strcmp(*p, t->params[index].name)) return 1;
+    return 0;
+}

@@ -48,6 +48,9 @@ typedef struct ew_op_type {
     /* Optional: what a committed op runs, in words (ew_denoiser_describe);
      * NULL means the method's own name. */
     const char *(*describe)(const ew_op *op);
+    /* Optional, NULL-terminated: the parameters that are lengths in pixels
+     * (ew_method_param_is_pixels). */
+    const char *const *pixel_params;
 } ew_op_type;
 
 struct ew_op {

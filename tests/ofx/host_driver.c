@@ -155,8 +155,8 @@ OfxStatus hx_destroy_instance(const host_bundle *b, int plugin, host_effect *ins
 }
 
 static void set_scale(OfxPropertySetHandle in) {
-    hp_set_d(in, "OfxImageEffectPropRenderScale", 0, 1.0);
-    hp_set_d(in, "OfxImageEffectPropRenderScale", 1, 1.0);
+    for (int i = 0; i < 2; i++)
+        hp_set_d(in, "OfxImageEffectPropRenderScale", i, host_cfg.render_scale[i] > 0.0 ? host_cfg.render_scale[i] : 1.0);
 }
 
 OfxStatus hx_rod(const host_bundle *b, int plugin, host_effect *inst, double time, double rod[4]) {

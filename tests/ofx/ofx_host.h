@@ -31,6 +31,7 @@ typedef struct host_config {
     int abort_after;         /* abort() answers 1 from this call on (-1: never) */
     int abort_in_spawned;    /* abort() answers 1 on threads multiThread spawned */
     int image_memory_fail;   /* imageMemoryAlloc fails */
+    double render_scale[2];  /* the actions' kOfxImageEffectPropRenderScale (0: 1, full size) */
 } host_config;
 
 typedef struct host_stats {

@@ -429,6 +429,46 @@ TEST(rgb_source_and_output) {
     run_case(&d); /* RGB in, RGBA out: alpha 1 */
 }
 
+/* Proxies: at render scale 0.5 the pixel-sized parameters are halved (the
+ * host's images are the proxy's), the others are not; the bgrid's rates
+ * round-trip as floats, the pyramid's radius as an integer. */
+TEST(render_scale_scales_pixel_parameters) {
+    NEED("org.edgewise.filter.pyramid");
+    const fx_sample *s = cornell();
+    CHECK(s);
+    host_config half;
+    host_reset();
+    half = host_cfg;
+    half.render_scale[0] = half.render_scale[1] = 0.5;
+    render_case c = pyramid_case(s);
+    c.cfg = &half;
+    memcpy(c.lib_params, c.params, sizeof c.params);
+    c.num_lib_params = c.num_params;
+    c.lib_params[1].value = 6; /* radius 12 at half size */
+    run_case(&c);
+    render_case d = bgrid_case(s, FILTER);
+    d.cfg = &half;
+    memcpy(d.lib_params, d.params, sizeof d.params);
+    d.num_lib_params = d.num_params;
+    d.lib_params[0].value = 3.0; /* spatial_rate 6 */
+    d.lib_params[2].value = 0.5; /* color_weight: not a length */
+    d.lib_params[4] = (fx_param){"prepass_rate", 4.0}; /* its default 8, halved */
+    d.num_lib_params = 5;
+    run_case(&d);
+}
+
+/* Only lengths in pixels are scaled: the introspection says which. */
+TEST(pixel_parameters_are_the_lengths) {
+    CHECK_EQ_INT(ew_method_param_is_pixels("filter", "pyramid", 1), 1);  /* radius */
+    CHECK_EQ_INT(ew_method_param_is_pixels("filter", "pyramid", 2), 1);  /* sigma_spatial */
+    CHECK_EQ_INT(ew_method_param_is_pixels("filter", "pyramid", 3), 0);  /* sigma_range */
+    CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "bgrid", 0), 1);  /* spatial_rate */
+    CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "bgrid", 1), 0);  /* range_rate: guide units */
+    CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "nbg", 0), 0);    /* model */
+    CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "bgrid", 99), -1);
+    CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "nosuch", 0), -1);
+}
+
 TEST(parameters_are_read_at_render_time) {
     NEED("org.edgewise.filter.pyramid");
     const fx_sample *s = cornell();

@@ -209,6 +209,11 @@ EW_API ew_result ew_method_get(const char *kind, int32_t index, const char **nam
                                int32_t *num_images, int32_t *num_params);
 EW_API ew_result ew_method_image(const char *kind, const char *name, int32_t index, ew_image_info *out);
 EW_API ew_result ew_method_param(const char *kind, const char *name, int32_t index, ew_param_info *out);
+/* 1 when parameter `index` of a method is a length in image pixels (a
+ * radius, a grid cell): a host rendering at a reduced scale (an OFX proxy)
+ * multiplies it by that scale so the result looks the same. 0 when it is
+ * not, -1 for an unknown method or index. */
+EW_API int32_t ew_method_param_is_pixels(const char *kind, const char *name, int32_t index);
 
 /* ---- metrics ---------------------------------------------------------- */
 /*
