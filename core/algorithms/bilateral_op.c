@@ -41,7 +41,7 @@ void ew_pyr_op_release_data(ew_op *op) {
     op->data_state = NULL;
 }
 
-ew_result ew_bf_op_table(ew_op *op, int trained, ew_pyr_table *table, const ew_pyr_table **out) {
+ew_result ew_bf_op_table(ew_op *op, int trained, int kind, ew_pyr_table *table, const ew_pyr_table **out) {
     *out = NULL;
     if (op->data_state) {
         *table = *(const ew_pyr_table *)op->data_state;
@@ -50,7 +50,7 @@ ew_result ew_bf_op_table(ew_op *op, int trained, ew_pyr_table *table, const ew_p
     }
     if (!trained) return EW_OK;
     char why[256];
-    if (ew_pyr_builtin_table(table, why, sizeof why) != EW_OK)
+    if (ew_pyr_builtin_table(kind, table, why, sizeof why) != EW_OK)
         return ew__fail(op->dev, EW_ERR_INVALID_DATA, "parameter 'weights' = 1 (trained): %s; use 'weights' = 0", why);
     *out = table;
     return EW_OK;
@@ -103,7 +103,7 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     ew_bf_model pm = m; /* the plan's model: GI's uniform sigma in .sigma (GI's range ignores it) */
     if (m.kind == EW_RANGE_GI) pm.sigma = (m.sigma_alpha + 1.0f) / 3.0f;
     if (method == EW_BF_PYRAMID) {
-        ew_result r = ew_bf_op_table(op, (int)ew_op_param(op, "weights"), &tbl, &table);
+        ew_result r = ew_bf_op_table(op, (int)ew_op_param(op, "weights"), m.kind, &tbl, &table);
         if (r != EW_OK) return r;
         levels = m.radius == 0 ? 0 : ew_pyr_levels(ew_pyr_sigma_max(&m), w, h);
     }

@@ -41,9 +41,10 @@ void ew_bf_op_release(ew_op *op);
 
 /* The pyramid's weights table for a commit: the one given with
  * set_data("weights", file bytes) if any, else the built-in trained table
- * when trained != 0 (parsed into *table), else NULL (analytic). Errors are
- * reported on op. The pyramid and DoF filters share this. */
-ew_result ew_bf_op_table(ew_op *op, int trained, ew_pyr_table *table, const ew_pyr_table **out);
+ * of the model kind when trained != 0 (parsed into *table), else NULL
+ * (analytic). Errors are reported on op. The pyramid and DoF filters share
+ * this. */
+ew_result ew_bf_op_table(ew_op *op, int trained, int kind, ew_pyr_table *table, const ew_pyr_table **out);
 
 /* set_data("weights", bytes of a weights file): validated now, kept in
  * op->data_state until unset (NULL) or the filter is destroyed. */

@@ -78,7 +78,7 @@ static ew_result commit(ew_op *op) {
     const ew_pyr_table *table = NULL;
     int levels = 0;
     if (method == 0) {
-        ew_result r = ew_bf_op_table(op, (int)ew_op_param(op, "weights"), &tbl, &table);
+        ew_result r = ew_bf_op_table(op, (int)ew_op_param(op, "weights"), EW_RANGE_DOF, &tbl, &table);
         if (r != EW_OK) return r;
         levels = ew_pyr_levels(ew_pyr_sigma_max(&m), w, h);
     }

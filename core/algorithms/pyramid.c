@@ -29,7 +29,9 @@ float ew_pyr_sigma_max(const ew_bf_model *m) {
     case EW_RANGE_GI: return (m->sigma_alpha + 1.0f) / 3.0f;
     case EW_RANGE_DOF: {
         float d = 2.0f * (float)m->radius; /* CoC diameter */
-        float a[2] = {d, d};
+        /* a whole attribute vector: ew_bf_sigma's GI branch reads a[4], and
+         * GCC's -Warray-bounds (with the sanitizers) does not see it is dead */
+        float a[EW_BF_MAX_ATTR] = {d, d, 0.0f, 0.0f, 0.0f};
         return ew_bf_sigma(m, a);
     }
     default: return m->sigma;

@@ -134,8 +134,11 @@ ew_result ew_pyr_table_parse(const void *data, size_t size, ew_pyr_table *out, c
 /* Serialise a table (what the training tool writes). Returns the number of
  * bytes needed; writes only when buf is large enough. */
 size_t ew_pyr_table_write(const ew_pyr_table *t, void *buf, size_t cap);
-/* The trained table built into the library (pyramid_weights_data.c, a copy
- * of models/pyramid/pyramid.ewpw), parsed and validated into *out. */
-ew_result ew_pyr_builtin_table(ew_pyr_table *out, char *why, size_t whylen);
+/* The trained table built into the library for a model kind, parsed and
+ * validated into *out: GI's own (pyramid_weights_gi_data.c, a copy of
+ * models/pyramid/pyramid_gi.ewpw, trained on GI denoising only), else the
+ * table trained on colour, GI and depth together (pyramid_weights_data.c,
+ * models/pyramid/pyramid.ewpw; DoF uses it too). */
+ew_result ew_pyr_builtin_table(int kind, ew_pyr_table *out, char *why, size_t whylen);
 
 #endif

@@ -209,13 +209,16 @@ size_t ew_pyr_table_write(const ew_pyr_table *t, void *buf, size_t cap) {
     return w.at;
 }
 
-/* pyramid_weights_data.c, written by tools/train_pyramid */
-extern const unsigned char ew_pyr_builtin_weights[];
-extern const size_t ew_pyr_builtin_weights_size;
+/* pyramid_weights_data.c and pyramid_weights_gi_data.c, written by
+ * tools/train_pyramid (--model all, --model gi) */
+extern const unsigned char ew_pyr_builtin_weights[], ew_pyr_builtin_weights_gi[];
+extern const size_t ew_pyr_builtin_weights_size, ew_pyr_builtin_weights_gi_size;
 
-ew_result ew_pyr_builtin_table(ew_pyr_table *out, char *why, size_t whylen) {
+ew_result ew_pyr_builtin_table(int kind, ew_pyr_table *out, char *why, size_t whylen) {
+    const int gi = kind == EW_RANGE_GI;
     /* parsed into the caller's table (no global state); ~0.3 ms */
-    ew_result r = ew_pyr_table_parse(ew_pyr_builtin_weights, ew_pyr_builtin_weights_size, out, why, whylen);
+    ew_result r = ew_pyr_table_parse(gi ? ew_pyr_builtin_weights_gi : ew_pyr_builtin_weights,
+                                     gi ? ew_pyr_builtin_weights_gi_size : ew_pyr_builtin_weights_size, out, why, whylen);
     if (r != EW_OK && why && whylen) {
         char tmp[200];
         snprintf(tmp, sizeof tmp, "built-in pyramid weights: %s", why);

@@ -722,26 +722,106 @@ TEST(backward_matches_finite_differences_color) { CHECK(check_gradient(EW_RANGE_
 TEST(backward_matches_finite_differences_gi) { CHECK(check_gradient(EW_RANGE_GI, 42)); }
 TEST(backward_matches_finite_differences_depth) { CHECK(check_gradient(EW_RANGE_DEPTH, 43)); }
 
-/* the weights built into the library are models/pyramid/pyramid.ewpw, byte
- * for byte, and validate */
-extern const unsigned char ew_pyr_builtin_weights[];
-extern const size_t ew_pyr_builtin_weights_size;
+/* the weights built into the library are models/pyramid/pyramid.ewpw and
+ * pyramid_gi.ewpw, byte for byte, and validate; ew_pyr_builtin_table gives
+ * GI its own table and every other kind the joint one */
+extern const unsigned char ew_pyr_builtin_weights[], ew_pyr_builtin_weights_gi[];
+extern const size_t ew_pyr_builtin_weights_size, ew_pyr_builtin_weights_gi_size;
 
-TEST(builtin_weights_are_the_models_file) {
+static int same_as_models_file(const char *file, const unsigned char *bytes, size_t size) {
     char path[4096];
     snprintf(path, sizeof path, "%s", __FILE__);
     char *cut = strstr(path, "tests/unit/test_pyramid.c");
-    if (!cut) SKIP("source path unknown");
-    snprintf(cut, sizeof path - (size_t)(cut - path), "models/pyramid/pyramid.ewpw");
+    if (!cut) return -1;
+    snprintf(cut, sizeof path - (size_t)(cut - path), "models/pyramid/%s", file);
     FILE *f = fopen(path, "rb");
-    if (!f) SKIP("models/pyramid/pyramid.ewpw not found");
+    if (!f) return -1;
     static unsigned char buf[1 << 20];
     size_t n = fread(buf, 1, sizeof buf, f);
     fclose(f);
-    CHECK_EQ_INT(n, ew_pyr_builtin_weights_size);
-    CHECK(memcmp(buf, ew_pyr_builtin_weights, n) == 0);
+    return n == size && memcmp(buf, bytes, n) == 0;
+}
+
+static int same_table(const ew_pyr_table *a, const unsigned char *bytes, size_t size) {
+    ew_pyr_table b;
+    char why[200];
+    if (ew_pyr_table_parse(bytes, size, &b, why, sizeof why) != EW_OK) return 0;
+    return a->nodes == b.nodes && a->levels == b.levels && memcmp(a->log2_sigma, b.log2_sigma, sizeof a->log2_sigma) == 0 &&
+           memcmp(a->p, b.p, sizeof a->p) == 0;
+}
+
+TEST(builtin_weights_are_the_models_files) {
+    const int joint = same_as_models_file("pyramid.ewpw", ew_pyr_builtin_weights, ew_pyr_builtin_weights_size);
+    const int gi = same_as_models_file("pyramid_gi.ewpw", ew_pyr_builtin_weights_gi, ew_pyr_builtin_weights_gi_size);
+    if (joint < 0 || gi < 0) SKIP("models/pyramid/*.ewpw not found");
+    CHECK(joint == 1);
+    CHECK(gi == 1);
     ew_pyr_table t;
     char why[200];
-    CHECK_EQ_INT(ew_pyr_builtin_table(&t, why, sizeof why), EW_OK);
-    CHECK(t.nodes >= 1);
+    static const int kinds[] = {EW_RANGE_COLOR, EW_RANGE_GI, EW_RANGE_DEPTH, EW_RANGE_DOF, EW_RANGE_NONE};
+    for (int k = 0; k < 5; k++) {
+        CHECK_EQ_INT(ew_pyr_builtin_table(kinds[k], &t, why, sizeof why), EW_OK);
+        CHECK(t.nodes >= 1);
+        if (kinds[k] == EW_RANGE_GI) CHECK(same_table(&t, ew_pyr_builtin_weights_gi, ew_pyr_builtin_weights_gi_size));
+        else CHECK(same_table(&t, ew_pyr_builtin_weights, ew_pyr_builtin_weights_size));
+    }
+    /* two different tables (else the GI table would be a copy) */
+    CHECK(ew_pyr_builtin_weights_size != ew_pyr_builtin_weights_gi_size ||
+          memcmp(ew_pyr_builtin_weights, ew_pyr_builtin_weights_gi, ew_pyr_builtin_weights_size) != 0);
+}
+
+/* A filter with the trained weights (the default) of model m equals the
+ * same filter given the table's bytes with set_data; returns the largest
+ * difference to the filter given other_bytes instead (> 0: the tables
+ * differ where it matters). -1 on a failure. */
+static double filter_uses_table(int model, const unsigned char *own, size_t own_size, const unsigned char *other,
+                                size_t other_size) {
+    const int w = 48, h = 40;
+    unsigned seed = 77;
+    float *rgb = malloc(sizeof(float) * w * h * 3), *nrm = malloc(sizeof(float) * w * h * 3);
+    float *z = malloc(sizeof(float) * w * h), *out[3];
+    for (int i = 0; i < w * h; i++) {
+        for (int c = 0; c < 3; c++) rgb[i * 3 + c] = urand(&seed) + ((i % w) > w / 2 ? 0.5f : 0.0f);
+        const float x = urand(&seed) - 0.5f, y = urand(&seed) - 0.5f, l = sqrtf(x * x + y * y + 1.0f);
+        nrm[i * 3] = x / l;
+        nrm[i * 3 + 1] = y / l;
+        nrm[i * 3 + 2] = 1.0f / l;
+        z[i] = 1.0f + urand(&seed);
+    }
+    ew_device *dev = make_device(2);
+    int ok = dev != NULL;
+    for (int v = 0; v < 3; v++) {
+        out[v] = malloc(sizeof(float) * w * h * 3);
+        ew_filter *f = NULL;
+        ew_image vi = ew_image_packed(rgb, w, h, 3), vo = ew_image_packed(out[v], w, h, 3);
+        ew_image vn = ew_image_packed(nrm, w, h, 3), vz = ew_image_packed(z, w, h, 1);
+        ok = ok && ew_filter_create(dev, "pyramid", &f) == EW_OK && ew_filter_set_image(f, "color", &vi) == EW_OK &&
+             ew_filter_set_image(f, "output", &vo) == EW_OK && ew_filter_set_int(f, "model", model) == EW_OK &&
+             ew_filter_set_int(f, "radius", 12) == EW_OK;
+        if (ok && model == 1)
+            ok = ew_filter_set_image(f, "normal", &vn) == EW_OK && ew_filter_set_image(f, "depth", &vz) == EW_OK &&
+                 ew_filter_set_float(f, "sigma_normal", 32.0f) == EW_OK && ew_filter_set_float(f, "sigma_depth", 0.5f) == EW_OK;
+        if (ok && v == 1) ok = ew_filter_set_data(f, "weights", own, own_size) == EW_OK;
+        if (ok && v == 2) ok = ew_filter_set_data(f, "weights", other, other_size) == EW_OK;
+        ok = ok && ew_filter_commit(f) == EW_OK && ew_filter_execute(f) == EW_OK;
+        ew_filter_destroy(f);
+    }
+    double same = 0, diff = 0;
+    for (int i = 0; ok && i < w * h * 3; i++) {
+        same = fmax(same, fabs((double)out[0][i] - out[1][i]));
+        diff = fmax(diff, fabs((double)out[0][i] - out[2][i]));
+    }
+    ew_device_destroy(dev);
+    free(rgb); free(nrm); free(z);
+    for (int v = 0; v < 3; v++) free(out[v]);
+    return ok && same == 0.0 ? diff : -1.0;
+}
+
+TEST(each_model_filters_with_its_own_builtin_table) {
+    /* GI with the GI table, colour with the joint one; each differs visibly
+     * from what the other table gives */
+    CHECK(filter_uses_table(1, ew_pyr_builtin_weights_gi, ew_pyr_builtin_weights_gi_size, ew_pyr_builtin_weights,
+                            ew_pyr_builtin_weights_size) > 1e-4);
+    CHECK(filter_uses_table(0, ew_pyr_builtin_weights, ew_pyr_builtin_weights_size, ew_pyr_builtin_weights_gi,
+                            ew_pyr_builtin_weights_gi_size) > 1e-4);
 }

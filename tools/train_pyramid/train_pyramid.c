@@ -4,8 +4,16 @@
  * weights file the library embeds.
  *
  *   train_pyramid --data DIR [--out models/pyramid] [--c-out FILE.c]
- *                 [--iters N] [--iters-large N] [--threads N] [--radii 1,2,3,...]
- *                 [--resume] [--quick]
+ *                 [--model all|gi] [--iters N] [--iters-large N] [--threads N]
+ *                 [--radii 1,2,3,...] [--resume] [--quick]
+ *
+ * --model: which table. "all" (the default): one table for every kind of
+ * target below, OUT/pyramid.ewpw (the library's table for colour, depth,
+ * DoF and GI with a roughness image). "gi": GI denoising samples only
+ * (Eq. 9, diffuse), starting from and compared with the analytic setting
+ * for diffuse GI (gamma = 0), OUT/pyramid_gi.ewpw (the library's table for
+ * diffuse GI): one table serving all kinds is a compromise that is worse
+ * than the analytic weights for GI.
  *
  * --iters-large: iterations for radius >= 24 (whole 256x256 images; most
  * of the gain comes in the first 50 iterations). --resume: keep the nodes
@@ -475,7 +483,19 @@ static void train_node(ew_device *dev, sample **tr, int ntr, int levels, int ite
 }
 
 /* ---- output -------------------------------------------------------------- */
-static int write_outputs(const ew_pyr_table *t, const char *out_dir, const char *c_out) {
+/* The table a --model writes: its file name (without .ewpw), the log's and
+ * the library's array. */
+typedef struct {
+    const char *name, *file, *log, *array;
+    float analytic_gamma; /* the library's analytic setting for these targets */
+} model_spec;
+
+static const model_spec models[] = {
+    {"all", "pyramid", "training-log.txt", "ew_pyr_builtin_weights", 1.0f},
+    {"gi", "pyramid_gi", "training-log-gi.txt", "ew_pyr_builtin_weights_gi", 0.0f},
+};
+
+static int write_outputs(const ew_pyr_table *t, const model_spec *ms, const char *out_dir, const char *c_out) {
     size_t n = ew_pyr_table_write(t, NULL, 0);
     unsigned char *buf = (unsigned char *)malloc(n);
     ew_pyr_table_write(t, buf, n);
@@ -487,7 +507,7 @@ static int write_outputs(const ew_pyr_table *t, const char *out_dir, const char 
         return -1;
     }
     char path[4096], tmp[4200];
-    snprintf(path, sizeof path, "%.4000s/pyramid.ewpw", out_dir);
+    snprintf(path, sizeof path, "%.4000s/%s.ewpw", out_dir, ms->file);
     snprintf(tmp, sizeof tmp, "%.4096s.tmp", path);
     FILE *f = fopen(tmp, "wb");
     if (!f || fwrite(buf, 1, n, f) != n || fclose(f) != 0 || rename(tmp, path) != 0) {
@@ -503,15 +523,15 @@ static int write_outputs(const ew_pyr_table *t, const char *out_dir, const char 
             return -1;
         }
         fprintf(f, "/* The trained pyramid weights built into the library: a byte-for-byte copy\n"
-                   " * of models/pyramid/pyramid.ewpw (%zu bytes), written by tools/train_pyramid\n"
+                   " * of models/pyramid/%s.ewpw (%zu bytes), written by tools/train_pyramid --model %s\n"
                    " * (models/pyramid/README.md). Validated when a filter commits. */\n"
                    "#include <stddef.h>\n\n"
-                   "extern const unsigned char ew_pyr_builtin_weights[];\n"
-                   "extern const size_t ew_pyr_builtin_weights_size;\n\n"
-                   "const unsigned char ew_pyr_builtin_weights[] = {\n",
-                n);
+                   "extern const unsigned char %s[];\n"
+                   "extern const size_t %s_size;\n\n"
+                   "const unsigned char %s[] = {\n",
+                ms->file, n, ms->name, ms->array, ms->array, ms->array);
         for (size_t i = 0; i < n; i++) fprintf(f, "%s0x%02x,%s", i % 16 ? " " : "    ", buf[i], i % 16 == 15 || i + 1 == n ? "\n" : "");
-        fprintf(f, "};\nconst size_t ew_pyr_builtin_weights_size = %zu;\n", n);
+        fprintf(f, "};\nconst size_t %s_size = %zu;\n", ms->array, n);
         if (fclose(f) != 0 || rename(tmp, c_out) != 0) {
             free(buf);
             return -1;
@@ -524,11 +544,16 @@ static int write_outputs(const ew_pyr_table *t, const char *out_dir, const char 
 int main(int argc, char **argv) {
     const char *data = NULL, *out_dir = "models/pyramid", *c_out = NULL, *radii_s = "1,2,3,4,6,8,12,16,24,32,48,64";
     int iters = 150, iters_large = -1, threads = 0, quick = 0, resume = 0;
+    const model_spec *ms = &models[0];
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--data") && v) { data = v; i++; }
         else if (!strcmp(a, "--out") && v) { out_dir = v; i++; }
         else if (!strcmp(a, "--c-out") && v) { c_out = v; i++; }
+        else if (!strcmp(a, "--model") && v && (!strcmp(v, "all") || !strcmp(v, "gi"))) {
+            ms = &models[strcmp(v, "gi") == 0];
+            i++;
+        }
         else if (!strcmp(a, "--iters") && v) { iters = atoi(v); i++; }
         else if (!strcmp(a, "--iters-large") && v) { iters_large = atoi(v); i++; }
         else if (!strcmp(a, "--resume")) resume = 1;
@@ -536,8 +561,8 @@ int main(int argc, char **argv) {
         else if (!strcmp(a, "--radii") && v) { radii_s = v; i++; }
         else if (!strcmp(a, "--quick")) quick = 1;
         else {
-            fprintf(stderr, "usage: train_pyramid --data DIR [--out DIR] [--c-out FILE.c] [--iters N] [--iters-large N] "
-                            "[--threads N] [--radii 1,2,...] [--resume] [--quick]\n");
+            fprintf(stderr, "usage: train_pyramid --data DIR [--out DIR] [--c-out FILE.c] [--model all|gi] [--iters N] "
+                            "[--iters-large N] [--threads N] [--radii 1,2,...] [--resume] [--quick]\n");
             return 2;
         }
     }
@@ -566,16 +591,17 @@ int main(int argc, char **argv) {
         if (scenes[i].split == 0) ntrain++;
         else nval++;
     }
-    const int nproc_train = quick ? 2 : 8, nproc_val = quick ? 1 : 3;
+    const int gi_only = ms != &models[0]; /* procedural images have no GI passes */
+    const int nproc_train = gi_only ? 0 : quick ? 2 : 8, nproc_val = gi_only ? 0 : quick ? 1 : 3;
     for (int i = 0; i < nproc_train; i++) make_procedural(256, 256, 1000u + (unsigned)i, &train_src[ntrain++]);
     for (int i = 0; i < nproc_val; i++) make_procedural(256, 256, 9000u + (unsigned)i, &val_src[nval++]);
     char logpath[4096];
-    snprintf(logpath, sizeof logpath, "%.4000s/training-log.txt", out_dir);
+    snprintf(logpath, sizeof logpath, "%.4000s/%s", out_dir, ms->log);
     ew_pyr_table table;
     memset(&table, 0, sizeof table);
     if (resume) { /* the nodes trained so far */
         char wpath[4096];
-        snprintf(wpath, sizeof wpath, "%.4000s/pyramid.ewpw", out_dir);
+        snprintf(wpath, sizeof wpath, "%.4000s/%s.ewpw", out_dir, ms->file);
         FILE *wf = fopen(wpath, "rb");
         static unsigned char wbuf[1 << 20];
         size_t wn = wf ? fread(wbuf, 1, sizeof wbuf, wf) : 0;
@@ -599,7 +625,7 @@ int main(int argc, char **argv) {
     fprintf(log, "\nvalidation scenes:");
     for (int i = 0; i < ns; i++)
         if (scenes[i].split == 1) fprintf(log, " %s", scenes[i].name);
-    fprintf(log, "\niterations %d, radii %s\n\n", iters, radii_s);
+    fprintf(log, "\nmodel %s, iterations %d, radii %s\n\n", ms->name, iters, radii_s);
     fflush(log);
 
     ew_device_desc desc = EW_DEVICE_DESC_INIT;
@@ -619,8 +645,17 @@ int main(int argc, char **argv) {
         sample *tr[MAX_SAMPLES], *va[MAX_SAMPLES];
         int ntr = 0, nva = 0;
         /* training: per source a colour sample; GI and depth where the
-         * source has them (renders) */
-        for (int i = 0; i < ntrain && ntr < MAX_SAMPLES - 3; i++) {
+         * source has them (renders). GI only: a GI sample of every render. */
+        for (int i = 0; i < ntrain && ntr < MAX_SAMPLES - 3 && gi_only; i++) {
+            sample *s = make_sample(K_GI, &train_src[i], R, size, 0);
+            if (s) tr[ntr++] = s;
+            if (quick && ntr >= 3) break;
+        }
+        for (int i = 0; i < nval && nva < MAX_SAMPLES - 3 && gi_only; i++) {
+            sample *s = make_sample(K_GI, &val_src[i], R, size, 0);
+            if (s) va[nva++] = s;
+        }
+        for (int i = 0; i < ntrain && ntr < MAX_SAMPLES - 3 && !gi_only; i++) {
             int proc = train_src[i].noisy == NULL;
             sample *s = make_sample(proc ? K_COLOR_PROC : K_COLOR_REF, &train_src[i], R, size, frand());
             if (s) tr[ntr++] = s;
@@ -628,7 +663,7 @@ int main(int argc, char **argv) {
             if ((i % 3 == 1) && (s = make_sample(K_DEPTH, &train_src[i], R, size, 0))) tr[ntr++] = s;
             if (quick && ntr >= 6) break;
         }
-        for (int i = 0; i < nval && nva < MAX_SAMPLES - 3; i++) {
+        for (int i = 0; i < nval && nva < MAX_SAMPLES - 3 && !gi_only; i++) {
             int proc = val_src[i].noisy == NULL;
             sample *s = make_sample(proc ? K_COLOR_PROC : K_COLOR_REF, &val_src[i], R, size, frand());
             if (s) va[nva++] = s;
@@ -642,7 +677,7 @@ int main(int argc, char **argv) {
         const int levels = tr[0]->plan.levels;
         ew_pyr_params prm[EW_PYR_MAX_LEVELS], ana[EW_PYR_MAX_LEVELS];
         for (int l = 0; l < levels; l++) {
-            ew_pyr_analytic(sigma, l, 1.0f, &prm[l]);
+            ew_pyr_analytic(sigma, l, ms->analytic_gamma, &prm[l]);
             ana[l] = prm[l];
         }
         double vl_ana[MAX_SAMPLES], vl_tr[MAX_SAMPLES];
@@ -681,7 +716,7 @@ int main(int argc, char **argv) {
         for (int l = 0; l < levels; l++) table.p[at][l] = prm[l];
         table.nodes++;
         if (levels > table.levels) table.levels = levels;
-        if (write_outputs(&table, out_dir, c_out) != 0) return 1;
+        if (write_outputs(&table, ms, out_dir, c_out) != 0) return 1;
         printf("radius %2d: validation %.2f dB analytic -> %.2f dB trained (%.0f s)\n", R, psnr_of(va0), psnr_of(va1),
                now_s() - t0);
         fflush(stdout);
