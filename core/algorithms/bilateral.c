@@ -5,22 +5,26 @@
 #include "algorithms/bilateral.h"
 
 #include <math.h>
+#include <string.h>
 
 #include "src/backend.h"
 
 /* The packers write element k of pixel j at dst[k * ks + j * js]:
  * interleaved (ks 1, js = floats a pixel) or planes (ks = plane size, js 1).
- * Rows are walked with their own pointer (views may have any strides). */
+ * Rows are walked with their own pointer (views may have any strides). Each
+ * does the rows [y0, y1), so that ew_bf_io can run them in bands of rows on
+ * the device's threads (rows are independent): every filter's execute packs
+ * and unpacks this way alike. */
 static const float *row_of(const ew_image *img, int y) {
     return (const float *)(const void *)((const char *)img->data + (int64_t)y * ew__row_stride(img));
 }
 
-static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t js) {
+static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t js, int y0, int y1) {
     const int n = C < EW_BF_COLOR ? C : EW_BF_COLOR;
     const int64_t ps = ew__pixel_stride(img);
     long missing = 0;
-    size_t j = 0;
-    for (int y = 0; y < img->height; y++) {
+    size_t j = (size_t)y0 * (size_t)img->width;
+    for (int y = y0; y < y1; y++) {
         const char *row = (const char *)row_of(img, y);
         for (int x = 0; x < img->width; x++, j++) {
             const float *p = (const float *)(const void *)(row + (int64_t)x * ps);
@@ -34,19 +38,13 @@ static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t
     return missing;
 }
 
-long ew_bf_pack_image(const ew_image *img, int C, float *dst) { return pack_image(img, C, dst, 1, EW_BF_CH); }
-
-long ew_bf_pack_image_planes(const ew_image *img, int C, float *dst) {
-    return pack_image(img, C, dst, (size_t)img->width * (size_t)img->height, 1);
-}
-
 static long unpack_image(const float *src, size_t ks, size_t js, int C, const ew_image *img,
-                         const ew_image *alpha_from) {
+                         const ew_image *alpha_from, int y0, int y1) {
     const int n = C < EW_BF_COLOR ? C : EW_BF_COLOR;
     const int64_t ps = ew__pixel_stride(img);
     long zeroed = 0;
-    size_t j = 0;
-    for (int y = 0; y < img->height; y++) {
+    size_t j = (size_t)y0 * (size_t)img->width;
+    for (int y = y0; y < y1; y++) {
         char *row = (char *)img->data + (int64_t)y * ew__row_stride(img);
         for (int x = 0; x < img->width; x++, j++) {
             float *p = (float *)(void *)(row + (int64_t)x * ps);
@@ -60,53 +58,39 @@ static long unpack_image(const float *src, size_t ks, size_t js, int C, const ew
     return zeroed;
 }
 
-long ew_bf_unpack_image(const float *src, int C, const ew_image *img, const ew_image *alpha_from) {
-    return unpack_image(src, 1, EW_BF_CH, C, img, alpha_from);
-}
-
-long ew_bf_unpack_image_planes(const float *src, int C, const ew_image *img, const ew_image *alpha_from) {
-    return unpack_image(src, (size_t)img->width * (size_t)img->height, 1, C, img, alpha_from);
-}
-
 static float clean(float v, long *bad) {
     if (isfinite(v)) return v;
-    if (bad) (*bad)++;
+    (*bad)++;
     return 0.0f;
 }
 
-static void pack_channels(const ew_image *view, int stride, float *attr, size_t ks, size_t js, long *bad) {
+static long pack_channels(const ew_image *view, int stride, float *attr, size_t ks, size_t js, int y0, int y1) {
     const int n = view->channels < stride ? view->channels : stride;
     const int64_t ps = ew__pixel_stride(view);
-    size_t j = 0;
-    for (int y = 0; y < view->height; y++) {
+    long bad = 0;
+    size_t j = (size_t)y0 * (size_t)view->width;
+    for (int y = y0; y < y1; y++) {
         const char *row = (const char *)row_of(view, y);
         for (int x = 0; x < view->width; x++, j++) {
             const float *p = (const float *)(const void *)(row + (int64_t)x * ps);
-            for (int k = 0; k < stride; k++) attr[(size_t)k * ks + j * js] = k < n ? clean(p[k], bad) : 0.0f;
+            for (int k = 0; k < stride; k++) attr[(size_t)k * ks + j * js] = k < n ? clean(p[k], &bad) : 0.0f;
         }
     }
+    return bad;
 }
 
-void ew_bf_pack_channels(const ew_image *view, int stride, float *attr, long *bad) {
-    pack_channels(view, stride, attr, 1, (size_t)stride, bad);
-}
-
-void ew_bf_pack_channels_planes(const ew_image *view, int stride, float *attr, long *bad) {
-    pack_channels(view, stride, attr, (size_t)view->width * (size_t)view->height, 1, bad);
-}
-
-static void pack_gi(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr, size_t ks,
-                    size_t js, long *bad) {
+static long pack_gi(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr, size_t ks,
+                    size_t js, int y0, int y1) {
     const ew_image *any = normal ? normal : depth ? depth : roughness;
-    if (!any) return;
-    size_t j = 0;
-    for (int y = 0; y < any->height; y++)
+    long bad = 0;
+    size_t j = (size_t)y0 * (size_t)any->width;
+    for (int y = y0; y < y1; y++)
         for (int x = 0; x < any->width; x++, j++) {
             float a[5];
             a[0] = a[1] = a[2] = 0.0f;
             if (normal) {
                 const float *n = ew__pixel(normal, x, y);
-                float n0 = clean(n[0], bad), n1 = clean(n[1], bad), n2 = clean(n[2], bad);
+                float n0 = clean(n[0], &bad), n1 = clean(n[1], &bad), n2 = clean(n[2], &bad);
                 float len = sqrtf(n0 * n0 + n1 * n1 + n2 * n2);
                 if (len > 1e-6f) {
                     a[0] = n0 / len;
@@ -114,21 +98,130 @@ static void pack_gi(const ew_image *normal, const ew_image *depth, const ew_imag
                     a[2] = n2 / len;
                 }
             }
-            a[3] = depth ? clean(*ew__pixel(depth, x, y), bad) : 0.0f;
-            a[4] = roughness ? sqrtf(fminf(fmaxf(clean(*ew__pixel(roughness, x, y), bad), 0.0f), 1.0f)) : 1.0f;
+            a[3] = depth ? clean(*ew__pixel(depth, x, y), &bad) : 0.0f;
+            a[4] = roughness ? sqrtf(fminf(fmaxf(clean(*ew__pixel(roughness, x, y), &bad), 0.0f), 1.0f)) : 1.0f;
             for (int k = 0; k < 5; k++) attr[(size_t)k * ks + j * js] = a[k];
         }
+    return bad;
 }
 
-void ew_bf_pack_gi(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr,
-                   long *bad) {
-    pack_gi(normal, depth, roughness, attr, 1, 5, bad);
+/* ---- the packers over bands of rows on the device's threads ---- */
+#define EW_IO_MAX_THREADS 256
+enum { IO_IMAGE, IO_UNPACK, IO_CHANNELS, IO_GI };
+
+typedef struct {
+    int what, C;                   /* IO_*; channels (image) or floats a pixel (channels) */
+    const ew_image *v, *v2, *v3;   /* the view(s): image / output+alpha_from / normal, depth, roughness */
+    const float *src;              /* IO_UNPACK */
+    float *dst;
+    size_t ks, js;
+    long counts[EW_IO_MAX_THREADS]; /* per thread, summed at the end (no atomics, no allocation) */
+} io_job;
+
+static void io_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    io_job *j = (io_job *)ctx;
+    const int y0 = (int)begin, y1 = (int)end;
+    long c = 0;
+    switch (j->what) {
+    case IO_IMAGE: c = pack_image(j->v, j->C, j->dst, j->ks, j->js, y0, y1); break;
+    case IO_UNPACK: c = unpack_image(j->src, j->ks, j->js, j->C, j->v, j->v2, y0, y1); break;
+    case IO_CHANNELS: c = pack_channels(j->v, j->C, j->dst, j->ks, j->js, y0, y1); break;
+    default: c = pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, y0, y1); break;
+    }
+    j->counts[tid] += c; /* tid < threads <= EW_IO_MAX_THREADS (run_io) */
 }
 
-void ew_bf_pack_gi_planes(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr,
-                          long *bad) {
+/* Run a job over the rows of a view of height h; the sum of its counts.
+ * Devices with more threads than there are count slots pack on one thread. */
+static long run_io(ew_device *dev, io_job *j, int h) {
+    memset(j->counts, 0, sizeof j->counts);
+    if (dev && dev->pool && ew_device_get_num_threads(dev) <= EW_IO_MAX_THREADS)
+        ew_pool_run(dev->pool, h, 16, io_rows, j);
+    else
+        io_rows(j, 0, h, 0);
+    long n = 0;
+    for (int t = 0; t < EW_IO_MAX_THREADS; t++) n += j->counts[t];
+    return n;
+}
+
+static long image_io(ew_device *dev, int what, const ew_image *img, int C, const float *src, float *dst,
+                     const ew_image *alpha_from, int planes) {
+    io_job j;
+    memset(&j, 0, sizeof j);
+    j.what = what;
+    j.C = C;
+    j.v = img;
+    j.v2 = alpha_from;
+    j.src = src;
+    j.dst = dst;
+    j.ks = planes ? (size_t)img->width * (size_t)img->height : 1;
+    j.js = planes ? 1 : EW_BF_CH;
+    return run_io(dev, &j, img->height);
+}
+
+long ew_bf_pack_image(ew_device *dev, const ew_image *img, int C, float *dst) {
+    return image_io(dev, IO_IMAGE, img, C, NULL, dst, NULL, 0);
+}
+
+long ew_bf_pack_image_planes(ew_device *dev, const ew_image *img, int C, float *dst) {
+    return image_io(dev, IO_IMAGE, img, C, NULL, dst, NULL, 1);
+}
+
+long ew_bf_unpack_image(ew_device *dev, const float *src, int C, const ew_image *img, const ew_image *alpha_from) {
+    return image_io(dev, IO_UNPACK, img, C, src, NULL, alpha_from, 0);
+}
+
+long ew_bf_unpack_image_planes(ew_device *dev, const float *src, int C, const ew_image *img,
+                               const ew_image *alpha_from) {
+    return image_io(dev, IO_UNPACK, img, C, src, NULL, alpha_from, 1);
+}
+
+static void channels_io(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad, int planes) {
+    io_job j;
+    memset(&j, 0, sizeof j);
+    j.what = IO_CHANNELS;
+    j.C = stride;
+    j.v = view;
+    j.dst = attr;
+    j.ks = planes ? (size_t)view->width * (size_t)view->height : 1;
+    j.js = planes ? 1 : (size_t)stride;
+    const long n = run_io(dev, &j, view->height);
+    if (bad) *bad += n;
+}
+
+void ew_bf_pack_channels(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad) {
+    channels_io(dev, view, stride, attr, bad, 0);
+}
+
+void ew_bf_pack_channels_planes(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad) {
+    channels_io(dev, view, stride, attr, bad, 1);
+}
+
+static void gi_io(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                  float *attr, long *bad, int planes) {
     const ew_image *any = normal ? normal : depth ? depth : roughness;
-    if (any) pack_gi(normal, depth, roughness, attr, (size_t)any->width * (size_t)any->height, 1, bad);
+    if (!any) return;
+    io_job j;
+    memset(&j, 0, sizeof j);
+    j.what = IO_GI;
+    j.v = normal;
+    j.v2 = depth;
+    j.v3 = roughness;
+    j.dst = attr;
+    j.ks = planes ? (size_t)any->width * (size_t)any->height : 1;
+    j.js = planes ? 1 : 5;
+    const long n = run_io(dev, &j, any->height);
+    if (bad) *bad += n;
+}
+
+void ew_bf_pack_gi(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                   float *attr, long *bad) {
+    gi_io(dev, normal, depth, roughness, attr, bad, 0);
+}
+
+void ew_bf_pack_gi_planes(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                          float *attr, long *bad) {
+    gi_io(dev, normal, depth, roughness, attr, bad, 1);
 }
 
 void ew_bilateral_brute_rows(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b) {

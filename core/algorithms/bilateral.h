@@ -11,33 +11,38 @@
 #include "kernels/bilateral.h"
 #include "src/internal.h"
 
-/* Pack a view of C channels into the kernels' layout (r, g, b, mask): the
+/* The packers and unpackers run over bands of rows on dev's threads (every
+ * filter's execute alike; dev NULL: on the calling thread); the result does
+ * not depend on the thread count.
+ *
+ * Pack a view of C channels into the kernels' layout (r, g, b, mask): the
  * first 3 channels (zeros after C), mask 1; a pixel with any non-finite
  * channel is missing: all 0. Returns the number of missing pixels. */
-long ew_bf_pack_image(const ew_image *img, int C, float *dst);
+long ew_bf_pack_image(ew_device *dev, const ew_image *img, int C, float *dst);
 /* Unpack a result into a view of C channels: colour divided by the mask;
  * pixels with no valid sample in reach (mask 0) are written as 0. A 4th
  * channel (alpha) is copied from alpha_from (the input view) unfiltered.
  * Returns how many pixels were written as 0. */
-long ew_bf_unpack_image(const float *src, int C, const ew_image *img, const ew_image *alpha_from);
+long ew_bf_unpack_image(ew_device *dev, const float *src, int C, const ew_image *img, const ew_image *alpha_from);
 /* The same with planes (EW_BF_CH planes of width x height: the pyramid's
  * layout) instead of interleaved pixels. */
-long ew_bf_pack_image_planes(const ew_image *img, int C, float *dst);
-long ew_bf_unpack_image_planes(const float *src, int C, const ew_image *img, const ew_image *alpha_from);
+long ew_bf_pack_image_planes(ew_device *dev, const ew_image *img, int C, float *dst);
+long ew_bf_unpack_image_planes(ew_device *dev, const float *src, int C, const ew_image *img,
+                               const ew_image *alpha_from);
 
 /* Attribute packers. Non-finite attribute values become 0 and are counted
  * in *bad (may be NULL). pack_channels: the first min(view channels, stride)
  * channels into `stride` floats a pixel, zeros after (the COLOR guide:
  * stride 4; a depth: stride 1). */
-void ew_bf_pack_channels(const ew_image *view, int stride, float *attr, long *bad);
+void ew_bf_pack_channels(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad);
 /* GI: unit normal (zero stays zero), depth, sqrt(roughness) (1 without
  * roughness: diffuse). depth may be NULL (0), normal may be NULL (zero). */
-void ew_bf_pack_gi(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr,
-                   long *bad);
+void ew_bf_pack_gi(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                   float *attr, long *bad);
 /* The same into planes (one per attribute channel). */
-void ew_bf_pack_channels_planes(const ew_image *view, int stride, float *attr, long *bad);
-void ew_bf_pack_gi_planes(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr,
-                          long *bad);
+void ew_bf_pack_channels_planes(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad);
+void ew_bf_pack_gi_planes(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                          float *attr, long *bad);
 
 /* Brute force, rows [y0, y1) of b (b->out must not alias b->image). */
 void ew_bilateral_brute_rows(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b);

@@ -160,28 +160,28 @@ ew_result ew_bf_op_execute(ew_op *op) {
     const ew_image *color = ew_op_image(op, "color");
     const int planes = s->method == EW_BF_PYRAMID;
     float *image = planes ? s->plan.down[0] : s->image, *attr = planes ? s->plan.attr[0] : s->attr;
-    if (planes) ew_bf_pack_image_planes(color, m->channels, image);
-    else ew_bf_pack_image(color, m->channels, image);
+    if (planes) ew_bf_pack_image_planes(dev, color, m->channels, image);
+    else ew_bf_pack_image(dev, color, m->channels, image);
     long bad = 0;
     switch (m->kind) {
     case EW_RANGE_COLOR: {
         const ew_image *g = s->guide_is_color ? color : ew_op_image(op, "guide");
-        if (planes) ew_bf_pack_channels_planes(g, 4, attr, &bad);
-        else ew_bf_pack_channels(g, 4, attr, &bad);
+        if (planes) ew_bf_pack_channels_planes(dev, g, 4, attr, &bad);
+        else ew_bf_pack_channels(dev, g, 4, attr, &bad);
         break;
     }
     case EW_RANGE_GI:
         if (planes)
-            ew_bf_pack_gi_planes(ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"),
+            ew_bf_pack_gi_planes(dev, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"),
                                  attr, &bad);
         else
-            ew_bf_pack_gi(ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), attr,
+            ew_bf_pack_gi(dev, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), attr,
                           &bad);
         break;
     case EW_RANGE_DEPTH: {
         const ew_image *d = s->depth_from_color ? color : ew_op_image(op, "depth");
-        if (planes) ew_bf_pack_channels_planes(d, 1, attr, &bad);
-        else ew_bf_pack_channels(d, 1, attr, &bad);
+        if (planes) ew_bf_pack_channels_planes(dev, d, 1, attr, &bad);
+        else ew_bf_pack_channels(dev, d, 1, attr, &bad);
         break;
     }
     default:
@@ -207,8 +207,8 @@ ew_result ew_bf_op_execute(ew_op *op) {
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;
     }
-    if (planes) ew_bf_unpack_image_planes(s->plan.out, m->channels, ew_op_image(op, "output"), color);
-    else ew_bf_unpack_image(s->out, m->channels, ew_op_image(op, "output"), color);
+    if (planes) ew_bf_unpack_image_planes(dev, s->plan.out, m->channels, ew_op_image(op, "output"), color);
+    else ew_bf_unpack_image(dev, s->out, m->channels, ew_op_image(op, "output"), color);
     return EW_OK;
 }
 

@@ -71,13 +71,13 @@ static ew_result commit(ew_op *op) {
 
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
-    ew_bf_pack_image(ew_op_image(op, "color"), s->C, s->image);
+    ew_bf_pack_image(op->dev, ew_op_image(op, "color"), s->C, s->image);
     long bad = 0;
-    if (s->normal) ew_bf_pack_channels(ew_op_image(op, "normal"), 3, s->normal, &bad);
-    if (s->depth) ew_bf_pack_channels(ew_op_image(op, "depth"), 1, s->depth, &bad);
+    if (s->normal) ew_bf_pack_channels(op->dev, ew_op_image(op, "normal"), 3, s->normal, &bad);
+    if (s->depth) ew_bf_pack_channels(op->dev, ew_op_image(op, "depth"), 1, s->depth, &bad);
     ew_atrous_run(op->dev, s->w, s->h, s->C, s->iterations, s->image, s->tmp, s->out, s->normal, s->depth,
                   ew_op_param(op, "sigma_luminance"), ew_op_param(op, "sigma_normal"), ew_op_param(op, "sigma_depth"));
-    ew_bf_unpack_image(s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
+    ew_bf_unpack_image(op->dev, s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
     return EW_OK;
 }
 

@@ -133,8 +133,8 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     const int planes = s->method == 0; /* the pyramid packs straight into its planes */
-    if (planes) ew_bf_pack_image_planes(ew_op_image(op, "color"), s->C, s->plan.down[0]);
-    else ew_bf_pack_image(ew_op_image(op, "color"), s->C, s->image);
+    if (planes) ew_bf_pack_image_planes(dev, ew_op_image(op, "color"), s->C, s->plan.down[0]);
+    else ew_bf_pack_image(dev, ew_op_image(op, "color"), s->C, s->image);
     const ew_image *dv = ew_op_image(op, "depth");
     long j = 0;
     for (int y = 0; y < s->h; y++)
@@ -160,8 +160,8 @@ static ew_result execute(ew_op *op) {
         ew_bilateral_separable(dev, &s->model, s->w, s->h, s->image, s->attr, s->tmp, s->out);
         break;
     }
-    if (planes) ew_bf_unpack_image_planes(s->plan.out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
-    else ew_bf_unpack_image(s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
+    if (planes) ew_bf_unpack_image_planes(dev, s->plan.out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
+    else ew_bf_unpack_image(dev, s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
     const ew_image *cv = ew_op_image(op, "coc");
     if (cv) {
         j = 0;

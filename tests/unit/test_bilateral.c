@@ -276,6 +276,76 @@ static void free_pic(pic *p) {
 
 static const char *const exact_types[] = {"bilateral", "separable"};
 
+/* The packers run in bands of rows on the device's threads: every layout
+ * gives the same floats and counts as on the calling thread (dev NULL), on a
+ * view with padded rows and pixels and non-finite samples. */
+TEST(packing_in_row_bands_equals_one_thread) {
+    const int w = 37, h = 53, ps = 5, rs = w * ps + 3; /* floats: pixel and row strides */
+    float *mem = calloc((size_t)rs * h, sizeof(float));
+    unsigned seed = 9;
+    for (int i = 0; i < rs * h; i++) mem[i] = urand(&seed);
+    mem[7 * rs + 3 * ps + 1] = NAN;
+    mem[40 * rs + 30 * ps] = INFINITY;
+    ew_image v = {mem, w, h, 4, (int64_t)ps * 4, (int64_t)rs * 4, EW_FORMAT_FLOAT};
+    const size_t n = (size_t)w * h;
+    ew_device *dev = make_device(3);
+    CHECK(dev != NULL);
+    for (int planes = 0; planes < 2; planes++) {
+        float *a = calloc(n * 5, sizeof(float)), *b = calloc(n * 5, sizeof(float));
+        long ma = planes ? ew_bf_pack_image_planes(dev, &v, 4, a) : ew_bf_pack_image(dev, &v, 4, a);
+        long mb = planes ? ew_bf_pack_image_planes(NULL, &v, 4, b) : ew_bf_pack_image(NULL, &v, 4, b);
+        CHECK_EQ_INT(ma, 2);
+        CHECK_EQ_INT(mb, 2);
+        CHECK(memcmp(a, b, n * EW_BF_CH * sizeof(float)) == 0);
+        long ba = 0, bb = 0;
+        if (planes) {
+            ew_bf_pack_channels_planes(dev, &v, 4, a, &ba);
+            ew_bf_pack_channels_planes(NULL, &v, 4, b, &bb);
+        } else {
+            ew_bf_pack_channels(dev, &v, 4, a, &ba);
+            ew_bf_pack_channels(NULL, &v, 4, b, &bb);
+        }
+        CHECK_EQ_INT(ba, 2);
+        CHECK_EQ_INT(bb, 2);
+        CHECK(memcmp(a, b, n * 4 * sizeof(float)) == 0);
+        ew_image nv = v, dv = v;
+        nv.channels = 3;
+        dv.channels = 1;
+        dv.data = mem + 1; /* channel 1 as a depth: holds the NaN */
+        ba = bb = 0;
+        if (planes) {
+            ew_bf_pack_gi_planes(dev, &nv, &dv, NULL, a, &ba);
+            ew_bf_pack_gi_planes(NULL, &nv, &dv, NULL, b, &bb);
+        } else {
+            ew_bf_pack_gi(dev, &nv, &dv, NULL, a, &ba);
+            ew_bf_pack_gi(NULL, &nv, &dv, NULL, b, &bb);
+        }
+        CHECK_EQ_INT(ba, 3); /* normal x (INF), normal y and depth (the NaN) */
+        CHECK_EQ_INT(bb, 3);
+        CHECK(memcmp(a, b, n * 5 * sizeof(float)) == 0);
+        /* unpack into the padded view: the padding stays untouched */
+        float *out = malloc((size_t)rs * h * sizeof(float)), *out2 = malloc((size_t)rs * h * sizeof(float));
+        for (int i = 0; i < rs * h; i++) out[i] = out2[i] = -7.0f;
+        ew_image ov = v, ov2 = v;
+        ov.data = out;
+        ov2.data = out2;
+        if (planes) ew_bf_pack_image_planes(NULL, &v, 4, a);
+        else ew_bf_pack_image(NULL, &v, 4, a);
+        long za = planes ? ew_bf_unpack_image_planes(dev, a, 4, &ov, &v) : ew_bf_unpack_image(dev, a, 4, &ov, &v);
+        long zb = planes ? ew_bf_unpack_image_planes(NULL, a, 4, &ov2, &v) : ew_bf_unpack_image(NULL, a, 4, &ov2, &v);
+        CHECK_EQ_INT(za, 2);
+        CHECK_EQ_INT(zb, 2);
+        CHECK(memcmp(out, out2, (size_t)rs * h * sizeof(float)) == 0);
+        CHECK(out[4] == -7.0f && out[rs - 1] == -7.0f);
+        free(out);
+        free(out2);
+        free(a);
+        free(b);
+    }
+    ew_device_destroy(dev);
+    free(mem);
+}
+
 TEST(constant_image_stays_constant) {
     ew_device *dev = make_device(2);
     for (int t = 0; t < 2; t++) {
