@@ -7,11 +7,12 @@
  * the cheapest method that measured within a few tenths of a dB of the best
  * at that level:
  *
- *   level (spp)   with albedo + normal + depth   otherwise: bgrid (spatial, range, prepass rate)
- *   0 (1-2)       nbg 2layer-3grid-1spp          coarse grid (8, 8, 8)
- *   1 (3-8)       nbg 2layer-3grid               medium grid (4, 8, 4)
- *   2 (9-32)      bgrid fine grid                fine grid   (2, 8, 4)
- *   3 (33-)       bgrid finest grid              finest grid (2, 4, 4)
+ *   level (spp)   with albedo + normal + depth   otherwise: bgrid (spatial, range, prepass rate;
+ *                                                colour weight)
+ *   0 (1-2)       nbg 2layer-3grid-1spp          coarse grid (8, 8, 8; 0.7)
+ *   1 (3-8)       nbg 2layer-3grid               medium grid (4, 8, 4; 0.7)
+ *   2 (9-32)      bgrid fine grid                fine grid   (2, 8, 4; 0.9)
+ *   3 (33-)       bgrid finest grid              finest grid (1.5, 4, 3; 0.9)
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
  * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
@@ -20,8 +21,14 @@
  * of its time, and at 64 spp the finest grid beats nbg by 2.5 dB: strong
  * smoothing destroys detail a converged frame already has. The grid
  * settings per level were swept on the training scenes (bgrid has no
- * weights, so they are fair for it). When this build has no NBG weights
- * the grid column is used at every level.
+ * weights, so they are fair for it). The last two rows were swept again
+ * on the training and validation scenes (2026-12-01, 15 scenes): a guide
+ * leaning more on the first-pass colour (0.9 instead of the op's 0.7) and,
+ * at 64 spp, 1.5-pixel cells gained +0.36 dB at 16 spp and +0.74 dB at
+ * 64 spp with the features (+0.0 / +0.3 without): at these levels the
+ * first pass is clean enough to say where the detail the albedo lacks is
+ * (reflections, blur). When this build has no NBG weights the grid column
+ * is used at every level.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -51,14 +58,14 @@ static const ew_param_desc params[] = {
 typedef struct {
     int nbg_model;    /* nbg's built-in model with all features, or -1 for the grid */
     const char *grid; /* the bgrid settings otherwise */
-    float spatial, range, prepass;
+    float spatial, range, prepass, color_weight;
 } level_choice;
 
 static const level_choice levels[] = {
-    {NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f},
-    {NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f},
-    {-1, "fine", 2.0f, 8.0f, 4.0f},
-    {-1, "finest", 2.0f, 4.0f, 4.0f},
+    {NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
+    {NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
+    {-1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
+    {-1, "finest", 1.5f, 4.0f, 3.0f, 0.9f},
 };
 
 /* Noise-estimate thresholds between the levels: the geometric means of the
@@ -124,6 +131,7 @@ static ew_result commit_grid(ew_op *op, state *s, const level_choice *g) {
     if (r == EW_OK) r = ew_op_set_param(s->inner, "spatial_rate", g->spatial, 0);
     if (r == EW_OK) r = ew_op_set_param(s->inner, "range_rate", g->range, 0);
     if (r == EW_OK) r = ew_op_set_param(s->inner, "prepass_rate", g->prepass, 0);
+    if (r == EW_OK) r = ew_op_set_param(s->inner, "color_weight", g->color_weight, 0);
     if (r == EW_OK) r = ew_op_commit(s->inner);
     return r;
 }
