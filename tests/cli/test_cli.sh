@@ -106,7 +106,7 @@ picks() { # NAME EXPECTED_SUBSTRING ARGS...
 }
 picks auto_1spp_nbg_1spp_model "nbg 2layer-3grid-1spp (1 spp)" "$SAMPLE/cornell/f0001_spp0001.exr"
 picks auto_4spp_nbg "nbg 2layer-3grid (4 spp)" "$SAMPLE/cornell/f0001_spp0004.exr"
-picks auto_samples_option_overrides "bgrid finest grid 1.5/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64
+picks auto_samples_option_overrides "bgrid finest grid 2/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64
 picks auto_no_features_grid "bgrid coarse grid" "$T/no_albedo.exr" --samples 1
 picks model_implies_nbg "nbg 2layer-1grid" "$SAMPLE/cornell/f0001_spp0004.exr" --model 2layer-1grid
 picks model_file "nbg $SAMPLE/../models/nbg/2layer-1grid.ewm" "$SAMPLE/cornell/f0001_spp0004.exr" \

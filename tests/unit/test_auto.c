@@ -99,10 +99,10 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, NULL, f.out, what, sizeof what), EW_OK);
-    CHECK_STR_CONTAINS(what, "bgrid finest grid 1.5/4");
+    CHECK_STR_CONTAINS(what, "bgrid finest grid 2/4");
     /* the finest grid is bgrid with those rates */
     static const param finest[] = {
-        {"spatial_rate", 1.5f}, {"range_rate", 4.0f}, {"prepass_rate", 3.0f}, {"color_weight", 0.9f}, {NULL, 0}};
+        {"spatial_rate", 2.0f}, {"range_rate", 4.0f}, {"prepass_rate", 4.0f}, {"color_weight", 0.9f}, {NULL, 0}};
     CHECK_EQ_INT(run(dev, "bgrid", &f, 1, -1, finest, f.out2, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid");
     CHECK(same(f.out, f.out2));
