@@ -25,7 +25,7 @@
  * library's PSNR and SSIM (tone-mapped, 3 channels).
  *
  * Time: one filter committed, ew_filter_execute run 5 times, the fastest of
- * the last 4, in three interleaved sweeps over the radii (the minimum per
+ * the last 4, in five interleaved sweeps over the radii (the minimum per
  * point: min-of-N, other jobs only add time) (packing the views included;
  * the first run also pays the page faults of fresh scratch memory) at
  * 2560x1440 for radius 1..64: dof with a uniform CoC of diameter 2 radius
@@ -534,10 +534,11 @@ static void timing(ew_device *dev, const char *out_dir, int quick) {
     double t[3][64];
     const char *names[3] = {"dof (uniform CoC 2r)", "gi denoising", "colour"};
     say("\n## Time against the radius at 2560x1440 (pyramid, trained weights)\n\n");
-    say("A committed filter's ew_filter_execute, the fastest of runs 2-5 (packing the views included); three "
+    const int sweeps = quick ? 1 : 5; /* min-of-N: on 2 shared cores another job can hold one for a whole sweep */
+    say("A committed filter's ew_filter_execute, the fastest of runs 2-5 (packing the views included); %d "
         "sweeps over all radii, interleaved, and the minimum per point over the sweeps (min-of-N: other jobs on "
         "the shared machine only add time). %d threads, load average %.1f at the start.\n\n",
-        ew_device_get_num_threads(dev), loadavg());
+        sweeps, ew_device_get_num_threads(dev), loadavg());
     FILE *csv;
     char path[4096];
     snprintf(path, sizeof path, "%.4000s/timing.csv", out_dir);
@@ -548,7 +549,6 @@ static void timing(ew_device *dev, const char *out_dir, int quick) {
      * per point over the sweeps: on a shared machine the load changes during
      * a run, and a single sweep would charge those changes to whichever
      * radii ran at the time. */
-    const int sweeps = quick ? 1 : 3;
     double per[3][64][8];
     for (int sw = 0; sw < sweeps; sw++)
         for (int i = 0; i < nr; i++) {
