@@ -8,16 +8,16 @@
  *                 [--radii 1,2,3,...] [--resume] [--quick]
  *
  * --model: which table. "all" (the default): one table for every kind of
- * target below, OUT/pyramid.ewpw (the library's table for colour, depth,
- * DoF and GI with a roughness image). "gi": GI denoising samples only
+ * target below, OUT/pyramid.ewpw (the library's table for colour, depth
+ * and DoF). "gi": GI denoising samples only
  * (Eq. 9, diffuse), starting from and compared with the analytic setting
  * for diffuse GI (gamma = 0), OUT/pyramid_gi.ewpw (the library's table for
- * diffuse GI): one table serving all kinds is a compromise that is worse
- * than the analytic weights for GI.
+ * GI, with or without a roughness image): one table serving all kinds is a
+ * compromise that is worse than the analytic weights for GI.
  *
  * --iters-large: iterations for radius >= 24 (whole 256x256 images; most
  * of the gain comes in the first 50 iterations). --resume: keep the nodes
- * of OUT/pyramid.ewpw and train only the radii it lacks.
+ * of the model's file in OUT and train only the radii it lacks.
  *
  * Unknowns per level l of a radius (sigma = radius / 3): the 8 off-centre
  * fine weights wf, the 9 coarse weights wc (by distance class) and gamma;
