@@ -31,6 +31,9 @@ typedef enum { EW_BF_BRUTE = 0, EW_BF_SEPARABLE = 1, EW_BF_PYRAMID = 2 } ew_bf_m
     {"sigma_normal", EW_PARAM_FLOAT, 32.0f, 0.0f, 1024.0f, "model 1: exponent s of (n_p . n_q)^s"},            \
     {"sigma_depth", EW_PARAM_FLOAT, 1.0f, 0.0f, 1e6f, "models 1 and 2: s in exp(-s z_p |z_p - z_q|)"}
 
+/* The parameters of EW_BF_OP_PARAMS that are lengths in pixels (ew_op_type.pixel_params). */
+#define EW_BF_OP_PIXEL_PARAMS ((const char *const[]){"radius", "sigma_spatial", NULL})
+
 #define EW_PYR_WEIGHTS_PARAM                                                                                    \
     {"weights", EW_PARAM_INT, 1.0f, 0.0f, 1.0f,                                                                 \
      "pyramid domain weights: 0 analytic (the paper's method e), 1 trained (built in, models/pyramid)"}

@@ -185,4 +185,7 @@ const ew_op_type ew_filter_dof = {
     .release = release,
     .set_data = ew_pyr_op_set_data,
     .release_data = ew_pyr_op_release_data,
+    /* the circle of confusion itself follows the image size (thin lens x
+     * max(width, height) / sensor width): only the caps are lengths */
+    .pixel_params = (const char *const[]){"radius", "sigma_spatial", NULL},
 };

@@ -23,5 +23,5 @@ const ew_op_type ew_filter_pyramid = {
     .release = ew_bf_op_release,
     .set_data = ew_pyr_op_set_data,
     .release_data = ew_pyr_op_release_data,
-    .pixel_params = (const char *const[]){"radius", "sigma_spatial", NULL},
+    .pixel_params = EW_BF_OP_PIXEL_PARAMS,
 };

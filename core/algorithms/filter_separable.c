@@ -20,5 +20,5 @@ const ew_op_type ew_filter_separable = {
     .commit = commit,
     .execute = ew_bf_op_execute,
     .release = ew_bf_op_release,
-    .pixel_params = (const char *const[]){"radius", "sigma_spatial", NULL},
+    .pixel_params = EW_BF_OP_PIXEL_PARAMS,
 };

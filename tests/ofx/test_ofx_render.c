@@ -465,6 +465,8 @@ TEST(pixel_parameters_are_the_lengths) {
     CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "bgrid", 0), 1);  /* spatial_rate */
     CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "bgrid", 1), 0);  /* range_rate: guide units */
     CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "nbg", 0), 0);    /* model */
+    CHECK_EQ_INT(ew_method_param_is_pixels("filter", "dof", 4), 1);      /* radius: the CoC cap */
+    CHECK_EQ_INT(ew_method_param_is_pixels("filter", "dof", 0), 0);      /* focal_length */
     CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "bgrid", 99), -1);
     CHECK_EQ_INT(ew_method_param_is_pixels("denoiser", "nosuch", 0), -1);
 }
