@@ -13,6 +13,8 @@ int cmd_denoise(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+/* the NBG trainer (issue 3): runs train_nbg from this program's directory */
+int cmd_train(int argc, char **argv);
 /* edge-aware filters (issue 4): cmd_filter.c, cmd_dof.c */
 int cmd_filter(int argc, char **argv);
 int cmd_dof(int argc, char **argv);

@@ -20,6 +20,7 @@ static const char usage[] =
     "  filter IN -o OUT    edge-aware filter of a pass: pyramid, bilateral, separable, atrous\n"
     "  dof IN -o OUT       depth of field from the depth pass and Blender camera values\n"
     "  bench DIR -o OUT    every method on a directory of renders: quality and time (CSV)\n"
+    "  train --data DIR    train a neural bilateral grid model (runs train_nbg; models/nbg/README.md)\n"
     "  graph run FILE      run a node graph file (JSON; docs/graphs.md)\n"
     "  nodes               list every node type with its ports and parameters\n"
     "\n"
@@ -46,6 +47,7 @@ int main(int argc, char **argv) {
     if (!strcmp(cmd, "filter")) return cmd_filter(argc - 1, argv + 1);
     if (!strcmp(cmd, "dof")) return cmd_dof(argc - 1, argv + 1);
     if (!strcmp(cmd, "bench")) return cmd_bench(argc - 1, argv + 1);
+    if (!strcmp(cmd, "train")) return cmd_train(argc - 1, argv + 1);
     if (!strcmp(cmd, "graph")) return cmd_graph(argc - 1, argv + 1);
     if (!strcmp(cmd, "nodes")) return cmd_nodes(argc - 1, argv + 1);
     fprintf(stderr, "edgewise: unknown command '%s' (try 'edgewise --help')\n", cmd);

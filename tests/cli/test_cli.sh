@@ -116,5 +116,18 @@ expect model_file_not_weights 1 "not an Edgewise weights file" -- denoise "$SAMP
   -o "$T/bad_model_out.exr" --model "$T/text.exr"
 [ ! -e "$T/bad_model_out.exr" ] && ok model_file_not_weights_writes_nothing || bad model_file_not_weights_writes_nothing
 
+# ---- edgewise train runs the trainer (train_nbg, next to edgewise): a few steps on a committed
+# 64x64 render, seen as four scenes so the split has training, validation and test scenes; the
+# model it writes is one `denoise --model` takes
+"$EW" train --help | grep -q -- "--arch" && ok train_help || bad train_help
+expect train_needs_data 2 "--data DIR is required" -- train --arch 2layer-1grid --out "$T/m.ewm"
+STAB="$(cd "$(dirname "$0")/../data/stability" && pwd)/i_volume_1_64x64"
+mkdir -p "$T/train_data"
+for s in 1 2 3 4; do ln -s "$STAB" "$T/train_data/i_volume_${s}_64x64"; done
+if "$EW" train --data "$T/train_data" --arch 2layer-1grid --steps 3 --batch 2 --patch 32 --val-every 1 \
+     --out "$T/m.ewm" >"$T/out" 2>"$T/err" && grep -q "val PSNR" "$T/out" &&
+   "$EW" denoise "$STAB/f0001_spp0001.exr" -o "$T/trained.exr" --model "$T/m.ewm" 2>"$T/err" &&
+   grep -q "nbg $T/m.ewm" "$T/err"; then ok train_writes_a_model_denoise_takes; else bad train_writes_a_model_denoise_takes; fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
