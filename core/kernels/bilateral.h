@@ -142,6 +142,18 @@ EW_HD float ew_fexp(float x) {
     return ew_bits_to_float(ew_float_to_bits(p * ew_bits_to_float((i + 127) << 23)) & ~zero);
 }
 
+/* log2(m) for a mantissa m in [sqrt(.5), sqrt(2)): the atanh series,
+ * 2/ln 2 * atanh((m - 1) / (m + 1)). Shared by ew_flog2 and ew_flog2v. */
+EW_HD float ew_flog2_mantissa(float m) {
+    float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
+    float s = 1.0f / 9.0f;
+    s = s * t2 + 1.0f / 7.0f;
+    s = s * t2 + 1.0f / 5.0f;
+    s = s * t2 + 1.0f / 3.0f;
+    s = s * t2 + 1.0f;
+    return 2.88539008f * t * s; /* 2/ln 2 */
+}
+
 /* log2(x) for finite x > 0 (x <= 0 gives about -123, which ew_fexp2 turns
  * into 0). Mantissa in [sqrt(.5), sqrt(2)), atanh series. */
 EW_HD float ew_flog2(float x) {
@@ -152,13 +164,7 @@ EW_HD float ew_flog2(float x) {
     int big = ew_float_to_bits(m) > 0x3fb504f3; /* m > sqrt(2), compared as ints */
     m = m * (1.0f - 0.5f * (float)big);
     e += big;
-    float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
-    float s = 1.0f / 9.0f;
-    s = s * t2 + 1.0f / 7.0f;
-    s = s * t2 + 1.0f / 5.0f;
-    s = s * t2 + 1.0f / 3.0f;
-    s = s * t2 + 1.0f;
-    return (float)e + 2.88539008f * t * s; /* 2/ln 2 */
+    return (float)e + ew_flog2_mantissa(m);
 }
 
 /* The same value for every finite x > 0 (and x <= 0), written for loops
@@ -173,13 +179,7 @@ EW_HD float ew_flog2v(float x) {
     float m = ew_bits_to_float((b & 0x007fffff) | 0x3f800000); /* [1, 2) */
     m = m * (1.0f - 0.5f * big);                                /* m > sqrt(2): halved */
     const float e = (float)(b >> 23) - 127.0f + big;           /* b > 0 here: the sign bit is clear */
-    float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
-    float s = 1.0f / 9.0f;
-    s = s * t2 + 1.0f / 7.0f;
-    s = s * t2 + 1.0f / 5.0f;
-    s = s * t2 + 1.0f / 3.0f;
-    s = s * t2 + 1.0f;
-    return e + 2.88539008f * t * s; /* 2/ln 2 */
+    return e + ew_flog2_mantissa(m);
 }
 
 EW_HD float ew_smoothstep(float e0, float e1, float x) {
