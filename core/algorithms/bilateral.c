@@ -131,14 +131,18 @@ static void io_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     j->counts[tid] += c; /* tid < threads <= EW_IO_MAX_THREADS (run_io) */
 }
 
-/* Run a job over the rows of a view of height h; the sum of its counts.
- * Devices with more threads than there are count slots pack on one thread. */
-static long run_io(ew_device *dev, io_job *j, int h) {
+/* Run a job over the rows of `any` (the views' common size), laid out as
+ * interleaved pixels of per_pixel floats or as planes; the sum of its
+ * counts. Devices with more threads than there are count slots pack on one
+ * thread. */
+static long run_io(ew_device *dev, io_job *j, const ew_image *any, size_t per_pixel, int planes) {
+    j->ks = planes ? (size_t)any->width * (size_t)any->height : 1;
+    j->js = planes ? 1 : per_pixel;
     memset(j->counts, 0, sizeof j->counts);
     if (dev && dev->pool && ew_device_get_num_threads(dev) <= EW_IO_MAX_THREADS)
-        ew_pool_run(dev->pool, h, 16, io_rows, j);
+        ew_pool_run(dev->pool, any->height, 16, io_rows, j);
     else
-        io_rows(j, 0, h, 0);
+        io_rows(j, 0, any->height, 0);
     long n = 0;
     for (int t = 0; t < EW_IO_MAX_THREADS; t++) n += j->counts[t];
     return n;
@@ -146,17 +150,8 @@ static long run_io(ew_device *dev, io_job *j, int h) {
 
 static long image_io(ew_device *dev, int what, const ew_image *img, int C, const float *src, float *dst,
                      const ew_image *alpha_from, int planes) {
-    io_job j;
-    memset(&j, 0, sizeof j);
-    j.what = what;
-    j.C = C;
-    j.v = img;
-    j.v2 = alpha_from;
-    j.src = src;
-    j.dst = dst;
-    j.ks = planes ? (size_t)img->width * (size_t)img->height : 1;
-    j.js = planes ? 1 : EW_BF_CH;
-    return run_io(dev, &j, img->height);
+    io_job j = {.what = what, .C = C, .v = img, .v2 = alpha_from, .src = src, .dst = dst};
+    return run_io(dev, &j, img, EW_BF_CH, planes);
 }
 
 long ew_bf_pack_image(ew_device *dev, const ew_image *img, int C, float *dst) {
@@ -177,15 +172,8 @@ long ew_bf_unpack_image_planes(ew_device *dev, const float *src, int C, const ew
 }
 
 static void channels_io(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad, int planes) {
-    io_job j;
-    memset(&j, 0, sizeof j);
-    j.what = IO_CHANNELS;
-    j.C = stride;
-    j.v = view;
-    j.dst = attr;
-    j.ks = planes ? (size_t)view->width * (size_t)view->height : 1;
-    j.js = planes ? 1 : (size_t)stride;
-    const long n = run_io(dev, &j, view->height);
+    io_job j = {.what = IO_CHANNELS, .C = stride, .v = view, .dst = attr};
+    const long n = run_io(dev, &j, view, (size_t)stride, planes);
     if (bad) *bad += n;
 }
 
@@ -201,16 +189,8 @@ static void gi_io(ew_device *dev, const ew_image *normal, const ew_image *depth,
                   float *attr, long *bad, int planes) {
     const ew_image *any = normal ? normal : depth ? depth : roughness;
     if (!any) return;
-    io_job j;
-    memset(&j, 0, sizeof j);
-    j.what = IO_GI;
-    j.v = normal;
-    j.v2 = depth;
-    j.v3 = roughness;
-    j.dst = attr;
-    j.ks = planes ? (size_t)any->width * (size_t)any->height : 1;
-    j.js = planes ? 1 : 5;
-    const long n = run_io(dev, &j, any->height);
+    io_job j = {.what = IO_GI, .v = normal, .v2 = depth, .v3 = roughness, .dst = attr};
+    const long n = run_io(dev, &j, any, 5, planes);
     if (bad) *bad += n;
 }
 
