@@ -9,6 +9,7 @@
 
 #include "kernels/color.h"
 #include "kernels/outlier.h"
+#include "src/backend.h"
 #include "src/op.h"
 
 static const ew_image_desc images[] = {
@@ -30,85 +31,83 @@ static const ew_param_desc params[] = {
      "smallest standard deviation as a fraction of the neighbours' mean: noise within k * this is never clamped"},
 };
 
+/* Every buffer in one device allocation (commit), reused by each execute:
+ * the op follows the device-memory pattern of docs/backends.md, so it runs
+ * on CUDA devices too. Colour and output carry the channels both views
+ * share (alpha passes through the kernel). */
 typedef struct {
-    int w, h, has_albedo, has_normal;
-    float *color, *albedo, *normal, *out;
-    float mem[];
+    int w, h, has_albedo, has_normal, channels;
+    float *dmem, *stage;
+    ew_outlier_buffers b;
 } state;
 
-typedef struct {
-    ew_outlier_params p;
-    ew_outlier_buffers b;
-} job;
-
-static void rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const job *j = (const job *)ctx;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < j->p.width; x++) ew_outlier_guided_px(x, (int)y, &j->p, &j->b);
-}
-
 static void release(ew_op *op) {
-    free(op->state);
+    state *s = (state *)op->state;
+    if (s) {
+        ew_dev_free(op->dev, s->dmem);
+        free(s->stage);
+    }
+    free(s);
     op->state = NULL;
 }
 
+/* channels of colour and output that the filter carries: RGB and what both views have beyond it */
+static int carried_channels(ew_op *op) {
+    const int cc = ew_op_image(op, "color")->channels, oc = ew_op_image(op, "output")->channels;
+    return cc < oc ? cc : oc;
+}
+
 static ew_result commit(ew_op *op) {
+    ew_device *dev = op->dev;
     const ew_image *c = ew_op_image(op, "color");
-    const int w = c->width, h = c->height;
+    const int w = c->width, h = c->height, ch = carried_channels(op);
     const int has_a = ew_op_image(op, "albedo") != NULL, has_n = ew_op_image(op, "normal") != NULL;
     state *s = (state *)op->state;
-    if (s && s->w == w && s->h == h && s->has_albedo == has_a && s->has_normal == has_n) return EW_OK;
+    if (s && s->w == w && s->h == h && s->has_albedo == has_a && s->has_normal == has_n && s->channels == ch)
+        return EW_OK;
     release(op);
     const size_t n = (size_t)w * (size_t)h;
-    const size_t floats = n * 3 * (2 + (size_t)has_a + (size_t)has_n);
-    s = (state *)malloc(sizeof(state) + floats * sizeof(float));
+    const size_t floats = n * (2 * (size_t)ch + 3 * ((size_t)has_a + (size_t)has_n));
+    const size_t stage = ew_dev_stage_floats(dev, n, ch);
+    s = (state *)calloc(1, sizeof(state));
+    if (s) s->dmem = (float *)ew_dev_alloc(dev, floats * sizeof(float));
+    if (s && stage) s->stage = (float *)malloc(stage * sizeof(float));
     op->state = s;
-    if (!s)
-        return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory: outlier filter of %dx%d needs %.1f MiB", w, h,
-                        (double)floats * sizeof(float) / 1048576.0);
+    if (!s || !s->dmem || (stage && !s->stage))
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: outlier filter of %dx%d needs %.1f MiB", w, h,
+                        (double)(floats + stage) * sizeof(float) / 1048576.0);
     s->w = w;
     s->h = h;
     s->has_albedo = has_a;
     s->has_normal = has_n;
-    float *m = s->mem;
-    s->color = m; m += n * 3;
-    s->out = m; m += n * 3;
-    s->albedo = has_a ? m : NULL; m += has_a ? n * 3 : 0;
-    s->normal = has_n ? m : NULL;
+    s->channels = ch;
+    float *m = s->dmem;
+    s->b.channels = ch;
+    s->b.color = m; m += n * (size_t)ch;
+    s->b.out = m; m += n * (size_t)ch;
+    s->b.albedo = has_a ? m : NULL; m += has_a ? n * 3 : 0;
+    s->b.normal = has_n ? m : NULL;
     return EW_OK;
 }
 
 static ew_result execute(ew_op *op) {
+    ew_device *dev = op->dev;
     state *s = (state *)op->state;
-    ew_view_pack(ew_op_image(op, "color"), 3, s->color);
-    if (s->albedo) ew_view_pack(ew_op_image(op, "albedo"), 3, s->albedo);
-    if (s->normal) ew_view_pack(ew_op_image(op, "normal"), 3, s->normal);
-    job j;
-    j.p.width = s->w;
-    j.p.height = s->h;
-    j.p.radius = (int)ew_op_param(op, "radius");
-    j.p.k = ew_op_param(op, "k");
-    j.p.albedo_tol = ew_op_param(op, "albedo_tol");
-    j.p.normal_cos = ew_op_param(op, "normal_cos");
-    j.p.sigma_floor = ew_op_param(op, "sigma_floor");
-    j.b.color = s->color;
-    j.b.albedo = s->albedo;
-    j.b.normal = s->normal;
-    j.b.out = s->out;
-    ew_pool_run(op->dev->pool, s->h, 0, rows, &j);
-    const ew_image *cv = ew_op_image(op, "color"), *ov = ew_op_image(op, "output");
-    ew_view_unpack(s->out, 3, ov);
-    /* channels past RGB (alpha) pass through: a 4-channel output must not
-     * keep whatever its memory held */
-    const int extra = (ov->channels < cv->channels ? ov->channels : cv->channels) - 3;
-    for (int y = 0; extra > 0 && y < s->h; y++)
-        for (int x = 0; x < s->w; x++) {
-            const float *c = ew__pixel(cv, x, y);
-            float *o = ew__pixel(ov, x, y);
-            for (int k = 3; k < 3 + extra; k++) o[k] = c[k];
-        }
-    return EW_OK;
+    const ew_outlier_buffers *b = &s->b;
+    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), s->channels, (float *)b->color, s->stage);
+    if (r == EW_OK && b->albedo) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
+    if (r == EW_OK && b->normal) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
+    if (r != EW_OK) return r;
+    ew_outlier_params p;
+    p.width = s->w;
+    p.height = s->h;
+    p.radius = (int)ew_op_param(op, "radius");
+    p.k = ew_op_param(op, "k");
+    p.albedo_tol = ew_op_param(op, "albedo_tol");
+    p.normal_cos = ew_op_param(op, "normal_cos");
+    p.sigma_floor = ew_op_param(op, "sigma_floor");
+    dev->backend->outlier_guided(dev, &p, b);
+    return ew_dev_get_view(dev, b->out, s->channels, ew_op_image(op, "output"), s->stage);
 }
 
 const ew_op_type ew_filter_outlier = {
@@ -123,5 +122,5 @@ const ew_op_type ew_filter_outlier = {
     .commit = commit,
     .execute = execute,
     .release = release,
-    .device_memory = 0, /* CPU devices only: the per-pixel function is ready for a CUDA entry */
+    .device_memory = 1,
 };

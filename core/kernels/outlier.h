@@ -80,10 +80,11 @@ typedef struct ew_outlier_params {
 } ew_outlier_params;
 
 typedef struct ew_outlier_buffers {
-    const float *color;  /* 3 per pixel */
+    const float *color;  /* channels per pixel, RGB first */
     const float *albedo; /* 3 per pixel or NULL */
     const float *normal; /* 3 per pixel or NULL */
-    float *out;          /* 3 per pixel; must not alias color */
+    float *out;          /* channels per pixel; must not alias color */
+    int channels;        /* floats per pixel of color and out, >= 3: the ones past RGB (alpha) are copied */
 } ew_outlier_buffers;
 
 EW_HD int ew_outlier_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
@@ -110,14 +111,12 @@ EW_HD int ew_outlier_similar(const ew_outlier_params *p, const ew_outlier_buffer
 }
 
 EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
-    const long j = (long)y * p->width + x;
-    const float *c0 = b->color + j * 3;
-    float *o = b->out + j * 3;
+    const long j = (long)y * p->width + x, cc = b->channels;
+    const float *c0 = b->color + j * cc;
+    float *o = b->out + j * cc;
     const int finite = ew_outlier_finite3(c0);
     const float lum = finite ? ew_luminance(c0) : 0.0f;
-    o[0] = c0[0];
-    o[1] = c0[1];
-    o[2] = c0[2];
+    for (int c = 0; c < cc; c++) o[c] = c0[c];
     if (finite && (p->k <= 0.0f || lum <= 0.0f)) return; /* nothing to judge */
     const int use_a = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
     const int use_n = b->normal != 0 && ew_outlier_finite3(b->normal + j * 3);
@@ -127,7 +126,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
         for (int xx = ew_maxi(x - p->radius, 0); xx <= ew_mini(x + p->radius, p->width - 1); xx++) {
             if (xx == x && yy == y) continue;
             const long k = (long)yy * p->width + xx;
-            const float *c1 = b->color + k * 3;
+            const float *c1 = b->color + k * cc;
             if (!ew_outlier_finite3(c1)) continue;
             if (!finite)
                 for (int c = 0; c < 3; c++) any_rgb[c] += c1[c];

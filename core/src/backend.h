@@ -41,6 +41,8 @@ typedef struct ew_backend {
     void (*denoise_refine_guide)(ew_device *dev, const ew_denoise_buffers *b, float mean_lum, float color_weight);
     /* firefly suppression of an RGB image (out must not alias in) */
     void (*outlier_clamp)(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out);
+    /* the "outlier" filter: ew_outlier_guided_px over the image */
+    void (*outlier_guided)(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b);
     /* temporal accumulation of one frame into b->out_* */
     void (*temporal)(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b);
 

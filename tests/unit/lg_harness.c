@@ -203,6 +203,16 @@ static void lg_outlier_clamp(ew_device *dev, int width, int height, int radius, 
     DEV(out);
     WALK(ew_kl_outlier_clamp(width, height), ew_kb_outlier_clamp(&t, width, height, radius, k, in, out));
 }
+static void lg_outlier_guided(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b) {
+    (void)dev;
+    DEV(b->color);
+    DEV(b->albedo);
+    DEV(b->normal);
+    DEV(b->out);
+    const ew_outlier_params pv = *p;
+    const ew_outlier_buffers bv = *b;
+    WALK(ew_kl_outlier_guided(&pv), ew_kb_outlier_guided(&t, &pv, &bv));
+}
 static void lg_temporal(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b) {
     (void)dev;
     DEV(b->color);
@@ -346,6 +356,7 @@ const ew_backend lg_backend = {
     .denoise_finish = lg_denoise_finish,
     .denoise_refine_guide = lg_denoise_refine_guide,
     .outlier_clamp = lg_outlier_clamp,
+    .outlier_guided = lg_outlier_guided,
     .temporal = lg_temporal,
     .bf_brute = lg_bf_brute,
     .bf_separable = lg_bf_separable,

@@ -289,6 +289,34 @@ TEST(outlier_clamp) {
     CHECK_NO_MISUSE();
 }
 
+TEST(outlier_guided_with_alpha_and_holes) {
+    OPEN_PAIR(p, 0);
+    /* 4 channels (alpha copied), fireflies, NaN/Inf in colour and features;
+     * albedo in two tones so that similarity splits the windows */
+    float *color = hrand(N * 4, 0.0f, 1.0f, 31), *albedo = hrand(N * 3, 0.0f, 1.0f, 43);
+    float *normal = hrand(N * 3, -1.0f, 1.0f, 53);
+    for (size_t i = 0; i < N; i += 13) color[i * 4 + 1] = 800.0f;
+    for (size_t i = 0; i < N * 3; i++)
+        if (isfinite(albedo[i])) albedo[i] = albedo[i] < 0.5f ? 0.2f : 0.8f;
+    const ew_outlier_params op = {W, H, 2, 3.0f, 0.1f, 0.5f, 0.1f};
+    ew_outlier_buffers h = {color, albedo, normal, hnan(N * 4), 4}, d = h;
+    d.color = dup_to(p.dut, color, N * 4);
+    d.albedo = dup_to(p.dut, albedo, N * 3);
+    d.normal = dup_to(p.dut, normal, N * 3);
+    d.out = dnan(p.dut, N * 4);
+    ew_cpu_backend.outlier_guided(p.cpu, &op, &h);
+    p.dut->backend->outlier_guided(p.dut, &op, &d);
+    int ok = match(back(p.dut, d.out, N * 4), h.out, N * 4, "outlier-filtered");
+    /* and without the features */
+    h.albedo = h.normal = d.albedo = d.normal = NULL;
+    ew_cpu_backend.outlier_guided(p.cpu, &op, &h);
+    p.dut->backend->outlier_guided(p.dut, &op, &d);
+    ok = ok && match(back(p.dut, d.out, N * 4), h.out, N * 4, "outlier-filtered, no features");
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
 TEST(temporal_accumulation) {
     OPEN_PAIR(p, 0);
     ew_temporal_params tp = {W, H, 0.2f, 0.9f, 0.1f, 1.0f, 32.0f};

@@ -74,6 +74,23 @@ static void cpu_outlier_clamp(ew_device *dev, int width, int height, int radius,
 }
 
 typedef struct {
+    const ew_outlier_params *p;
+    const ew_outlier_buffers *b;
+} outlier_guided_job;
+
+static void outlier_guided_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const outlier_guided_job *j = (const outlier_guided_job *)ctx;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < j->p->width; x++) ew_outlier_guided_px(x, (int)y, j->p, j->b);
+}
+
+static void cpu_outlier_guided(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b) {
+    outlier_guided_job j = {p, b};
+    ew_pool_run(dev->pool, p->height, 0, outlier_guided_rows, &j);
+}
+
+typedef struct {
     const ew_temporal_params *p;
     const ew_temporal_buffers *b;
 } temporal_job;
@@ -98,6 +115,7 @@ const ew_backend ew_cpu_backend = {
     .denoise_finish = cpu_denoise_finish,
     .denoise_refine_guide = cpu_denoise_refine_guide,
     .outlier_clamp = cpu_outlier_clamp,
+    .outlier_guided = cpu_outlier_guided,
     .temporal = cpu_temporal,
     /* edge-aware filters (cpu_filters.c) */
     .bf_brute = ew_cpu_bf_brute,

@@ -113,6 +113,10 @@ EW_KERNEL k_outlier_clamp(int width, int height, int radius, float k, const floa
     const ew_thread t = ew_thread_self();
     ew_kb_outlier_clamp(&t, width, height, radius, k, in, out);
 }
+EW_KERNEL k_outlier_guided(ew_outlier_params p, ew_outlier_buffers b) {
+    const ew_thread t = ew_thread_self();
+    ew_kb_outlier_guided(&t, &p, &b);
+}
 EW_KERNEL k_temporal(ew_temporal_params p, ew_temporal_buffers b) {
     const ew_thread t = ew_thread_self();
     ew_kb_temporal(&t, &p, &b);
@@ -188,6 +192,9 @@ void cu_denoise_refine_guide(ew_device *dev, const ew_denoise_buffers *b, float 
 }
 void cu_outlier_clamp(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out) {
     EW_LAUNCH(dev, ew_kl_outlier_clamp(width, height), k_outlier_clamp, width, height, radius, k, in, out);
+}
+void cu_outlier_guided(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b) {
+    EW_LAUNCH(dev, ew_kl_outlier_guided(p), k_outlier_guided, *p, *b);
 }
 void cu_temporal(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b) {
     EW_LAUNCH(dev, ew_kl_temporal(p), k_temporal, *p, *b);
@@ -301,6 +308,7 @@ ew_backend make_table() {
     b.denoise_finish = cu_denoise_finish;
     b.denoise_refine_guide = cu_denoise_refine_guide;
     b.outlier_clamp = cu_outlier_clamp;
+    b.outlier_guided = cu_outlier_guided;
     b.temporal = cu_temporal;
     b.bf_brute = cu_bf_brute;
     b.bf_separable = cu_bf_separable;

@@ -81,6 +81,13 @@ EW_HD void ew_kb_outlier_clamp(const ew_thread *t, int width, int height, int ra
     ew_outlier_clamp_px(x, y, width, height, radius, k, in, out);
 }
 
+EW_HD ew_launch ew_kl_outlier_guided(const ew_outlier_params *p) { return ew_launch_2d(p->width, p->height); }
+EW_HD void ew_kb_outlier_guided(const ew_thread *t, const ew_outlier_params *p, const ew_outlier_buffers *b) {
+    const int x = ew_tx(t), y = ew_ty(t);
+    if (x >= p->width || y >= p->height) return;
+    ew_outlier_guided_px(x, y, p, b);
+}
+
 /* ---- temporal accumulation ---------------------------------------------- */
 EW_HD ew_launch ew_kl_temporal(const ew_temporal_params *p) { return ew_launch_2d(p->width, p->height); }
 EW_HD void ew_kb_temporal(const ew_thread *t, const ew_temporal_params *p, const ew_temporal_buffers *b) {
