@@ -135,17 +135,19 @@ static ew_result execute(ew_op *op) {
     const int planes = s->method == 0; /* the pyramid packs straight into its planes */
     if (planes) ew_bf_pack_image_planes(dev, ew_op_image(op, "color"), s->C, s->plan.down[0]);
     else ew_bf_pack_image(dev, ew_op_image(op, "color"), s->C, s->image);
-    const ew_image *dv = ew_op_image(op, "depth");
-    long j = 0;
-    for (int y = 0; y < s->h; y++)
-        for (int x = 0; x < s->w; x++) s->depth[j++] = *ew__pixel(dv, x, y);
+    /* on the device's threads, as the colour (the copies were a tenth of the
+     * pyramid's wall time on one thread); a non-finite depth becomes 0, which
+     * means infinitely far as well (ew_dof_coc) */
+    ew_bf_pack_channels(dev, ew_op_image(op, "depth"), 1, s->depth, NULL);
     ew_dof_compute_attributes(dev, &s->cam, s->depth, s->coc, s->tiles, s->attr);
     switch (s->method) {
-    case 0:
-        ew_pyr_to_planes(s->attr, 2, (size_t)s->w * (size_t)s->h, s->plan.attr[0]);
+    case 0: {
+        const ew_image av = ew_image_packed(s->attr, s->w, s->h, 2); /* (D, C) into planes; all finite */
+        ew_bf_pack_channels_planes(dev, &av, 2, s->plan.attr[0], NULL);
         if (!ew_pyr_run_planes(dev, &s->plan, report, op))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;
+    }
     case 1: {
         const int band = 16;
         for (int y = 0; y < s->h; y += band) {
@@ -164,7 +166,7 @@ static ew_result execute(ew_op *op) {
     else ew_bf_unpack_image(dev, s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
     const ew_image *cv = ew_op_image(op, "coc");
     if (cv) {
-        j = 0;
+        long j = 0;
         for (int y = 0; y < s->h; y++)
             for (int x = 0; x < s->w; x++) *ew__pixel(cv, x, y) = s->coc[j++];
     }
