@@ -491,8 +491,40 @@ EW_HD int ew_pyr_up_in_ok(const ew_pyr_up_args *a, const int kind) {
  * cheaper in scalar code, and the CPU backend the general path. */
 EW_HD int ew_pyr_up_in_vec(const int kind, const int uniform) { return uniform || kind == EW_RANGE_DOF; }
 
+/* Range functions with E(p, q) == E(q, p) bit for bit (COLOR's sum of
+ * squared differences: the differences only change sign). For them a pass
+ * can evaluate each pair of neighbouring fine pixels once instead of twice
+ * (ew_pyr_fine_fwd_k, ew_pyr_fine_rows). */
+EW_HD int ew_pyr_symmetric(const int kind) { return kind == EW_RANGE_COLOR; }
+
+/* The fine range values between the pixels of rows y - 1 (p*) and y and
+ * their neighbours right (rt), below-left (dl), below (dn) and below-right
+ * (dr), each indexed by i = x - xo; pixel (x, y)'s eight are pdr[i - 1],
+ * pdn[i], pdl[i + 1], rt[i - 1], rt[i], dl[i], dn[i], dr[i]. */
+typedef struct ew_pyr_fine_rows {
+    const float *pdl, *pdn, *pdr;   /* row y - 1 */
+    const float *rt, *dl, *dn, *dr; /* row y */
+    int xo;
+} ew_pyr_fine_rows;
+
+/* The range value between interior pixel (x, y) and its neighbour at
+ * (x + dx, y + dy) (dy >= 0): one of the forward values above. */
+EW_HD float ew_pyr_fine_fwd_k(int x, int y, int dx, int dy, const ew_pyr_up_args *a, const int kind) {
+    const int A = ew_bf_attrs(kind);
+    const long n = (long)a->w * a->h, j = (long)y * a->w + x, i = j + (long)dy * a->w + dx;
+    float ap[EW_BF_MAX_ATTR], aq[EW_BF_MAX_ATTR];
+    EW_PYR_UNROLL
+    for (int k = 0; k < EW_BF_MAX_ATTR; k++) {
+        ap[k] = k < A ? a->attr[k * n + j] : 0.0f;
+        aq[k] = k < A ? a->attr[k * n + i] : 0.0f;
+    }
+    return ew_fexp2(ew_bf_energy_v(a->m, kind, 0, ap, aq, (float)(dx * dx + dy * dy) * a->d2_unit));
+}
+
+/* fr: the fine range values, given (symmetric kinds with uniform weights;
+ * NULL: computed here). */
 EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind, const int uniform, const int g1,
-                          const int dup) {
+                          const int dup, const ew_pyr_fine_rows *fr) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform, vec = ew_pyr_up_in_vec(kind, uniform);
     const long n = (long)a->w * a->h, j = (long)y * a->w + x;
@@ -540,10 +572,22 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
         for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->attr[kk * n + i] : 0.0f;
         coc[9 + k] = kind == EW_RANGE_DOF ? aq[1] : 0.0f;
         const float d2 = (float)(ix * ix + iy * iy) * a->d2_unit;
-        E[9 + k] = k == 4 ? 0.0f : vec ? ew_bf_energy_v(m, kind, rough, ap, aq, d2) : ew_bf_energy_r(m, kind, rough, ap, aq, d2);
+        if (!fr)
+            E[9 + k] = k == 4 ? 0.0f : vec ? ew_bf_energy_v(m, kind, rough, ap, aq, d2) : ew_bf_energy_r(m, kind, rough, ap, aq, d2);
     }
     EW_PYR_UNROLL
-    for (int k = 0; k < 18; k++) F[k] = k == 13 ? 1.0f : ew_fexp2(E[k]); /* the centre: 2^0 */
+    for (int k = 0; k < 18; k++) F[k] = k == 13 ? 1.0f : k > 8 && fr ? 0.0f : ew_fexp2(E[k]); /* the centre: 2^0 */
+    if (fr) { /* by offset: see ew_pyr_fine_rows */
+        const int i = x - fr->xo;
+        F[9] = fr->pdr[i - 1];
+        F[10] = fr->pdn[i];
+        F[11] = fr->pdl[i + 1];
+        F[12] = fr->rt[i - 1];
+        F[14] = fr->rt[i];
+        F[15] = fr->dl[i];
+        F[16] = fr->dn[i];
+        F[17] = fr->dr[i];
+    }
     EW_PYR_UNROLL
     for (int k = 0; k < 9; k++) G[k] = g1 ? F[k] : ew_fexp2(gamma * E[k]);
     float acc[EW_BF_CH + 1], cocn = 0.0f, cocw = 0.0f;
@@ -593,7 +637,7 @@ EW_HD void ew_pyr_up_px_k(int x, int y, const ew_pyr_up_args *a, const int kind)
     int x0, x1;
     if (ew_pyr_up_interior(y, a, &x0, &x1) && x >= x0 && x < x1 && ew_pyr_up_in_ok(a, kind)) {
         const int uniform = a->row != 0, g1 = uniform && a->row->gamma == 1.0f;
-        ew_pyr_up_in_k(x, y, a, kind, uniform, g1, a->dup_out != 0);
+        ew_pyr_up_in_k(x, y, a, kind, uniform, g1, a->dup_out != 0, 0);
     } else {
         ew_pyr_up_general_k(x, y, a, kind);
     }

@@ -825,3 +825,68 @@ TEST(each_model_filters_with_its_own_builtin_table) {
     CHECK(filter_uses_table(0, ew_pyr_builtin_weights, ew_pyr_builtin_weights_size, ew_pyr_builtin_weights_gi,
                             ew_pyr_builtin_weights_gi_size) > 1e-4);
 }
+
+/* COLOR's fine range values are computed once per pair of neighbours into
+ * row buffers by the CPU backend, in segments of columns: the same numbers
+ * bit for bit as the per-pixel function (which evaluates each pair from
+ * both sides), over several segments and thread bands, for level 0 and a
+ * duplicated level, gamma 1 and not. */
+TEST(color_shared_fine_values_match_the_per_pixel_function) {
+    unsigned s = 91;
+    const int w = 4200, h = 9, cw = (w + 1) / 2, ch = (h + 1) / 2, A = 4; /* two column segments */
+    const long n = (long)w * h, cn2 = 2L * cw * ch;
+    ew_bf_model m = model_of(EW_RANGE_COLOR, EW_BF_CH, 2.0f);
+    float *attr = malloc(sizeof(float) * n * A), *down = malloc(sizeof(float) * n * EW_BF_CH);
+    float *cattr = malloc(sizeof(float) * cn2 * A), *cup = malloc(sizeof(float) * cn2 * EW_BF_CH);
+    for (long i = 0; i < n; i++)
+        for (int c = 0; c < EW_BF_CH; c++) {
+            attr[c * n + i] = c == 3 ? 0.0f : urand(&s);
+            down[c * n + i] = c == 3 ? 1.0f : urand(&s);
+        }
+    for (long i = 0; i < cn2; i += 2)
+        for (int k = 0; k < 2; k++)
+            for (int c = 0; c < EW_BF_CH; c++) {
+                cattr[c * cn2 + i + k] = c == 3 ? 0.0f : urand(&s);
+                cup[c * cn2 + i + k] = urand(&s);
+            }
+    ew_pyr_table t;
+    random_table(&t, &s);
+    ew_device *dev = make_device(3);
+    for (int variant = 0; variant < 4; variant++) {
+        const int dup = variant & 1;
+        const long on = dup ? 2 * n : n;
+        ew_pyr_params prm;
+        ew_pyr_params_at(&t, 2.0f, dup, 1.0f, &prm);
+        if (variant & 2) prm.gamma = 1.0f;
+        ew_pyr_wrow row;
+        ew_pyr_expand(&prm, &row);
+        float *up[2] = {malloc(sizeof(float) * on * EW_BF_CH), malloc(sizeof(float) * on * EW_BF_CH)};
+        ew_pyr_up_args a;
+        memset(&a, 0, sizeof a);
+        a.m = &m;
+        a.w = w;
+        a.h = h;
+        a.cw = cw;
+        a.ch = ch;
+        a.down = down;
+        a.attr = attr;
+        a.cup = cup;
+        a.cattr = cattr;
+        a.d2_unit = dup ? 4.0f : 1.0f;
+        a.row = &row;
+        a.dup_out = dup;
+        for (int v = 0; v < 2; v++) {
+            memset(up[v], 0, sizeof(float) * on * EW_BF_CH);
+            a.up = up[v];
+            if (v == 0) dev->backend->pyr_up(dev, &a);
+            else
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w; x++) ew_pyr_up_px(x, y, &a);
+        }
+        CHECK(memcmp(up[0], up[1], sizeof(float) * on * EW_BF_CH) == 0);
+        free(up[0]);
+        free(up[1]);
+    }
+    ew_device_destroy(dev);
+    free(attr); free(down); free(cattr); free(cup);
+}

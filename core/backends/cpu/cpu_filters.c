@@ -139,11 +139,66 @@ void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a) {
     ew_pool_run(dev->pool, a->ch, 0, down_rows(a->m->kind), (void *)a);
 }
 
-#define EW_PYR_UP_SPAN(UNIFORM, G1, DUP)                                                                        \
+#define EW_PYR_UP_LOOP(XB, XE, UNIFORM, G1, DUP, FR)                                                          \
     do {                                                                                                       \
         EW_IVDEP                                                                                               \
-        for (int x = x0; x < x1; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP);                   \
+        for (int x = XB; x < XE; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP, FR);               \
     } while (0)
+#define EW_PYR_UP_SPAN(UNIFORM, G1, DUP) EW_PYR_UP_LOOP(x0, x1, UNIFORM, G1, DUP, 0)
+
+/* Symmetric range functions (ew_pyr_symmetric) with uniform weights: the
+ * interior spans in segments of columns walked down the rows, the fine
+ * range values of each row computed once into the segment's buffers
+ * (ew_pyr_fine_rows) and read by both pixels of each pair. Segments bound
+ * the buffers on the stack (128 KiB); narrower ones would pay in memory
+ * traffic what they save in arithmetic (512 columns were slower than no
+ * sharing: the rows are then read in short pieces, column strip by strip). */
+#define EW_PYR_SEG 4096
+
+/* The forward range values of row y over the segment [xb, xe) (what its
+ * pixels and those of row y + 1 read), at index x - (xb - 1). */
+static inline void fine_fwd_row(const ew_pyr_up_args *ap, int y, int xb, int xe, float (*buf)[EW_PYR_SEG + 2],
+                                const int kind) {
+    const ew_pyr_up_args a = *ap;
+    float *rt = buf[0], *dl = buf[1], *dn = buf[2], *dr = buf[3];
+    const int o = xb - 1;
+    EW_IVDEP
+    for (int x = xb - 1; x < xe; x++) rt[x - o] = ew_pyr_fine_fwd_k(x, y, 1, 0, &a, kind);
+    EW_IVDEP
+    for (int x = xb; x <= xe; x++) dl[x - o] = ew_pyr_fine_fwd_k(x, y, -1, 1, &a, kind);
+    EW_IVDEP
+    for (int x = xb; x < xe; x++) dn[x - o] = ew_pyr_fine_fwd_k(x, y, 0, 1, &a, kind);
+    EW_IVDEP
+    for (int x = xb - 1; x < xe; x++) dr[x - o] = ew_pyr_fine_fwd_k(x, y, 1, 1, &a, kind);
+}
+
+static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t end, const int kind, const int g1,
+                                const int dup) {
+    const ew_pyr_up_args a = *ap;
+    float buf[2][4][EW_PYR_SEG + 2];
+    int x0, x1;
+    ew_pyr_up_interior((int)begin, &a, &x0, &x1); /* the columns are the same in every row */
+    for (int xb = x0; xb < x1; xb += EW_PYR_SEG) {
+        const int xe = xb + EW_PYR_SEG < x1 ? xb + EW_PYR_SEG : x1;
+        int have = 0, cur = 0, c0, c1;
+        for (int64_t y = begin; y < end; y++) {
+            if (!ew_pyr_up_interior((int)y, &a, &c0, &c1)) {
+                have = 0;
+                continue;
+            }
+            if (!have) fine_fwd_row(&a, (int)y - 1, xb, xe, buf[cur ^ 1], kind);
+            have = 1;
+            fine_fwd_row(&a, (int)y, xb, xe, buf[cur], kind);
+            const ew_pyr_fine_rows fr = {buf[cur ^ 1][1], buf[cur ^ 1][2], buf[cur ^ 1][3], buf[cur][0],
+                                         buf[cur][1],     buf[cur][2],     buf[cur][3],     xb - 1};
+            if (g1 && dup) EW_PYR_UP_LOOP(xb, xe, 1, 1, 1, &fr);
+            else if (g1) EW_PYR_UP_LOOP(xb, xe, 1, 1, 0, &fr);
+            else if (dup) EW_PYR_UP_LOOP(xb, xe, 1, 0, 1, &fr);
+            else EW_PYR_UP_LOOP(xb, xe, 1, 0, 0, &fr);
+            cur ^= 1;
+        }
+    }
+}
 
 static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind) {
     const ew_bf_model lm = *j->m;
@@ -155,7 +210,7 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
         a.row = &lr;
     }
     const int fast = ew_pyr_up_in_ok(&a, kind), uniform = a.row != 0, g1 = uniform && lr.gamma == 1.0f;
-    const int dup = a.dup_out != 0;
+    const int dup = a.dup_out != 0, sym = fast && uniform && ew_pyr_symmetric(kind);
     for (int64_t y = begin; y < end; y++) {
         int x0, x1;
         if (!fast || !ew_pyr_up_interior((int)y, &a, &x0, &x1)) {
@@ -163,7 +218,8 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
             continue;
         }
         for (int x = 0; x < x0; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
-        if (uniform && g1 && dup) EW_PYR_UP_SPAN(1, 1, 1);
+        if (sym) { /* up_spans_sym below */
+        } else if (uniform && g1 && dup) EW_PYR_UP_SPAN(1, 1, 1);
         else if (uniform && g1) EW_PYR_UP_SPAN(1, 1, 0);
         else if (uniform && dup) EW_PYR_UP_SPAN(1, 0, 1);
         else if (uniform) EW_PYR_UP_SPAN(1, 0, 0);
@@ -173,6 +229,7 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
             for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
         for (int x = x1; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
     }
+    if (sym) up_spans_sym(&a, begin, end, kind, g1, dup);
 }
 
 EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind);)
