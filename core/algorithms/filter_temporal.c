@@ -31,30 +31,30 @@ static const ew_param_desc params[] = {
     {"reset", EW_PARAM_BOOL, 0.0f, 0.0f, 1.0f, "1: drop the history at the next commit (then reads 0 again)"},
 };
 
+/* The current frame's copies and two history generations, in one device
+ * allocation made at commit (docs/backends.md): the history never leaves
+ * the device between frames. */
 typedef struct {
     int width, height, valid;
     int has_normal, has_depth;
-    /* current-frame copies and two history generations */
+    float *dmem, *stage;
     float *color, *normal, *depth, *motion;
     float *hist_color[2], *hist_normal[2], *hist_depth[2], *hist_len[2];
     int cur; /* index of the newest history */
-    float mem[];
 } state;
 
-typedef struct {
-    const ew_temporal_params *p;
-    const ew_temporal_buffers *b;
-    float gamma;
-} clip_job;
-
-static void clip_rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const clip_job *j = (const clip_job *)ctx;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < j->p->width; x++) ew_temporal_clipped_px(x, (int)y, j->p, j->b, j->gamma);
+static void release(ew_op *op) {
+    state *s = (state *)op->state;
+    if (s) {
+        ew_dev_free(op->dev, s->dmem);
+        free(s->stage);
+    }
+    free(s);
+    op->state = NULL;
 }
 
 static ew_result commit(ew_op *op) {
+    ew_device *dev = op->dev;
     const ew_image *c = ew_op_image(op, "color");
     const int w = c->width, h = c->height;
     const int has_n = ew_op_image(op, "normal") != NULL, has_d = ew_op_image(op, "depth") != NULL;
@@ -65,17 +65,22 @@ static ew_result commit(ew_op *op) {
         if (reset) s->valid = 0;
         return EW_OK;
     }
-    free(s);
+    release(op);
     const size_t n = (size_t)w * h;
     const size_t floats = n * (3 + 3 + 1 + 2) + 2 * n * (3 + 3 + 1 + 1);
-    s = (state *)calloc(1, sizeof(state) + floats * sizeof(float));
+    const size_t stage = ew_dev_stage_floats(dev, n, 3); /* the widest view moved */
+    s = (state *)calloc(1, sizeof(state));
+    if (s) s->dmem = (float *)ew_dev_alloc(dev, floats * sizeof(float));
+    if (s && stage) s->stage = (float *)malloc(stage * sizeof(float));
     op->state = s;
-    if (!s) return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory for temporal history of %dx%d", w, h);
+    if (!s || !s->dmem || (stage && !s->stage))
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory for temporal history of %dx%d (%.1f MiB)", w, h,
+                        (double)(floats + stage) * sizeof(float) / 1048576.0);
     s->width = w;
     s->height = h;
     s->has_normal = has_n;
     s->has_depth = has_d;
-    float *m = s->mem;
+    float *m = s->dmem;
     s->color = m; m += n * 3;
     s->normal = m; m += n * 3;
     s->depth = m; m += n;
@@ -93,10 +98,11 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     const ew_image *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth"), *vv = ew_op_image(op, "vector");
-    ew_view_pack(ew_op_image(op, "color"), 3, s->color);
-    if (nv) ew_view_pack(nv, 3, s->normal);
-    if (dv) ew_view_pack(dv, 1, s->depth);
-    if (vv) ew_view_pack(vv, 2, s->motion);
+    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, s->color, s->stage);
+    if (r == EW_OK && nv) r = ew_dev_put_view(dev, nv, 3, s->normal, s->stage);
+    if (r == EW_OK && dv) r = ew_dev_put_view(dev, dv, 1, s->depth, s->stage);
+    if (r == EW_OK && vv) r = ew_dev_put_view(dev, vv, 2, s->motion, s->stage);
+    if (r != EW_OK) return r;
     const int prev = s->cur, next = 1 - s->cur;
     ew_temporal_params p;
     p.width = s->width;
@@ -106,6 +112,7 @@ static ew_result execute(ew_op *op) {
     p.depth_rel = ew_op_param(op, "depth_rel");
     p.motion_sign = ew_op_param(op, "motion_sign") < 0.0f ? -1.0f : 1.0f;
     p.max_frames = ew_op_param(op, "max_frames");
+    p.clamp = ew_op_param(op, "clamp");
     ew_temporal_buffers b;
     b.color = s->color;
     b.normal = nv ? s->normal : NULL;
@@ -117,23 +124,17 @@ static ew_result execute(ew_op *op) {
     b.prev_len = s->valid ? s->hist_len[prev] : NULL;
     b.out_color = s->hist_color[next];
     b.out_len = s->hist_len[next];
-    const float gamma = ew_op_param(op, "clamp");
-    if (gamma > 0.0f) { /* CPU only, like the rest of this op (device_memory 0): the backend entry has no clamp */
-        clip_job cj = {&p, &b, gamma};
-        ew_pool_run(dev->pool, s->height, 0, clip_rows, &cj);
-    } else {
-        dev->backend->temporal(dev, &p, &b);
-    }
+    dev->backend->temporal(dev, &p, &b);
     const size_t n = (size_t)s->width * s->height;
-    if (nv) memcpy(s->hist_normal[next], s->normal, n * 3 * sizeof(float));
-    if (dv) memcpy(s->hist_depth[next], s->depth, n * sizeof(float));
+    if (nv) r = dev->backend->mem_copy(dev, s->hist_normal[next], s->normal, n * 3 * sizeof(float));
+    if (r == EW_OK && dv) r = dev->backend->mem_copy(dev, s->hist_depth[next], s->depth, n * sizeof(float));
+    if (r == EW_OK) r = ew_dev_get_view(dev, s->hist_color[next], 3, ew_op_image(op, "output"), s->stage);
+    /* a failed frame leaves the history as it was */
+    if (r != EW_OK) return r;
     s->cur = next;
     s->valid = 1;
-    ew_view_unpack(s->hist_color[next], 3, ew_op_image(op, "output"));
     return EW_OK;
 }
-
-static void release(ew_op *op) { free(op->state); }
 
 const ew_op_type ew_filter_temporal = {
     .kind = "filter",
@@ -147,5 +148,5 @@ const ew_op_type ew_filter_temporal = {
     .commit = commit,
     .execute = execute,
     .release = release,
-    .device_memory = 0, /* issue 8: not ported yet, CPU devices only */
+    .device_memory = 1,
 };

@@ -22,6 +22,7 @@ typedef struct ew_temporal_params {
     float depth_rel;      /* taps whose depth differs by more than this fraction are rejected: 0.1 */
     float motion_sign;    /* +1: previous position = p + motion; -1: p - motion */
     float max_frames;     /* cap of the history length */
+    float clamp;          /* history clamp, in the current frame's standard deviations (ew_temporal_clip); <= 0: off */
 } ew_temporal_params;
 
 typedef struct ew_temporal_buffers {
@@ -78,8 +79,9 @@ EW_HD void ew_temporal_clip(int x, int y, const ew_temporal_params *p, const flo
     }
 }
 
-/* One pixel, with the history clamp (gamma > 0) or without. */
-EW_HD void ew_temporal_clipped_px(int x, int y, const ew_temporal_params *p, const ew_temporal_buffers *b, float gamma) {
+/* One pixel, with the history clamp when p->clamp > 0. */
+EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_temporal_buffers *b) {
+    const float gamma = p->clamp;
     const long j = (long)y * p->width + x;
     const float *cur = b->color + j * 3;
     float hist[3] = {0.0f, 0.0f, 0.0f}, wsum = 0.0f, len = 0.0f;
@@ -115,10 +117,6 @@ EW_HD void ew_temporal_clipped_px(int x, int y, const ew_temporal_params *p, con
         for (int c = 0; c < 3; c++) out[c] = cur[c];
         b->out_len[j] = cur_ok ? 1.0f : 0.0f;
     }
-}
-
-EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_temporal_buffers *b) {
-    ew_temporal_clipped_px(x, y, p, b, 0.0f);
 }
 
 #endif

@@ -239,6 +239,7 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     tp.depth_rel = 0.5f;
     tp.motion_sign = 1.0f;
     tp.max_frames = 8.0f;
+    tp.clamp = 1.5f; /* the clamp path too (it contains the plain one) */
     ew_temporal_buffers tb;
     tb.color = image;
     tb.normal = db.normal;
