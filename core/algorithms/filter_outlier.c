@@ -37,16 +37,14 @@ static const ew_param_desc params[] = {
  * share (alpha passes through the kernel). */
 typedef struct {
     int w, h, has_albedo, has_normal, channels;
-    float *dmem, *stage;
+    float *dmem, *stage; /* stage: host staging in host[], or NULL when views need none */
     ew_outlier_buffers b;
+    float host[];
 } state;
 
 static void release(ew_op *op) {
     state *s = (state *)op->state;
-    if (s) {
-        ew_dev_free(op->dev, s->dmem);
-        free(s->stage);
-    }
+    if (s) ew_dev_free(op->dev, s->dmem);
     free(s);
     op->state = NULL;
 }
@@ -69,11 +67,10 @@ static ew_result commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     const size_t floats = n * (2 * (size_t)ch + 3 * ((size_t)has_a + (size_t)has_n));
     const size_t stage = ew_dev_stage_floats(dev, n, ch);
-    s = (state *)calloc(1, sizeof(state));
+    s = (state *)calloc(1, sizeof(state) + stage * sizeof(float));
     if (s) s->dmem = (float *)ew_dev_alloc(dev, floats * sizeof(float));
-    if (s && stage) s->stage = (float *)malloc(stage * sizeof(float));
     op->state = s;
-    if (!s || !s->dmem || (stage && !s->stage))
+    if (!s || !s->dmem)
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: outlier filter of %dx%d needs %.1f MiB", w, h,
                         (double)(floats + stage) * sizeof(float) / 1048576.0);
     s->w = w;
@@ -81,6 +78,7 @@ static ew_result commit(ew_op *op) {
     s->has_albedo = has_a;
     s->has_normal = has_n;
     s->channels = ch;
+    s->stage = stage ? s->host : NULL;
     float *m = s->dmem;
     s->b.channels = ch;
     s->b.color = m; m += n * (size_t)ch;

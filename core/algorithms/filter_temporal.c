@@ -37,18 +37,16 @@ static const ew_param_desc params[] = {
 typedef struct {
     int width, height, valid;
     int has_normal, has_depth;
-    float *dmem, *stage;
+    float *dmem, *stage; /* stage: host staging in host[], or NULL when views need none */
     float *color, *normal, *depth, *motion;
     float *hist_color[2], *hist_normal[2], *hist_depth[2], *hist_len[2];
     int cur; /* index of the newest history */
+    float host[];
 } state;
 
 static void release(ew_op *op) {
     state *s = (state *)op->state;
-    if (s) {
-        ew_dev_free(op->dev, s->dmem);
-        free(s->stage);
-    }
+    if (s) ew_dev_free(op->dev, s->dmem);
     free(s);
     op->state = NULL;
 }
@@ -69,17 +67,17 @@ static ew_result commit(ew_op *op) {
     const size_t n = (size_t)w * h;
     const size_t floats = n * (3 + 3 + 1 + 2) + 2 * n * (3 + 3 + 1 + 1);
     const size_t stage = ew_dev_stage_floats(dev, n, 3); /* the widest view moved */
-    s = (state *)calloc(1, sizeof(state));
+    s = (state *)calloc(1, sizeof(state) + stage * sizeof(float));
     if (s) s->dmem = (float *)ew_dev_alloc(dev, floats * sizeof(float));
-    if (s && stage) s->stage = (float *)malloc(stage * sizeof(float));
     op->state = s;
-    if (!s || !s->dmem || (stage && !s->stage))
+    if (!s || !s->dmem)
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory for temporal history of %dx%d (%.1f MiB)", w, h,
                         (double)(floats + stage) * sizeof(float) / 1048576.0);
     s->width = w;
     s->height = h;
     s->has_normal = has_n;
     s->has_depth = has_d;
+    s->stage = stage ? s->host : NULL;
     float *m = s->dmem;
     s->color = m; m += n * 3;
     s->normal = m; m += n * 3;
