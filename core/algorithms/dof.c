@@ -11,7 +11,7 @@ size_t ew_dof_scratch_floats(int w, int h) {
 }
 
 void ew_dof_compute_attributes(ew_device *dev, const ew_dof_camera *cam, const float *depth, float *coc,
-                               float *tiles, float *attr) {
+                               float *tiles, float *attr, int planes) {
     ew_dof_args a;
     a.cam = *cam;
     a.tw = tiles_of(cam->width);
@@ -21,5 +21,6 @@ void ew_dof_compute_attributes(ew_device *dev, const ew_dof_camera *cam, const f
     a.tiles = tiles;
     a.tiles2 = tiles + (size_t)a.tw * (size_t)a.th;
     a.attr = attr;
+    a.planes = planes;
     dev->backend->dof_attributes(dev, &a);
 }

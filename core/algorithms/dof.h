@@ -15,9 +15,10 @@
  * tile grids, (D, C) per pixel. */
 size_t ew_dof_scratch_floats(int w, int h);
 
-/* CoC and (D, C) attributes (w*h*2 floats at attr) from depth. coc receives
- * the signed CoC in pixels (negative in front of the focus plane). */
+/* CoC and (D, C) attributes (w*h*2 floats at attr, interleaved or, with
+ * planes, as a D plane and a C plane) from depth. coc receives the signed
+ * CoC in pixels (negative in front of the focus plane). */
 void ew_dof_compute_attributes(ew_device *dev, const ew_dof_camera *cam, const float *depth, float *coc,
-                               float *tiles, float *attr);
+                               float *tiles, float *attr, int planes);
 
 #endif

@@ -135,15 +135,19 @@ static ew_result execute(ew_op *op) {
     const int planes = s->method == 0; /* the pyramid packs straight into its planes */
     if (planes) ew_bf_pack_image_planes(dev, ew_op_image(op, "color"), s->C, s->plan.down[0]);
     else ew_bf_pack_image(dev, ew_op_image(op, "color"), s->C, s->image);
-    /* on the device's threads, as the colour (the copies were a tenth of the
-     * pyramid's wall time on one thread); a non-finite depth becomes 0, which
-     * means infinitely far as well (ew_dof_coc) */
-    ew_bf_pack_channels(dev, ew_op_image(op, "depth"), 1, s->depth, NULL);
-    ew_dof_compute_attributes(dev, &s->cam, s->depth, s->coc, s->tiles, s->attr);
+    /* A depth view of packed floats is read where it is; others are packed
+     * on the device's threads, as the colour (the copies were a tenth of the
+     * pyramid's wall time on one thread). A non-finite depth, or the 0 the
+     * packer makes of it, means infinitely far alike (ew_dof_coc). */
+    const ew_image *dv = ew_op_image(op, "depth");
+    const float *depth = s->depth;
+    if (ew__pixel_stride(dv) == (int64_t)sizeof(float) && ew__row_stride(dv) == (int64_t)sizeof(float) * s->w)
+        depth = (const float *)dv->data;
+    else ew_bf_pack_channels(dev, dv, 1, s->depth, NULL);
+    /* the pyramid's (D, C) straight into its planes */
+    ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, planes ? s->plan.attr[0] : s->attr, planes);
     switch (s->method) {
     case 0: {
-        const ew_image av = ew_image_packed(s->attr, s->w, s->h, 2); /* (D, C) into planes; all finite */
-        ew_bf_pack_channels_planes(dev, &av, 2, s->plan.attr[0], NULL);
         if (!ew_pyr_run_planes(dev, &s->plan, report, op))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;

@@ -69,6 +69,7 @@ typedef struct ew_dof_args {
     float *coc;            /* width*height signed CoC, written */
     float *tiles, *tiles2; /* tw*th: near-field reach per tile, scratch */
     float *attr;           /* width*height*2: (D, C), written */
+    int planes;            /* 0: (D, C) per pixel; 1: a D plane then a C plane (what the pyramid reads) */
 } ew_dof_args;
 
 /* Step 1: signed CoC of pixel j. */
@@ -109,8 +110,9 @@ EW_HD void ew_dof_attr_px(int x, int y, const ew_dof_args *a) {
     const long j = (long)y * a->cam.width + x;
     const float c = fabsf(a->coc[j]) * a->cam.scale;
     const float near = a->tiles[(long)(y / EW_DOF_TILE) * a->tw + x / EW_DOF_TILE];
-    a->attr[j * 2 + 0] = ew_maxf(c, near);
-    a->attr[j * 2 + 1] = c;
+    const long n = (long)a->cam.width * a->cam.height, ks = a->planes ? n : 1, js = a->planes ? 1 : 2;
+    a->attr[j * js] = ew_maxf(c, near);
+    a->attr[ks + j * js] = c;
 }
 
 #endif

@@ -606,7 +606,13 @@ TEST(dof_attributes) {
     p.dut->backend->dof_attributes(p.dut, &d);
     const int ok = match(back(p.dut, d.coc, N), h.coc, N, "CoC") && match(back(p.dut, d.tiles, nt), h.tiles, nt, "tiles") &&
                    match(back(p.dut, d.attr, N * 2), h.attr, N * 2, "(D, C)");
+    /* and as planes */
+    h.planes = d.planes = 1;
+    ew_cpu_backend.dof_attributes(p.cpu, &h);
+    p.dut->backend->dof_attributes(p.dut, &d);
+    const int okp = match(back(p.dut, d.attr, N * 2), h.attr, N * 2, "(D, C) planes");
     close_pair(&p);
+    CHECK(okp);
     CHECK(ok);
     CHECK_NO_MISUSE();
 }

@@ -52,7 +52,7 @@ TEST(near_field_dilation_matches_its_definition) {
     const float S = 2.1213203f;
     ew_dof_camera cam = {50.0f, 1.4f, 3.0f, 36.0f, w, h, 40.0f, S};
     ew_device *dev = make_device(2);
-    ew_dof_compute_attributes(dev, &cam, depth, coc, tiles, attr);
+    ew_dof_compute_attributes(dev, &cam, depth, coc, tiles, attr, 0);
     const int T = EW_DOF_TILE;
     int ok = 1;
     for (int y = 0; y < h; y++)
@@ -68,8 +68,14 @@ TEST(near_field_dilation_matches_its_definition) {
             if (attr[(y * w + x) * 2] != want || attr[(y * w + x) * 2 + 1] != fabsf(coc[y * w + x]) * S) ok = 0;
         }
     CHECK(ok);
+    /* the planes the pyramid reads: the same numbers, D plane then C plane */
+    float *planes = malloc(sizeof(float) * w * h * 2);
+    ew_dof_compute_attributes(dev, &cam, depth, coc, tiles, planes, 1);
+    int same = 1;
+    for (int j = 0; j < w * h; j++) same &= planes[j] == attr[2 * j] && planes[w * h + j] == attr[2 * j + 1];
+    CHECK(same);
     ew_device_destroy(dev);
-    free(depth); free(coc); free(attr); free(tiles);
+    free(depth); free(coc); free(attr); free(tiles); free(planes);
 }
 
 /* A textured background and a flat red square in front of it. */

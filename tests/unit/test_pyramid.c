@@ -231,6 +231,10 @@ static void random_table(ew_pyr_table *t, unsigned *s) {
     }
 }
 
+/* DOF: D constant over runs of 1 to 48 pixels along each row (random_attrs
+ * when set; the CPU backend's run path, see cpu_filters.c) */
+static int g_dof_runs_w;
+
 static void random_attrs(const ew_bf_model *m, long n, float *attr, unsigned *s) {
     for (long i = 0; i < n; i++) {
         float *a = attr + i * m->attrs;
@@ -253,6 +257,18 @@ static void random_attrs(const ew_bf_model *m, long n, float *attr, unsigned *s)
             a[0] = urand(s) < 0.3f ? a[1] + 6.0f * urand(s) : a[1];
             break;
         default: break;
+        }
+    }
+    if (m->kind == EW_RANGE_DOF && g_dof_runs_w > 0) { /* D >= C still holds: a run takes its largest D */
+        const int A = m->attrs;
+        for (long i = 0; i < n;) {
+            const long x = i % g_dof_runs_w, len = 1 + (long)(47.0f * urand(s) * urand(s));
+            long e = i + len;
+            if (e > i - x + g_dof_runs_w) e = i - x + g_dof_runs_w; /* runs stay in their row */
+            float d = 0.0f;
+            for (long k = i; k < e; k++) d = fmaxf(d, attr[k * A]);
+            for (long k = i; k < e; k++) attr[k * A] = d;
+            i = e;
         }
     }
 }
@@ -333,6 +349,14 @@ TEST(matches_eq2_eq3_dof_per_pixel_sigma) { CHECK(check_against_reference(EW_RAN
 /* wide rows: the CPU backend's vectorised interior span with DOF's per-pixel
  * table lookup (gathers) runs many full vectors, against the same reference */
 TEST(matches_eq2_eq3_dof_per_pixel_sigma_wide) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 72, 24, 2.5f, 1, 8)); }
+/* rows of runs of equal D, short and long: the CPU backend's run path (one
+ * table row per run, the uniform variant) next to the lookup per pixel */
+TEST(matches_eq2_eq3_dof_runs_of_equal_d) {
+    g_dof_runs_w = 96;
+    const int ok = check_against_reference(EW_RANGE_DOF, EW_BF_CH, 96, 24, 2.5f, 1, 9);
+    g_dof_runs_w = 0;
+    CHECK(ok);
+}
 TEST(matches_eq2_eq3_dof_analytic) { CHECK(check_against_reference(EW_RANGE_DOF, EW_BF_CH, 16, 16, 2.0f, 0, 6)); }
 TEST(matches_eq2_eq3_gaussian_odd_size) { CHECK(check_against_reference(EW_RANGE_NONE, EW_BF_CH, 23, 17, 1.7f, 1, 7)); }
 

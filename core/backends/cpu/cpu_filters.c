@@ -200,6 +200,48 @@ static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t
     }
 }
 
+/* DOF's per-pixel sigma (the table): where a run of at least EW_PYR_RUN
+ * interior pixels shares the attribute its sigma comes from (D, bit for
+ * bit), the run's weights are one row, looked up once, and the run takes the
+ * uniform variant: the same numbers as the lookup per pixel (the same
+ * operations on the same D), without its gathers, interpolation and log2,
+ * which were a third of DoF's upsampling. Runs are wherever the domain CoC
+ * is flat: a depth beyond the CoC cap, the sky, a dilated near-field tile, a
+ * uniform blur; elsewhere the table as before. */
+#define EW_PYR_RUN 16
+
+static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int x1, const int kind, const int dup) {
+    ew_pyr_up_args a = *ap;
+    ew_pyr_wrow rr;
+    const long n = (long)a.w * a.h, row0 = (long)y * a.w;
+    const float *D = a.attr + row0; /* attribute plane 0: D */
+    const int py = ((int)y & 1) * 2;
+    int xs = x0, pend = x0; /* [pend, xs): waiting for the table */
+    while (xs < x1) {
+        const int b = ew_float_to_bits(D[xs]);
+        int e = xs + 1;
+        while (e < x1 && ew_float_to_bits(D[e]) == b) e++;
+        if (e - xs >= EW_PYR_RUN) {
+            a.row = NULL;
+            if (dup) EW_PYR_UP_LOOP(pend, xs, 0, 0, 1, 0);
+            else EW_PYR_UP_LOOP(pend, xs, 0, 0, 0, 0);
+            float at[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+            for (int k = 0; k < ew_bf_attrs(kind); k++) at[k] = a.attr[k * n + row0 + xs];
+            const float ls = ew_pyr_log2_sigma(a.m, kind, at);
+            ew_pyr_lookup(a.lut, ls, py, rr.wf, rr.wdc[py], &rr.gamma);
+            ew_pyr_lookup(a.lut, ls, py + 1, rr.wf, rr.wdc[py + 1], &rr.gamma);
+            a.row = &rr;
+            if (dup) EW_PYR_UP_LOOP(xs, e, 1, 0, 1, 0);
+            else EW_PYR_UP_LOOP(xs, e, 1, 0, 0, 0);
+            pend = e;
+        }
+        xs = e;
+    }
+    a.row = NULL;
+    if (dup) EW_PYR_UP_LOOP(pend, x1, 0, 0, 1, 0);
+    else EW_PYR_UP_LOOP(pend, x1, 0, 0, 0, 0);
+}
+
 static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind) {
     const ew_bf_model lm = *j->m;
     ew_pyr_wrow lr;
@@ -223,7 +265,8 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
         else if (uniform && g1) EW_PYR_UP_SPAN(1, 1, 0);
         else if (uniform && dup) EW_PYR_UP_SPAN(1, 0, 1);
         else if (uniform) EW_PYR_UP_SPAN(1, 0, 0);
-        else if (ew_pyr_up_in_vec(kind, 0) && dup) EW_PYR_UP_SPAN(0, 0, 1); /* DOF: the table's lookup as gathers */
+        else if (kind == EW_RANGE_DOF) up_span_runs(&a, y, x0, x1, kind, dup); /* the table's lookup as gathers, or runs */
+        else if (ew_pyr_up_in_vec(kind, 0) && dup) EW_PYR_UP_SPAN(0, 0, 1);
         else if (ew_pyr_up_in_vec(kind, 0)) EW_PYR_UP_SPAN(0, 0, 0);
         else /* GI's table: scalar either way, and the general path is as fast */
             for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
