@@ -5,9 +5,11 @@
 #include "algorithms/bilateral.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "src/backend.h"
+#include "src/cpu_clones.h"
 
 /* The packers write element k of pixel j at dst[k * ks + j * js]:
  * interleaved (ks 1, js = floats a pixel) or planes (ks = plane size, js 1).
@@ -19,7 +21,50 @@ static const float *row_of(const ew_image *img, int y) {
     return (const float *)(const void *)((const char *)img->data + (int64_t)y * ew__row_stride(img));
 }
 
+/* The common layouts (views of packed floats, 1, 3 or 4 a pixel, to and
+ * from planes) as row loops without branches, which the compiler
+ * vectorises (built for each vector width, as the filters' loops: the
+ * stride-3 loads need AVX2's shuffles): the general loops below, with their
+ * per-channel loops and strides known only at run time, stay scalar and
+ * were most of the time the filters spend outside their passes. Same
+ * values, same counts. */
+static int is_finite_bits(float v) {
+    uint32_t b;
+    memcpy(&b, &v, sizeof b);
+    return (b & 0x7f800000u) != 0x7f800000u;
+}
+
+static int packed_floats(const ew_image *img, int floats) {
+    return ew__pixel_stride(img) == (int64_t)sizeof(float) * floats &&
+           ew__row_stride(img) == (int64_t)sizeof(float) * floats * img->width;
+}
+
+/* C = 3 or 4 floats a pixel into the 4 planes (r, g, b, mask) */
+static EW_MULTIVERSION long pack_image_fast(const float *EW_RESTRICT src, const int C, float *EW_RESTRICT dst, size_t ks,
+                                   size_t j0, long count) {
+    float *EW_RESTRICT d0 = dst + j0, *EW_RESTRICT d1 = d0 + ks, *EW_RESTRICT d2 = d1 + ks, *EW_RESTRICT d3 = d2 + ks;
+    long missing = 0;
+    for (long x = 0; x < count; x++) {
+        const float *p = src + x * C;
+        const int ok = is_finite_bits(p[0]) & is_finite_bits(p[1]) & is_finite_bits(p[2]) &
+                       (C > 3 ? is_finite_bits(p[3]) : 1);
+        d0[x] = ok ? p[0] : 0.0f;
+        d1[x] = ok ? p[1] : 0.0f;
+        d2[x] = ok ? p[2] : 0.0f;
+        d3[x] = ok ? 1.0f : 0.0f;
+        missing += !ok;
+    }
+    return missing;
+}
+
 static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t js, int y0, int y1) {
+    if (js == 1 && (C == 3 || C == 4) && packed_floats(img, C)) {
+        const size_t w = (size_t)img->width;
+        const float *src = (const float *)img->data + (size_t)y0 * w * (size_t)C;
+        const long count = (long)((size_t)(y1 - y0) * w);
+        return C == 3 ? pack_image_fast(src, 3, dst, ks, (size_t)y0 * w, count)
+                      : pack_image_fast(src, 4, dst, ks, (size_t)y0 * w, count);
+    }
     const int n = C < EW_BF_COLOR ? C : EW_BF_COLOR;
     const int64_t ps = ew__pixel_stride(img);
     long missing = 0;
@@ -38,8 +83,38 @@ static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t
     return missing;
 }
 
+/* 4 planes into C = 3 or 4 floats a pixel (alpha: from a packed view, or
+ * left as it is when it is the output itself) */
+static EW_MULTIVERSION long unpack_image_fast(const float *EW_RESTRICT src, size_t ks, size_t j0, const int C,
+                                     float *EW_RESTRICT out, const float *alpha, long count) {
+    const float *EW_RESTRICT s0 = src + j0, *EW_RESTRICT s1 = s0 + ks, *EW_RESTRICT s2 = s1 + ks, *EW_RESTRICT s3 = s2 + ks;
+    long zeroed = 0;
+    for (long x = 0; x < count; x++) {
+        const float mask = s3[x];
+        const int ok = mask > 0.0f;
+        const float den = ok ? mask : 1.0f;
+        float *p = out + x * C;
+        p[0] = ok ? s0[x] / den : 0.0f;
+        p[1] = ok ? s1[x] / den : 0.0f;
+        p[2] = ok ? s2[x] / den : 0.0f;
+        if (C > 3 && alpha) p[3] = alpha[x * 4 + 3];
+        zeroed += !ok;
+    }
+    return zeroed;
+}
+
 static long unpack_image(const float *src, size_t ks, size_t js, int C, const ew_image *img,
                          const ew_image *alpha_from, int y0, int y1) {
+    if (js == 1 && (C == 3 || C == 4) && packed_floats(img, C) &&
+        (C == 3 || !alpha_from || packed_floats(alpha_from, 4))) {
+        const size_t w = (size_t)img->width, j0 = (size_t)y0 * w;
+        float *out = (float *)img->data + j0 * (size_t)C;
+        const long count = (long)((size_t)(y1 - y0) * w);
+        if (C == 3) return unpack_image_fast(src, ks, j0, 3, out, NULL, count);
+        /* alpha copied from another view; onto itself it stays */
+        const float *alpha = alpha_from && alpha_from->data != img->data ? (const float *)alpha_from->data + j0 * 4 : NULL;
+        return unpack_image_fast(src, ks, j0, 4, out, alpha, count);
+    }
     const int n = C < EW_BF_COLOR ? C : EW_BF_COLOR;
     const int64_t ps = ew__pixel_stride(img);
     long zeroed = 0;
@@ -64,8 +139,38 @@ static float clean(float v, long *bad) {
     return 0.0f;
 }
 
+/* nv = 1, 3 or 4 floats a pixel into `stride` planes (zeros after nv) */
+static EW_MULTIVERSION long pack_channels_fast(const float *EW_RESTRICT src, const int nv, const int stride,
+                                      float *EW_RESTRICT dst, size_t ks, size_t j0, long count) {
+    long bad = 0;
+    for (int k = 0; k < stride; k++) {
+        float *EW_RESTRICT d = dst + (size_t)k * ks + j0;
+        if (k >= nv) {
+            for (long x = 0; x < count; x++) d[x] = 0.0f;
+            continue;
+        }
+        for (long x = 0; x < count; x++) {
+            const float v = src[x * nv + k];
+            const int ok = is_finite_bits(v);
+            d[x] = ok ? v : 0.0f;
+            bad += !ok;
+        }
+    }
+    return bad;
+}
+
 static long pack_channels(const ew_image *view, int stride, float *attr, size_t ks, size_t js, int y0, int y1) {
     const int n = view->channels < stride ? view->channels : stride;
+    if (js == 1 && n == view->channels && (n == 1 || n == 3 || n == 4) && (stride == 1 || stride == 4) &&
+        packed_floats(view, n)) {
+        const size_t w = (size_t)view->width, j0 = (size_t)y0 * w;
+        const float *src = (const float *)view->data + j0 * (size_t)n;
+        const long count = (long)((size_t)(y1 - y0) * w);
+        if (stride == 1) return pack_channels_fast(src, 1, 1, attr, ks, j0, count);
+        return n == 1   ? pack_channels_fast(src, 1, 4, attr, ks, j0, count)
+               : n == 3 ? pack_channels_fast(src, 3, 4, attr, ks, j0, count)
+                        : pack_channels_fast(src, 4, 4, attr, ks, j0, count);
+    }
     const int64_t ps = ew__pixel_stride(view);
     long bad = 0;
     size_t j = (size_t)y0 * (size_t)view->width;
@@ -110,34 +215,35 @@ static long pack_gi(const ew_image *normal, const ew_image *depth, const ew_imag
 enum { IO_IMAGE, IO_UNPACK, IO_CHANNELS, IO_GI };
 
 typedef struct {
-    int what, C;                   /* IO_*; channels (image) or floats a pixel (channels) */
-    const ew_image *v, *v2, *v3;   /* the view(s): image / output+alpha_from / normal, depth, roughness */
-    const float *src;              /* IO_UNPACK */
-    float *dst;
-    size_t ks, js;
+    ew_bf_io_job j;
     long counts[EW_IO_MAX_THREADS]; /* per thread, summed at the end (no atomics, no allocation) */
 } io_job;
 
+static long job_rows(const ew_bf_io_job *j, int y0, int y1) {
+    switch (j->what) {
+    case IO_IMAGE: return pack_image(j->v, j->C, j->dst, j->ks, j->js, y0, y1);
+    case IO_UNPACK: return unpack_image(j->src, j->ks, j->js, j->C, j->v, j->v2, y0, y1);
+    case IO_CHANNELS: return pack_channels(j->v, j->C, j->dst, j->ks, j->js, y0, y1);
+    default: return pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, y0, y1);
+    }
+}
+
 static void io_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     io_job *j = (io_job *)ctx;
-    const int y0 = (int)begin, y1 = (int)end;
-    long c = 0;
-    switch (j->what) {
-    case IO_IMAGE: c = pack_image(j->v, j->C, j->dst, j->ks, j->js, y0, y1); break;
-    case IO_UNPACK: c = unpack_image(j->src, j->ks, j->js, j->C, j->v, j->v2, y0, y1); break;
-    case IO_CHANNELS: c = pack_channels(j->v, j->C, j->dst, j->ks, j->js, y0, y1); break;
-    default: c = pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, y0, y1); break;
-    }
-    j->counts[tid] += c; /* tid < threads <= EW_IO_MAX_THREADS (run_io) */
+    j->counts[tid] += job_rows(&j->j, (int)begin, (int)end); /* tid < threads <= EW_IO_MAX_THREADS (run_io) */
 }
 
 /* Run a job over the rows of `any` (the views' common size), laid out as
  * interleaved pixels of per_pixel floats or as planes; the sum of its
  * counts. Devices with more threads than there are count slots pack on one
  * thread. */
-static long run_io(ew_device *dev, io_job *j, const ew_image *any, size_t per_pixel, int planes) {
+static void set_layout(ew_bf_io_job *j, const ew_image *any, size_t per_pixel, int planes) {
     j->ks = planes ? (size_t)any->width * (size_t)any->height : 1;
     j->js = planes ? 1 : per_pixel;
+}
+
+static long run_io(ew_device *dev, io_job *j, const ew_image *any, size_t per_pixel, int planes) {
+    set_layout(&j->j, any, per_pixel, planes);
     memset(j->counts, 0, sizeof j->counts);
     if (dev && dev->pool && ew_device_get_num_threads(dev) <= EW_IO_MAX_THREADS)
         ew_pool_run(dev->pool, any->height, 16, io_rows, j);
@@ -150,7 +256,7 @@ static long run_io(ew_device *dev, io_job *j, const ew_image *any, size_t per_pi
 
 static long image_io(ew_device *dev, int what, const ew_image *img, int C, const float *src, float *dst,
                      const ew_image *alpha_from, int planes) {
-    io_job j = {.what = what, .C = C, .v = img, .v2 = alpha_from, .src = src, .dst = dst};
+    io_job j = {.j = {.what = what, .C = C, .v = img, .v2 = alpha_from, .src = src, .dst = dst}};
     return run_io(dev, &j, img, EW_BF_CH, planes);
 }
 
@@ -172,7 +278,7 @@ long ew_bf_unpack_image_planes(ew_device *dev, const float *src, int C, const ew
 }
 
 static void channels_io(ew_device *dev, const ew_image *view, int stride, float *attr, long *bad, int planes) {
-    io_job j = {.what = IO_CHANNELS, .C = stride, .v = view, .dst = attr};
+    io_job j = {.j = {.what = IO_CHANNELS, .C = stride, .v = view, .dst = attr}};
     const long n = run_io(dev, &j, view, (size_t)stride, planes);
     if (bad) *bad += n;
 }
@@ -189,7 +295,7 @@ static void gi_io(ew_device *dev, const ew_image *normal, const ew_image *depth,
                   float *attr, long *bad, int planes) {
     const ew_image *any = normal ? normal : depth ? depth : roughness;
     if (!any) return;
-    io_job j = {.what = IO_GI, .v = normal, .v2 = depth, .v3 = roughness, .dst = attr};
+    io_job j = {.j = {.what = IO_GI, .v = normal, .v2 = depth, .v3 = roughness, .dst = attr}};
     const long n = run_io(dev, &j, any, 5, planes);
     if (bad) *bad += n;
 }
@@ -202,6 +308,38 @@ void ew_bf_pack_gi(ew_device *dev, const ew_image *normal, const ew_image *depth
 void ew_bf_pack_gi_planes(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
                           float *attr, long *bad) {
     gi_io(dev, normal, depth, roughness, attr, bad, 1);
+}
+
+/* ---- the same jobs on rows given by another pass ---- */
+static void add_job(ew_bf_io_set *s, ew_bf_io_job j, const ew_image *any, size_t per_pixel) {
+    if (s->n >= EW_BF_IO_JOBS || !any) return; /* callers add at most EW_BF_IO_JOBS */
+    set_layout(&j, any, per_pixel, 1);
+    s->job[s->n++] = j;
+}
+
+void ew_bf_io_pack_image_planes(ew_bf_io_set *s, const ew_image *img, int C, float *dst) {
+    add_job(s, (ew_bf_io_job){.what = IO_IMAGE, .C = C, .v = img, .dst = dst}, img, EW_BF_CH);
+}
+
+void ew_bf_io_pack_channels_planes(ew_bf_io_set *s, const ew_image *view, int stride, float *attr) {
+    add_job(s, (ew_bf_io_job){.what = IO_CHANNELS, .C = stride, .v = view, .dst = attr}, view, (size_t)stride);
+}
+
+void ew_bf_io_pack_gi_planes(ew_bf_io_set *s, const ew_image *normal, const ew_image *depth,
+                             const ew_image *roughness, float *attr) {
+    add_job(s, (ew_bf_io_job){.what = IO_GI, .v = normal, .v2 = depth, .v3 = roughness, .dst = attr},
+            normal ? normal : depth ? depth : roughness, 5);
+}
+
+void ew_bf_io_unpack_image_planes(ew_bf_io_set *s, const float *src, int C, const ew_image *img,
+                                  const ew_image *alpha_from) {
+    add_job(s, (ew_bf_io_job){.what = IO_UNPACK, .C = C, .v = img, .v2 = alpha_from, .src = src}, img, EW_BF_CH);
+}
+
+void ew_bf_io_rows(void *set, int y0, int y1, int tid) {
+    (void)tid;
+    const ew_bf_io_set *s = (const ew_bf_io_set *)set;
+    for (int k = 0; k < s->n; k++) (void)job_rows(&s->job[k], y0, y1);
 }
 
 void ew_bilateral_brute_rows(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b) {

@@ -158,32 +158,42 @@ ew_result ew_bf_op_execute(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_bf_model *m = &s->model;
     const ew_image *color = ew_op_image(op, "color");
-    const int planes = s->method == EW_BF_PYRAMID;
-    float *image = planes ? s->plan.down[0] : s->image, *attr = planes ? s->plan.attr[0] : s->attr;
-    if (planes) ew_bf_pack_image_planes(dev, color, m->channels, image);
-    else ew_bf_pack_image(dev, color, m->channels, image);
+    if (s->method == EW_BF_PYRAMID) { /* packs and unpacks inside its first and last pass */
+        ew_bf_io_set fill = {0}, drain = {0};
+        float *attr = s->plan.attr[0];
+        ew_bf_io_pack_image_planes(&fill, color, m->channels, s->plan.down[0]);
+        switch (m->kind) {
+        case EW_RANGE_COLOR:
+            ew_bf_io_pack_channels_planes(&fill, s->guide_is_color ? color : ew_op_image(op, "guide"), 4, attr);
+            break;
+        case EW_RANGE_GI:
+            ew_bf_io_pack_gi_planes(&fill, ew_op_image(op, "normal"), ew_op_image(op, "depth"),
+                                    ew_op_image(op, "roughness"), attr);
+            break;
+        case EW_RANGE_DEPTH:
+            ew_bf_io_pack_channels_planes(&fill, s->depth_from_color ? color : ew_op_image(op, "depth"), 1, attr);
+            break;
+        default: break;
+        }
+        ew_bf_io_unpack_image_planes(&drain, s->plan.out, m->channels, ew_op_image(op, "output"), color);
+        const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+        if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        return EW_OK;
+    }
+    float *image = s->image, *attr = s->attr;
+    ew_bf_pack_image(dev, color, m->channels, image);
     long bad = 0;
     switch (m->kind) {
-    case EW_RANGE_COLOR: {
-        const ew_image *g = s->guide_is_color ? color : ew_op_image(op, "guide");
-        if (planes) ew_bf_pack_channels_planes(dev, g, 4, attr, &bad);
-        else ew_bf_pack_channels(dev, g, 4, attr, &bad);
+    case EW_RANGE_COLOR:
+        ew_bf_pack_channels(dev, s->guide_is_color ? color : ew_op_image(op, "guide"), 4, attr, &bad);
         break;
-    }
     case EW_RANGE_GI:
-        if (planes)
-            ew_bf_pack_gi_planes(dev, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"),
-                                 attr, &bad);
-        else
-            ew_bf_pack_gi(dev, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), attr,
-                          &bad);
+        ew_bf_pack_gi(dev, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), attr,
+                      &bad);
         break;
-    case EW_RANGE_DEPTH: {
-        const ew_image *d = s->depth_from_color ? color : ew_op_image(op, "depth");
-        if (planes) ew_bf_pack_channels_planes(dev, d, 1, attr, &bad);
-        else ew_bf_pack_channels(dev, d, 1, attr, &bad);
+    case EW_RANGE_DEPTH:
+        ew_bf_pack_channels(dev, s->depth_from_color ? color : ew_op_image(op, "depth"), 1, attr, &bad);
         break;
-    }
     default:
         break;
     }
@@ -199,16 +209,11 @@ ew_result ew_bf_op_execute(ew_op *op) {
         }
         break;
     }
-    case EW_BF_SEPARABLE:
+    default: /* EW_BF_SEPARABLE */
         ew_bilateral_separable(dev, m, s->w, s->h, s->image, s->attr, s->tmp, s->out);
         break;
-    case EW_BF_PYRAMID:
-        if (!ew_pyr_run_planes(dev, &s->plan, report, op))
-            return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-        break;
     }
-    if (planes) ew_bf_unpack_image_planes(dev, s->plan.out, m->channels, ew_op_image(op, "output"), color);
-    else ew_bf_unpack_image(dev, s->out, m->channels, ew_op_image(op, "output"), color);
+    ew_bf_unpack_image(dev, s->out, m->channels, ew_op_image(op, "output"), color);
     return EW_OK;
 }
 

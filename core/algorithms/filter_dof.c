@@ -132,9 +132,9 @@ static int report(void *user, double f) { return ew_op_report((ew_op *)user, f);
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
-    const int planes = s->method == 0; /* the pyramid packs straight into its planes */
-    if (planes) ew_bf_pack_image_planes(dev, ew_op_image(op, "color"), s->C, s->plan.down[0]);
-    else ew_bf_pack_image(dev, ew_op_image(op, "color"), s->C, s->image);
+    const int planes = s->method == 0; /* the pyramid packs and unpacks inside its first and last pass */
+    const ew_image *color = ew_op_image(op, "color"), *output = ew_op_image(op, "output");
+    if (!planes) ew_bf_pack_image(dev, color, s->C, s->image);
     /* A depth view of packed floats is read where it is; others are packed
      * on the device's threads, as the colour (the copies were a tenth of the
      * pyramid's wall time on one thread). A non-finite depth, or the 0 the
@@ -148,8 +148,11 @@ static ew_result execute(ew_op *op) {
     ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, planes ? s->plan.attr[0] : s->attr, planes);
     switch (s->method) {
     case 0: {
-        if (!ew_pyr_run_planes(dev, &s->plan, report, op))
-            return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        ew_bf_io_set fill = {0}, drain = {0};
+        ew_bf_io_pack_image_planes(&fill, color, s->C, s->plan.down[0]);
+        ew_bf_io_unpack_image_planes(&drain, s->plan.out, s->C, output, color);
+        const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+        if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;
     }
     case 1: {
@@ -166,8 +169,7 @@ static ew_result execute(ew_op *op) {
         ew_bilateral_separable(dev, &s->model, s->w, s->h, s->image, s->attr, s->tmp, s->out);
         break;
     }
-    if (planes) ew_bf_unpack_image_planes(dev, s->plan.out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
-    else ew_bf_unpack_image(dev, s->out, s->C, ew_op_image(op, "output"), ew_op_image(op, "color"));
+    if (!planes) ew_bf_unpack_image(dev, s->out, s->C, output, color);
     const ew_image *cv = ew_op_image(op, "coc");
     if (cv) {
         long j = 0;

@@ -230,13 +230,20 @@ void ew_pyr_from_planes(const float *planes, int k, size_t n, float *dst) {
  * levels than its CoC allows). */
 float ew_pyr_coarse_d2(int l) { return (float)((pow(4.0, l + 1) - 1.0) / 4.0); }
 
-int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, int (*progress)(void *user, double fraction),
-                      void *user) {
+int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
+                      int (*progress)(void *user, double fraction), void *user) {
     const ew_backend *be = dev->backend;
     const ew_bf_model *m = &p->model;
     const size_t n0 = (size_t)p->width * (size_t)p->height * (size_t)EW_BF_CH;
+    const ew_pyr_io none = {NULL, NULL, NULL, NULL};
+    if (!io) io = &none;
+    /* the backend runs the hooks by rows inside the passes, or they run on
+     * all rows here */
+    const int inside = be->pyr_row_hooks && p->levels > 0;
+    if (io->fill && !inside) io->fill(io->fill_user, 0, p->height, 0);
     if (p->levels == 0) {
         memcpy(p->out, p->down[0], n0 * sizeof(float));
+        if (io->drain) io->drain(io->drain_user, 0, p->height, 0);
         return 1;
     }
     for (int l = 0; l < p->levels; l++) {
@@ -255,6 +262,10 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, int (*progress)(void
         a.cdown2 = l + 1 == p->levels ? p->up[l + 1] : NULL; /* Up(L) = Down(L) */
         a.d2_unit = (float)(1u << (2 * l));
         a.major_attr = p->major_attr;
+        if (l == 0 && inside) {
+            a.fill = io->fill;
+            a.fill_user = io->fill_user;
+        }
         be->pyr_down(dev, &a);
     }
     if (progress && !progress(user, 0.3)) return 0;
@@ -280,8 +291,13 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, int (*progress)(void
         if (m->kind == EW_RANGE_DOF)
             a.ccoc = l + 1 < p->levels ? p->coc[l + 1] : p->attr2[l + 1] + 2 * (size_t)a.cw * (size_t)a.ch;
         a.ucoc = l > 0 ? p->coc[l] : NULL;
+        if (l == 0 && inside) {
+            a.drain = io->drain;
+            a.drain_user = io->drain_user;
+        }
         be->pyr_up(dev, &a);
     }
+    if (io->drain && !inside) io->drain(io->drain_user, 0, p->height, 0);
     return 1;
 }
 
@@ -290,7 +306,7 @@ int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const f
     const size_t n = (size_t)p->width * (size_t)p->height;
     ew_pyr_to_planes(image, EW_BF_CH, n, p->down[0]);
     ew_pyr_to_planes(attr, p->model.attrs, n, p->attr[0]);
-    if (!ew_pyr_run_planes(dev, p, progress, user)) return 0;
+    if (!ew_pyr_run_planes(dev, p, NULL, progress, user)) return 0;
     ew_pyr_from_planes(p->out, EW_BF_CH, n, out);
     return 1;
 }

@@ -94,6 +94,16 @@ size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int
 void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
                       const ew_pyr_table *table, float analytic_gamma, float *scratch);
 
+/* Filling level 0's input planes (p->down[0], p->attr[0]) and handing on
+ * the result (p->out) by rows, inside the first and the last pass (the
+ * fill and drain of kernels/pyramid.h); either may be NULL. */
+typedef struct ew_pyr_io {
+    void (*fill)(void *user, int y0, int y1, int tid);
+    void *fill_user;
+    void (*drain)(void *user, int y0, int y1, int tid);
+    void *drain_user;
+} ew_pyr_io;
+
 /* Filter: image (w*h*EW_BF_CH, premultiplied, mask last) and attributes
  * (w*h*A) at level 0; out (the normalised sum, still premultiplied) may not
  * alias image. Progress is reported through fn when
@@ -101,9 +111,12 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
 int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
                int (*progress)(void *user, double fraction), void *user);
 /* The same on the plan's own planes: p->down[0] (EW_BF_CH planes) and
- * p->attr[0] (attrs planes) in, p->out out (what the filter ops use: they
- * pack the views straight into the planes). */
-int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, int (*progress)(void *user, double fraction), void *user);
+ * p->attr[0] (attrs planes) in, p->out out (what the filter ops use: io,
+ * when not NULL, packs the views straight into the planes and unpacks the
+ * result). Cancelled through progress before the upsampling, nothing is
+ * drained. */
+int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
+                      int (*progress)(void *user, double fraction), void *user);
 /* Interleaved (n x k) <-> planes (k planes of n). */
 void ew_pyr_to_planes(const float *src, int k, size_t n, float *planes);
 void ew_pyr_from_planes(const float *planes, int k, size_t n, float *dst);

@@ -52,7 +52,7 @@ typedef struct ew_dof_camera {
 /* Signed CoC diameter in pixels of a point at planar depth depth_m. */
 EW_HD float ew_dof_coc(const ew_dof_camera *c, float depth_m) {
     const float f = c->focal_mm, sf = c->focus_m * 1000.0f;
-    const float s = ew_finitef(depth_m) && depth_m > 0.0f ? depth_m * 1000.0f : 1e30f;
+    const float s = (ew_finitef(depth_m) & (depth_m > 0.0f)) ? depth_m * 1000.0f : 1e30f; /* no branch: vectorises */
     const float aperture = f / c->fstop;
     /* |S - S_f| / S, written to stay finite for S = 1e30 */
     const float rel = s >= 1e29f ? 1.0f : fabsf(s - sf) / s;
@@ -81,8 +81,8 @@ EW_HD void ew_dof_tile_px(int tx, int ty, const ew_dof_args *a) {
     float m = 0.0f;
     for (int y = ty * EW_DOF_TILE; y < ew_mini(H, (ty + 1) * EW_DOF_TILE); y++)
         for (int x = tx * EW_DOF_TILE; x < ew_mini(W, (tx + 1) * EW_DOF_TILE); x++) {
-            float c = a->coc[(long)y * W + x];
-            if (c < 0.0f) m = ew_maxf(m, -c * a->cam.scale);
+            const float c = a->coc[(long)y * W + x];
+            m = ew_maxf(m, c < 0.0f ? -c * a->cam.scale : 0.0f); /* m >= 0: the same as a branch, without one */
         }
     a->tiles[(long)ty * a->tw + tx] = m;
 }
@@ -105,14 +105,17 @@ EW_HD void ew_dof_scatter_px(int tx, int ty, int axis, const ew_dof_args *a) {
     out[(long)ty * a->tw + tx] = m;
 }
 
-/* Step 5: the attributes (D, C) of pixel (x, y). */
-EW_HD void ew_dof_attr_px(int x, int y, const ew_dof_args *a) {
+/* Step 5: the attributes (D, C) of pixel (x, y); planes is a->planes (a
+ * separate argument, so that a loop specialised on it has unit strides). */
+EW_HD void ew_dof_attr_px_k(int x, int y, const ew_dof_args *a, const int planes) {
     const long j = (long)y * a->cam.width + x;
     const float c = fabsf(a->coc[j]) * a->cam.scale;
     const float near = a->tiles[(long)(y / EW_DOF_TILE) * a->tw + x / EW_DOF_TILE];
-    const long n = (long)a->cam.width * a->cam.height, ks = a->planes ? n : 1, js = a->planes ? 1 : 2;
+    const long n = (long)a->cam.width * a->cam.height, ks = planes ? n : 1, js = planes ? 1 : 2;
     a->attr[j * js] = ew_maxf(c, near);
     a->attr[ks + j * js] = c;
 }
+
+EW_HD void ew_dof_attr_px(int x, int y, const ew_dof_args *a) { ew_dof_attr_px_k(x, y, a, a->planes != 0); }
 
 #endif

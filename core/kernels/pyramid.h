@@ -123,6 +123,11 @@ typedef struct ew_pyr_down_args {
     int major_attr;            /* 1: coarse attributes are the major pixel's */
     float *cattr2;             /* the coarse attributes duplicated (planes of 2cw x ch), written when not NULL */
     float *cdown2;             /* the coarse values duplicated, written when not NULL (the coarsest level) */
+    /* host code the pass runs on fine rows [y0, y1) just before it reads them
+     * (NULL: none): the CPU backend packs each coarse row's two fine rows so,
+     * while they are in cache; see ew_backend.pyr_row_hooks */
+    void (*fill)(void *user, int y0, int y1, int tid);
+    void *fill_user;
 } ew_pyr_down_args;
 
 /* Store one coarse pixel's values v and attributes at; dup2: write the
@@ -296,6 +301,10 @@ typedef struct ew_pyr_up_args {
                                   the coarsest level passes cattr's C plane: the same numbers) */
     float *ucoc;               /* DOF: content CoC of Up(l), written when not NULL (duplicated when dup_out) */
     int dup_out;               /* write Up(l) (and ucoc) duplicated: l >= 1 */
+    /* host code run on rows [y0, y1) of Up(l) once the pass has written them
+     * (NULL: none): the CPU backend unpacks each row of the result so */
+    void (*drain)(void *user, int y0, int y1, int tid);
+    void *drain_user;
 } ew_pyr_up_args;
 
 /* log2 of the domain sigma at a centre with attributes ap, for the table
@@ -521,10 +530,37 @@ EW_HD float ew_pyr_fine_fwd_k(int x, int y, int dx, int dy, const ew_pyr_up_args
     return ew_fexp2(ew_bf_energy_v(a->m, kind, 0, ap, aq, (float)(dx * dx + dy * dy) * a->d2_unit));
 }
 
+/* The coarse samples' range values f and f^gamma of a span of pixels
+ * whose range function depends on the centre through numbers the span
+ * shares (DOF: D, where the weights are one row too): by coarse row offset
+ * iy + 1, each indexed by the duplicated column minus xo, so pixel x's
+ * sample (ix, iy) is F[iy + 1][x + 2 ix - xo]. */
+typedef struct ew_pyr_coarse_rows {
+    const float *F[3], *G[3];
+    int xo;
+} ew_pyr_coarse_rows;
+
+/* The value pair of coarse sample i (a duplicated-plane index) for a centre
+ * with attributes ap: what ew_pyr_up_in_k computes for it (DOF's content
+ * CoC in place of the coarse C), for ew_pyr_coarse_rows. */
+EW_HD void ew_pyr_coarse_fg_k(long i, const float *ap, const ew_pyr_up_args *a, const int kind, float gamma, float *f,
+                              float *g) {
+    const int A = ew_bf_attrs(kind);
+    const long cn2 = 2L * a->cw * a->ch;
+    float aq[EW_BF_MAX_ATTR];
+    EW_PYR_UNROLL
+    for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cn2 + i] : 0.0f;
+    if (kind == EW_RANGE_DOF) aq[1] = a->ccoc[i];
+    const float e = ew_bf_energy_v(a->m, kind, 0, ap, aq, a->coarse_d2);
+    *f = ew_fexp2(e);
+    *g = ew_fexp2(gamma * e);
+}
+
 /* fr: the fine range values, given (symmetric kinds with uniform weights;
- * NULL: computed here). */
+ * NULL: computed here); cr: the coarse ones (uniform weights, DOF; NULL:
+ * computed here). */
 EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind, const int uniform, const int g1,
-                          const int dup, const ew_pyr_fine_rows *fr) {
+                          const int dup, const ew_pyr_fine_rows *fr, const ew_pyr_coarse_rows *cr) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform, vec = ew_pyr_up_in_vec(kind, uniform);
     const long n = (long)a->w * a->h, j = (long)y * a->w + x;
@@ -560,8 +596,9 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
         }
         /* the vectorising form where the loop vectorises, the branchy one
          * where it stays scalar (ew_pyr_up_in_vec) */
-        E[k] = vec ? ew_bf_energy_v(m, kind, rough, ap, aq, a->coarse_d2)
-                   : ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
+        E[k] = cr  ? 0.0f /* given */
+               : vec ? ew_bf_energy_v(m, kind, rough, ap, aq, a->coarse_d2)
+                     : ew_bf_energy_r(m, kind, rough, ap, aq, a->coarse_d2);
     }
     EW_PYR_UNROLL
     for (int k = 0; k < 9; k++) {
@@ -576,7 +613,8 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
             E[9 + k] = k == 4 ? 0.0f : vec ? ew_bf_energy_v(m, kind, rough, ap, aq, d2) : ew_bf_energy_r(m, kind, rough, ap, aq, d2);
     }
     EW_PYR_UNROLL
-    for (int k = 0; k < 18; k++) F[k] = k == 13 ? 1.0f : k > 8 && fr ? 0.0f : ew_fexp2(E[k]); /* the centre: 2^0 */
+    for (int k = 0; k < 18; k++)
+        F[k] = k == 13 ? 1.0f : (k > 8 && fr) || (k < 9 && cr) ? 0.0f : ew_fexp2(E[k]); /* the centre: 2^0 */
     if (fr) { /* by offset: see ew_pyr_fine_rows */
         const int i = x - fr->xo;
         F[9] = fr->pdr[i - 1];
@@ -589,7 +627,15 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
         F[17] = fr->dr[i];
     }
     EW_PYR_UNROLL
-    for (int k = 0; k < 9; k++) G[k] = g1 ? F[k] : ew_fexp2(gamma * E[k]);
+    for (int k = 0; k < 9; k++) G[k] = g1 ? F[k] : cr ? 0.0f : ew_fexp2(gamma * E[k]);
+    if (cr) {
+        EW_PYR_UNROLL
+        for (int k = 0; k < 9; k++) {
+            const int c = x + 2 * (k % 3 - 1) - cr->xo;
+            F[k] = cr->F[k / 3][c];
+            G[k] = g1 ? F[k] : cr->G[k / 3][c];
+        }
+    }
     float acc[EW_BF_CH + 1], cocn = 0.0f, cocw = 0.0f;
     EW_PYR_UNROLL
     for (int c = 0; c <= C; c++) acc[c] = 0.0f;
@@ -637,7 +683,7 @@ EW_HD void ew_pyr_up_px_k(int x, int y, const ew_pyr_up_args *a, const int kind)
     int x0, x1;
     if (ew_pyr_up_interior(y, a, &x0, &x1) && x >= x0 && x < x1 && ew_pyr_up_in_ok(a, kind)) {
         const int uniform = a->row != 0, g1 = uniform && a->row->gamma == 1.0f;
-        ew_pyr_up_in_k(x, y, a, kind, uniform, g1, a->dup_out != 0, 0);
+        ew_pyr_up_in_k(x, y, a, kind, uniform, g1, a->dup_out != 0, 0, 0);
     } else {
         ew_pyr_up_general_k(x, y, a, kind);
     }

@@ -28,6 +28,12 @@
 typedef struct ew_device ew_device;
 
 typedef struct ew_backend {
+    /* Flags, before the name: every member after it is an entry that must
+     * be set (ew_backend_first_missing).
+     * pyr_row_hooks 1: pyr_down calls a->fill and pyr_up a->drain row by row
+     * (kernels/pyramid.h); 0: they ignore them, and ew_pyr_run_planes calls
+     * them on every row before the first pass and after the last. */
+    int pyr_row_hooks;
     const char *name; /* every member after this is a function pointer (issue 8: ew_backend_first_missing) */
     void (*bgrid_splat)(ew_device *dev, const ew_bgrid_params *p, const float *image,
                         const float *guide, float *grid);

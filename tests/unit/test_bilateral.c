@@ -346,6 +346,63 @@ TEST(packing_in_row_bands_equals_one_thread) {
     free(mem);
 }
 
+/* Views of packed floats (3 or 4 a pixel, 1 for a depth) take branch-free
+ * loops: the same floats and counts as the general loops give for the same
+ * pixels in a padded view. */
+TEST(packed_views_pack_as_padded_views_do) {
+    const int w = 29, h = 11;
+    const size_t n = (size_t)w * h;
+    ew_device *dev = make_device(2);
+    for (int C = 1; C <= 4; C++) {
+        if (C == 2) continue;
+        const int ps = C + 2, rs = w * ps + 5;
+        float *packed = malloc(sizeof(float) * n * C), *padded = calloc((size_t)rs * h, sizeof(float));
+        unsigned seed = 31u + (unsigned)C;
+        for (size_t i = 0; i < n * C; i++) packed[i] = 3.0f * urand(&seed) - 1.0f;
+        packed[7 * C] = NAN;
+        packed[20 * C + C - 1] = -INFINITY;
+        packed[(n - 1) * C] = INFINITY;
+        for (size_t j = 0; j < n; j++)
+            for (int c = 0; c < C; c++) padded[(j / w) * rs + (j % w) * ps + c] = packed[j * C + c];
+        ew_image vp = ew_image_packed(packed, w, h, C), vq = {padded, w, h, C, (int64_t)ps * 4, (int64_t)rs * 4, EW_FORMAT_FLOAT};
+        float *a = calloc(n * 4, sizeof(float)), *b = calloc(n * 4, sizeof(float));
+        if (C >= 3) {
+            CHECK_EQ_INT(ew_bf_pack_image_planes(dev, &vp, C, a), ew_bf_pack_image_planes(dev, &vq, C, b));
+            CHECK(memcmp(a, b, n * 4 * sizeof(float)) == 0);
+        }
+        for (int stride = 1; stride <= 4; stride += 3) {
+            long ba = 0, bb = 0;
+            ew_bf_pack_channels_planes(dev, &vp, stride, a, &ba);
+            ew_bf_pack_channels_planes(dev, &vq, stride, b, &bb);
+            CHECK_EQ_INT(ba, bb);
+            CHECK(memcmp(a, b, n * (size_t)stride * sizeof(float)) == 0);
+        }
+        if (C >= 3) { /* unpack: alpha from another view, and onto the colour itself */
+            ew_bf_pack_image_planes(dev, &vp, C, a);
+            a[4 * n - 3] = 0.0f; /* a pixel with nothing in reach */
+            float *op = malloc(sizeof(float) * n * C), *oq = malloc(sizeof(float) * (size_t)rs * h);
+            ew_image vop = ew_image_packed(op, w, h, C), voq = vq;
+            voq.data = oq;
+            for (int self = 0; self < 2; self++) {
+                for (size_t i = 0; i < n * C; i++) op[i] = packed[i];
+                for (size_t i = 0; i < (size_t)rs * h; i++) oq[i] = padded[i];
+                const ew_image *alpha_p = self ? &vop : &vp, *alpha_q = self ? &voq : &vq;
+                CHECK_EQ_INT(ew_bf_unpack_image_planes(dev, a, C, &vop, alpha_p),
+                             ew_bf_unpack_image_planes(dev, a, C, &voq, alpha_q));
+                int same = 1;
+                for (size_t j = 0; j < n; j++)
+                    for (int c = 0; c < C; c++)
+                        same &= memcmp(&op[j * C + c], &oq[(j / w) * rs + (j % w) * ps + c], sizeof(float)) == 0;
+                CHECK(same);
+            }
+            free(op);
+            free(oq);
+        }
+        free(a); free(b); free(packed); free(padded);
+    }
+    ew_device_destroy(dev);
+}
+
 TEST(constant_image_stays_constant) {
     ew_device *dev = make_device(2);
     for (int t = 0; t < 2; t++) {

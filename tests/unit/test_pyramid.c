@@ -455,6 +455,59 @@ TEST(range_one_equals_convolution_model) {
     ew_device_destroy(dev);
 }
 
+/* Packing inside the first pass and unpacking inside the last (ew_pyr_io,
+ * the filter ops' way) gives bit for bit what packing, running and
+ * unpacking one after the other gives: odd heights (the last coarse row
+ * fills one fine row), colour's shared fine values (drained per row, and
+ * after the last column segment on rows wider than the segments), DoF's
+ * table, 1 and 3 threads. */
+TEST(packing_inside_the_passes_equals_packing_around_them) {
+    const int sizes[][2] = {{61, 37}, {4133, 7}};
+    for (int si = 0; si < 2; si++)
+        for (int kind = 0; kind < 2; kind++)
+            for (int threads = 1; threads <= 3; threads += 2) {
+                const int w = sizes[si][0], h = sizes[si][1], C = 3;
+                const long n = (long)w * h;
+                ew_bf_model m = model_of(kind ? EW_RANGE_DOF : EW_RANGE_COLOR, C, 3.0f);
+                const int uniform = !kind;
+                unsigned seed = 77u + (unsigned)(si * 4 + kind);
+                float *rgb = malloc(sizeof(float) * n * C), *attr = malloc(sizeof(float) * n * EW_BF_MAX_ATTR);
+                for (long i = 0; i < n * C; i++) rgb[i] = 2.0f * urand(&seed);
+                rgb[5] = NAN;
+                random_attrs(&m, n, attr, &seed);
+                ew_image v = ew_image_packed(rgb, w, h, C);
+                ew_device *dev = make_device(threads);
+                ew_pyr_table t;
+                random_table(&t, &seed);
+                const int levels = 3;
+                const size_t sc = ew_pyr_scratch_floats(&m, w, h, levels, uniform);
+                float *s1 = malloc(sizeof(float) * sc), *s2 = malloc(sizeof(float) * sc);
+                float *o1 = malloc(sizeof(float) * n * C), *o2 = malloc(sizeof(float) * n * C);
+                ew_pyr_plan p1, p2;
+                ew_pyr_plan_init(&p1, &m, w, h, levels, uniform, &t, 1.0f, s1);
+                ew_pyr_plan_init(&p2, &m, w, h, levels, uniform, &t, 1.0f, s2);
+                /* around: the attributes in planes, the colour packed, run, unpacked */
+                ew_pyr_to_planes(attr, m.attrs, (size_t)n, p1.attr[0]);
+                ew_pyr_to_planes(attr, m.attrs, (size_t)n, p2.attr[0]);
+                ew_bf_pack_image_planes(dev, &v, C, p1.down[0]);
+                CHECK(ew_pyr_run_planes(dev, &p1, NULL, NULL, NULL));
+                ew_image o1v = ew_image_packed(o1, w, h, C), o2v = ew_image_packed(o2, w, h, C);
+                ew_bf_unpack_image_planes(dev, p1.out, C, &o1v, &v);
+                /* inside */
+                ew_bf_io_set fill = {0}, drain = {0};
+                ew_bf_io_pack_image_planes(&fill, &v, C, p2.down[0]);
+                ew_bf_io_unpack_image_planes(&drain, p2.out, C, &o2v, &v);
+                const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+                CHECK(ew_pyr_run_planes(dev, &p2, &io, NULL, NULL));
+                if (memcmp(o1, o2, sizeof(float) * n * C) != 0) {
+                    fprintf(stderr, "  %dx%d kind %d threads %d: differs\n", w, h, m.kind, threads);
+                    CHECK(0);
+                }
+                ew_device_destroy(dev);
+                free(rgb); free(attr); free(s1); free(s2); free(o1); free(o2);
+            }
+}
+
 /* Eq. 2g: the domain weights of every row sum to 1, analytic or trained */
 TEST(domain_weights_sum_to_one) {
     for (float ls = -3.5f; ls < 7.0f; ls += 0.37f)

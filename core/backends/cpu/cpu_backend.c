@@ -122,6 +122,7 @@ const ew_backend ew_cpu_backend = {
     .bf_separable = ew_cpu_bf_separable,
     .pyr_down = ew_cpu_pyr_down,
     .pyr_up = ew_cpu_pyr_up,
+    .pyr_row_hooks = 1,
     .atrous_pass = ew_cpu_atrous_pass,
     .dof_attributes = ew_cpu_dof_attributes,
     /* neural bilateral grid (issue 3; core/algorithms/guidenet_cpu.c, nbg.c) */

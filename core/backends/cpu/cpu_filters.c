@@ -29,30 +29,19 @@
 #define EW_FLATTEN
 #endif
 
-/* Every row function below (exact, separable, pyramid, a-trous, DoF
- * attributes alike) is also compiled for AVX-512F and AVX2 and the CPU picks
- * one at load time (an ifunc), so the speed ratios compare algorithms on the
- * machine's vector width, not one filter's build against another's (and
- * SSE2 alone lacks the blends, gathers and integer ops the branch-free
- * kernels need). No FMA is requested and the C11 build contracts nothing
- * (-ffp-contract=off in ISO mode), so every variant computes the same IEEE
- * operations and results do not depend on the CPU. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && !defined(EW_NO_MULTIVERSION)
-#define EW_MULTIVERSION __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define EW_MULTIVERSION
-#endif
+#include "src/cpu_clones.h" /* EW_MULTIVERSION */
 #define EW_ROW_FN EW_MULTIVERSION EW_FLATTEN
 
 /* One row function per kind: NAME_<kind>(ctx, begin, end, tid) runs
- * BODY(kind) for rows [begin, end); NAME picks one by kind. */
+ * BODY(kind) for rows [begin, end) (tid: the worker's index); NAME picks
+ * one by kind. */
 #define EW_ROWS_PER_KIND(NAME, CTX_T, BODY)                                                                    \
-    static EW_FLATTEN void NAME##_k(const CTX_T *j, int64_t begin, int64_t end, const int kind) { BODY }        \
-    static EW_ROW_FN void NAME##_color(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_COLOR); } \
-    static EW_ROW_FN void NAME##_gi(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_GI); } \
-    static EW_ROW_FN void NAME##_depth(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DEPTH); } \
-    static EW_ROW_FN void NAME##_dof(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DOF); } \
-    static EW_ROW_FN void NAME##_none(void *c, int64_t b, int64_t e, int t) { (void)t; NAME##_k((const CTX_T *)c, b, e, EW_RANGE_NONE); } \
+    static EW_FLATTEN void NAME##_k(const CTX_T *j, int64_t begin, int64_t end, const int kind, int tid) { (void)tid; BODY } \
+    static EW_ROW_FN void NAME##_color(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_COLOR, t); } \
+    static EW_ROW_FN void NAME##_gi(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_GI, t); } \
+    static EW_ROW_FN void NAME##_depth(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DEPTH, t); } \
+    static EW_ROW_FN void NAME##_dof(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DOF, t); } \
+    static EW_ROW_FN void NAME##_none(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_NONE, t); } \
     static ew_range_fn NAME(int kind) {                                                                         \
         switch (kind) {                                                                                         \
         case EW_RANGE_COLOR: return NAME##_color;                                                               \
@@ -105,13 +94,14 @@ void ew_cpu_bf_separable(ew_device *dev, const ew_bf_model *m, int axis, const e
         for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, MAJOR, DUP2, ROUGH);               \
     } while (0)
 
-static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int64_t end, const int kind) {
+static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int64_t end, const int kind, int tid) {
     const ew_bf_model lm = *j->m;
     ew_pyr_down_args a = *j;
     a.m = &lm;
     const int xin = a.w / 2; /* coarse pixels with both children in x */
     const int major = a.major_attr != 0, dup2 = ew_pyr_down_dup2(&a), rough = lm.use_roughness != 0;
     for (int64_t y = begin; y < end; y++) {
+        if (a.fill) a.fill(a.fill_user, (int)(2 * y), (int)(2 * y + 2 < a.h ? 2 * y + 2 : a.h), tid);
         if (2 * y + 1 < a.h) {
             if (kind == EW_RANGE_GI) {
                 if (major && dup2 == 1 && !rough) EW_PYR_DOWN_SPAN(1, 1, 0);
@@ -133,17 +123,18 @@ static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int6
     }
 }
 
-EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args, down_rows_body(j, begin, end, kind);)
+EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args, down_rows_body(j, begin, end, kind, tid);)
 
 void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a) {
     ew_pool_run(dev->pool, a->ch, 0, down_rows(a->m->kind), (void *)a);
 }
 
-#define EW_PYR_UP_LOOP(XB, XE, UNIFORM, G1, DUP, FR)                                                          \
+#define EW_PYR_UP_LOOP_CR(XB, XE, UNIFORM, G1, DUP, FR, CR)                                                   \
     do {                                                                                                       \
         EW_IVDEP                                                                                               \
-        for (int x = XB; x < XE; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP, FR);               \
+        for (int x = XB; x < XE; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP, FR, CR);           \
     } while (0)
+#define EW_PYR_UP_LOOP(XB, XE, UNIFORM, G1, DUP, FR) EW_PYR_UP_LOOP_CR(XB, XE, UNIFORM, G1, DUP, FR, 0)
 #define EW_PYR_UP_SPAN(UNIFORM, G1, DUP) EW_PYR_UP_LOOP(x0, x1, UNIFORM, G1, DUP, 0)
 
 /* Symmetric range functions (ew_pyr_symmetric) with uniform weights: the
@@ -173,11 +164,14 @@ static inline void fine_fwd_row(const ew_pyr_up_args *ap, int y, int xb, int xe,
 }
 
 static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t end, const int kind, const int g1,
-                                const int dup) {
+                                const int dup, int tid) {
     const ew_pyr_up_args a = *ap;
     float buf[2][4][EW_PYR_SEG + 2];
     int x0, x1;
     ew_pyr_up_interior((int)begin, &a, &x0, &x1); /* the columns are the same in every row */
+    /* a row is done after its last segment: with one segment, drain it then
+     * (the rows without an interior were drained by the caller) */
+    const int one = x1 - x0 <= EW_PYR_SEG;
     for (int xb = x0; xb < x1; xb += EW_PYR_SEG) {
         const int xe = xb + EW_PYR_SEG < x1 ? xb + EW_PYR_SEG : x1;
         int have = 0, cur = 0, c0, c1;
@@ -196,8 +190,14 @@ static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t
             else if (dup) EW_PYR_UP_LOOP(xb, xe, 1, 0, 1, &fr);
             else EW_PYR_UP_LOOP(xb, xe, 1, 0, 0, &fr);
             cur ^= 1;
+            if (a.drain && one) a.drain(a.drain_user, (int)y, (int)y + 1, tid);
         }
     }
+    if (a.drain && !one)
+        for (int64_t y = begin; y < end; y++) {
+            int c0, c1;
+            if (ew_pyr_up_interior((int)y, &a, &c0, &c1)) a.drain(a.drain_user, (int)y, (int)y + 1, tid);
+        }
 }
 
 /* DOF's per-pixel sigma (the table): where a run of at least EW_PYR_RUN
@@ -209,6 +209,36 @@ static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t
  * is flat: a depth beyond the CoC cap, the sky, a dilated near-field tile, a
  * uniform blur; elsewhere the table as before. */
 #define EW_PYR_RUN 16
+
+/* A run of equal D also shares its coarse samples' range values: they
+ * depend on the centre only through D (min(D_p, C_q)), so each is computed
+ * once for the run (ew_pyr_coarse_rows) instead of by each of the pixels
+ * that read it (twelve of them at level 0), with its f^gamma: 18 of a
+ * pixel's 26 exponentials. In chunks of EW_PYR_CR columns (the buffers are
+ * on the stack). */
+#define EW_PYR_CR 2048
+
+static inline void up_run_shared(const ew_pyr_up_args *ap, int64_t y, int xs, int xe, const int kind, const int dup) {
+    const ew_pyr_up_args a = *ap;
+    float fb[3][EW_PYR_CR + 4], gb[3][EW_PYR_CR + 4];
+    const long n = (long)a.w * a.h, j = (long)y * a.w + xs, cw2 = 2L * a.cw;
+    float at[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    for (int k = 0; k < ew_bf_attrs(kind); k++) at[k] = a.attr[k * n + j];
+    const float gamma = a.row->gamma;
+    const int cy = (int)(y >> 1);
+    for (int cb = xs; cb < xe; cb += EW_PYR_CR) {
+        const int ce = cb + EW_PYR_CR < xe ? cb + EW_PYR_CR : xe, xo = cb - 2;
+        for (int r = 0; r < 3; r++) {
+            const long base = (long)(cy + r - 1) * cw2;
+            float *fr = fb[r], *gr = gb[r];
+            EW_IVDEP
+            for (int c = cb - 2; c < ce + 2; c++) ew_pyr_coarse_fg_k(base + c, at, &a, kind, gamma, &fr[c - xo], &gr[c - xo]);
+        }
+        const ew_pyr_coarse_rows cr = {{fb[0], fb[1], fb[2]}, {gb[0], gb[1], gb[2]}, xo};
+        if (dup) EW_PYR_UP_LOOP_CR(cb, ce, 1, 0, 1, 0, &cr);
+        else EW_PYR_UP_LOOP_CR(cb, ce, 1, 0, 0, 0, &cr);
+    }
+}
 
 static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int x1, const int kind, const int dup) {
     ew_pyr_up_args a = *ap;
@@ -231,8 +261,7 @@ static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int
             ew_pyr_lookup(a.lut, ls, py, rr.wf, rr.wdc[py], &rr.gamma);
             ew_pyr_lookup(a.lut, ls, py + 1, rr.wf, rr.wdc[py + 1], &rr.gamma);
             a.row = &rr;
-            if (dup) EW_PYR_UP_LOOP(xs, e, 1, 0, 1, 0);
-            else EW_PYR_UP_LOOP(xs, e, 1, 0, 0, 0);
+            up_run_shared(&a, y, xs, e, kind, dup);
             pend = e;
         }
         xs = e;
@@ -242,7 +271,7 @@ static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int
     else EW_PYR_UP_LOOP(pend, x1, 0, 0, 0, 0);
 }
 
-static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind) {
+static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind, int tid) {
     const ew_bf_model lm = *j->m;
     ew_pyr_wrow lr;
     ew_pyr_up_args a = *j;
@@ -257,6 +286,7 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
         int x0, x1;
         if (!fast || !ew_pyr_up_interior((int)y, &a, &x0, &x1)) {
             for (int x = 0; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
+            if (a.drain) a.drain(a.drain_user, (int)y, (int)y + 1, tid);
             continue;
         }
         for (int x = 0; x < x0; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
@@ -271,11 +301,12 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
         else /* GI's table: scalar either way, and the general path is as fast */
             for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
         for (int x = x1; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
+        if (a.drain && !sym) a.drain(a.drain_user, (int)y, (int)y + 1, tid);
     }
-    if (sym) up_spans_sym(&a, begin, end, kind, g1, dup);
+    if (sym) up_spans_sym(&a, begin, end, kind, g1, dup, tid);
 }
 
-EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind);)
+EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind, tid);)
 
 void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     ew_pool_run(dev->pool, a->h, 0, up_rows(a->m->kind), (void *)a);
@@ -315,7 +346,10 @@ static EW_ROW_FN void dof_rows(void *ctx, int64_t begin, int64_t end, int tid) {
             for (int x = 0; x < a->tw; x++) ew_dof_scatter_px(x, (int)y, j->step - 2, a);
             break;
         default:
-            for (int x = 0; x < W; x++) ew_dof_attr_px(x, (int)y, a);
+            if (a->planes)
+                for (int x = 0; x < W; x++) ew_dof_attr_px_k(x, (int)y, a, 1);
+            else
+                for (int x = 0; x < W; x++) ew_dof_attr_px_k(x, (int)y, a, 0);
             break;
         }
     }
