@@ -5,7 +5,6 @@
 #include "algorithms/bilateral.h"
 
 #include <math.h>
-#include <stdint.h>
 #include <string.h>
 
 #include "src/backend.h"
@@ -28,16 +27,7 @@ static const float *row_of(const ew_image *img, int y) {
  * per-channel loops and strides known only at run time, stay scalar and
  * were most of the time the filters spend outside their passes. Same
  * values, same counts. */
-static int is_finite_bits(float v) {
-    uint32_t b;
-    memcpy(&b, &v, sizeof b);
-    return (b & 0x7f800000u) != 0x7f800000u;
-}
-
-static int packed_floats(const ew_image *img, int floats) {
-    return ew__pixel_stride(img) == (int64_t)sizeof(float) * floats &&
-           ew__row_stride(img) == (int64_t)sizeof(float) * floats * img->width;
-}
+static int is_finite_bits(float v) { return (ew_float_to_bits(v) & 0x7f800000) != 0x7f800000; }
 
 /* C = 3 or 4 floats a pixel into the 4 planes (r, g, b, mask) */
 static EW_MULTIVERSION long pack_image_fast(const float *EW_RESTRICT src, const int C, float *EW_RESTRICT dst, size_t ks,
@@ -58,7 +48,7 @@ static EW_MULTIVERSION long pack_image_fast(const float *EW_RESTRICT src, const 
 }
 
 static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t js, int y0, int y1) {
-    if (js == 1 && (C == 3 || C == 4) && packed_floats(img, C)) {
+    if (js == 1 && (C == 3 || C == 4) && ew__image_packed_as(img, C)) {
         const size_t w = (size_t)img->width;
         const float *src = (const float *)img->data + (size_t)y0 * w * (size_t)C;
         const long count = (long)((size_t)(y1 - y0) * w);
@@ -105,8 +95,8 @@ static EW_MULTIVERSION long unpack_image_fast(const float *EW_RESTRICT src, size
 
 static long unpack_image(const float *src, size_t ks, size_t js, int C, const ew_image *img,
                          const ew_image *alpha_from, int y0, int y1) {
-    if (js == 1 && (C == 3 || C == 4) && packed_floats(img, C) &&
-        (C == 3 || !alpha_from || packed_floats(alpha_from, 4))) {
+    if (js == 1 && (C == 3 || C == 4) && ew__image_packed_as(img, C) &&
+        (C == 3 || !alpha_from || ew__image_packed_as(alpha_from, 4))) {
         const size_t w = (size_t)img->width, j0 = (size_t)y0 * w;
         float *out = (float *)img->data + j0 * (size_t)C;
         const long count = (long)((size_t)(y1 - y0) * w);
@@ -162,7 +152,7 @@ static EW_MULTIVERSION long pack_channels_fast(const float *EW_RESTRICT src, con
 static long pack_channels(const ew_image *view, int stride, float *attr, size_t ks, size_t js, int y0, int y1) {
     const int n = view->channels < stride ? view->channels : stride;
     if (js == 1 && n == view->channels && (n == 1 || n == 3 || n == 4) && (stride == 1 || stride == 4) &&
-        packed_floats(view, n)) {
+        ew__image_packed_as(view, n)) {
         const size_t w = (size_t)view->width, j0 = (size_t)y0 * w;
         const float *src = (const float *)view->data + j0 * (size_t)n;
         const long count = (long)((size_t)(y1 - y0) * w);
@@ -311,35 +301,44 @@ void ew_bf_pack_gi_planes(ew_device *dev, const ew_image *normal, const ew_image
 }
 
 /* ---- the same jobs on rows given by another pass ---- */
-static void add_job(ew_bf_io_set *s, ew_bf_io_job j, const ew_image *any, size_t per_pixel) {
+static void add_job(ew_bf_io_set *s, ew_bf_io_job j, const ew_image *any, size_t per_pixel, int planes) {
     if (s->n >= EW_BF_IO_JOBS || !any) return; /* callers add at most EW_BF_IO_JOBS */
-    set_layout(&j, any, per_pixel, 1);
+    set_layout(&j, any, per_pixel, planes);
     s->job[s->n++] = j;
 }
 
-void ew_bf_io_pack_image_planes(ew_bf_io_set *s, const ew_image *img, int C, float *dst) {
-    add_job(s, (ew_bf_io_job){.what = IO_IMAGE, .C = C, .v = img, .dst = dst}, img, EW_BF_CH);
+void ew_bf_io_pack_image(ew_bf_io_set *s, const ew_image *img, int C, float *dst, int planes) {
+    add_job(s, (ew_bf_io_job){.what = IO_IMAGE, .C = C, .v = img, .dst = dst}, img, EW_BF_CH, planes);
 }
 
-void ew_bf_io_pack_channels_planes(ew_bf_io_set *s, const ew_image *view, int stride, float *attr) {
-    add_job(s, (ew_bf_io_job){.what = IO_CHANNELS, .C = stride, .v = view, .dst = attr}, view, (size_t)stride);
+void ew_bf_io_pack_channels(ew_bf_io_set *s, const ew_image *view, int stride, float *attr, int planes) {
+    add_job(s, (ew_bf_io_job){.what = IO_CHANNELS, .C = stride, .v = view, .dst = attr}, view, (size_t)stride,
+            planes);
 }
 
-void ew_bf_io_pack_gi_planes(ew_bf_io_set *s, const ew_image *normal, const ew_image *depth,
-                             const ew_image *roughness, float *attr) {
+void ew_bf_io_pack_gi(ew_bf_io_set *s, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                      float *attr, int planes) {
     add_job(s, (ew_bf_io_job){.what = IO_GI, .v = normal, .v2 = depth, .v3 = roughness, .dst = attr},
-            normal ? normal : depth ? depth : roughness, 5);
+            normal ? normal : depth ? depth : roughness, 5, planes);
 }
 
-void ew_bf_io_unpack_image_planes(ew_bf_io_set *s, const float *src, int C, const ew_image *img,
-                                  const ew_image *alpha_from) {
-    add_job(s, (ew_bf_io_job){.what = IO_UNPACK, .C = C, .v = img, .v2 = alpha_from, .src = src}, img, EW_BF_CH);
+void ew_bf_io_unpack_image(ew_bf_io_set *s, const float *src, int C, const ew_image *img,
+                           const ew_image *alpha_from, int planes) {
+    add_job(s, (ew_bf_io_job){.what = IO_UNPACK, .C = C, .v = img, .v2 = alpha_from, .src = src}, img, EW_BF_CH,
+            planes);
 }
 
 void ew_bf_io_rows(void *set, int y0, int y1, int tid) {
     (void)tid;
     const ew_bf_io_set *s = (const ew_bf_io_set *)set;
     for (int k = 0; k < s->n; k++) (void)job_rows(&s->job[k], y0, y1);
+}
+
+static void set_rows(void *set, int64_t begin, int64_t end, int tid) { ew_bf_io_rows(set, (int)begin, (int)end, tid); }
+
+void ew_bf_io_run(ew_device *dev, ew_bf_io_set *s, const ew_image *any) {
+    if (dev && dev->pool) ew_pool_run(dev->pool, any->height, 16, set_rows, s);
+    else set_rows(s, 0, any->height, 0);
 }
 
 void ew_bilateral_brute_rows(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b) {

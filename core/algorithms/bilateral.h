@@ -44,12 +44,14 @@ void ew_bf_pack_channels_planes(ew_device *dev, const ew_image *view, int stride
 void ew_bf_pack_gi_planes(ew_device *dev, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
                           float *attr, long *bad);
 
-/* The same packers as jobs run on given rows by another pass (the
- * pyramid's first downsampling packs the two rows it is about to read, its
- * last upsampling unpacks each row it has written: ew_pyr_io), so the
- * planes go through the cache once instead of through memory twice. A set
- * holds up to EW_BF_IO_JOBS jobs, all over views of one size; the counts of
- * missing and non-finite values are not kept (no filter op reports them). */
+/* The same packers as jobs, gathered in a set and run later: on given rows
+ * by another pass (the pyramid's first downsampling packs the two rows it
+ * is about to read, its last upsampling unpacks each row it has written:
+ * ew_pyr_io), so the planes go through the cache once instead of through
+ * memory twice, or on every row at once (ew_bf_io_run). planes: the
+ * pyramid's layout, else interleaved pixels. A set holds up to
+ * EW_BF_IO_JOBS jobs, all over views of one size; the counts of missing and
+ * non-finite values are not kept (no filter op reports them). */
 #define EW_BF_IO_JOBS 3
 typedef struct ew_bf_io_job {
     int what, C;                 /* kind of job (bilateral.c); channels or floats a pixel */
@@ -62,14 +64,16 @@ typedef struct ew_bf_io_set {
     int n;
     ew_bf_io_job job[EW_BF_IO_JOBS];
 } ew_bf_io_set;
-void ew_bf_io_pack_image_planes(ew_bf_io_set *s, const ew_image *img, int C, float *dst);
-void ew_bf_io_pack_channels_planes(ew_bf_io_set *s, const ew_image *view, int stride, float *attr);
-void ew_bf_io_pack_gi_planes(ew_bf_io_set *s, const ew_image *normal, const ew_image *depth,
-                             const ew_image *roughness, float *attr);
-void ew_bf_io_unpack_image_planes(ew_bf_io_set *s, const float *src, int C, const ew_image *img,
-                                  const ew_image *alpha_from);
+void ew_bf_io_pack_image(ew_bf_io_set *s, const ew_image *img, int C, float *dst, int planes);
+void ew_bf_io_pack_channels(ew_bf_io_set *s, const ew_image *view, int stride, float *attr, int planes);
+void ew_bf_io_pack_gi(ew_bf_io_set *s, const ew_image *normal, const ew_image *depth, const ew_image *roughness,
+                      float *attr, int planes);
+void ew_bf_io_unpack_image(ew_bf_io_set *s, const float *src, int C, const ew_image *img,
+                           const ew_image *alpha_from, int planes);
 /* Run every job of the set (an ew_bf_io_set *) on rows [y0, y1). */
 void ew_bf_io_rows(void *set, int y0, int y1, int tid);
+/* Run every job on all rows of `any` (the views' size), on dev's threads. */
+void ew_bf_io_run(ew_device *dev, ew_bf_io_set *s, const ew_image *any);
 
 /* Brute force, rows [y0, y1) of b (b->out must not alias b->image). */
 void ew_bilateral_brute_rows(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b);

@@ -158,45 +158,34 @@ ew_result ew_bf_op_execute(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_bf_model *m = &s->model;
     const ew_image *color = ew_op_image(op, "color");
-    if (s->method == EW_BF_PYRAMID) { /* packs and unpacks inside its first and last pass */
-        ew_bf_io_set fill = {0}, drain = {0};
-        float *attr = s->plan.attr[0];
-        ew_bf_io_pack_image_planes(&fill, color, m->channels, s->plan.down[0]);
-        switch (m->kind) {
-        case EW_RANGE_COLOR:
-            ew_bf_io_pack_channels_planes(&fill, s->guide_is_color ? color : ew_op_image(op, "guide"), 4, attr);
-            break;
-        case EW_RANGE_GI:
-            ew_bf_io_pack_gi_planes(&fill, ew_op_image(op, "normal"), ew_op_image(op, "depth"),
-                                    ew_op_image(op, "roughness"), attr);
-            break;
-        case EW_RANGE_DEPTH:
-            ew_bf_io_pack_channels_planes(&fill, s->depth_from_color ? color : ew_op_image(op, "depth"), 1, attr);
-            break;
-        default: break;
-        }
-        ew_bf_io_unpack_image_planes(&drain, s->plan.out, m->channels, ew_op_image(op, "output"), color);
-        const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
-        if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-        return EW_OK;
-    }
-    float *image = s->image, *attr = s->attr;
-    ew_bf_pack_image(dev, color, m->channels, image);
-    long bad = 0;
+    /* the pyramid's planes, packed inside its first pass; interleaved
+     * buffers, packed now, for the others */
+    const int planes = s->method == EW_BF_PYRAMID;
+    float *image = planes ? s->plan.down[0] : s->image, *attr = planes ? s->plan.attr[0] : s->attr;
+    ew_bf_io_set fill = {0};
+    ew_bf_io_pack_image(&fill, color, m->channels, image, planes);
     switch (m->kind) {
     case EW_RANGE_COLOR:
-        ew_bf_pack_channels(dev, s->guide_is_color ? color : ew_op_image(op, "guide"), 4, attr, &bad);
+        ew_bf_io_pack_channels(&fill, s->guide_is_color ? color : ew_op_image(op, "guide"), 4, attr, planes);
         break;
     case EW_RANGE_GI:
-        ew_bf_pack_gi(dev, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"), attr,
-                      &bad);
+        ew_bf_io_pack_gi(&fill, ew_op_image(op, "normal"), ew_op_image(op, "depth"), ew_op_image(op, "roughness"),
+                         attr, planes);
         break;
     case EW_RANGE_DEPTH:
-        ew_bf_pack_channels(dev, s->depth_from_color ? color : ew_op_image(op, "depth"), 1, attr, &bad);
+        ew_bf_io_pack_channels(&fill, s->depth_from_color ? color : ew_op_image(op, "depth"), 1, attr, planes);
         break;
     default:
         break;
     }
+    if (planes) { /* unpacks inside its last pass too */
+        ew_bf_io_set drain = {0};
+        ew_bf_io_unpack_image(&drain, s->plan.out, m->channels, ew_op_image(op, "output"), color, 1);
+        const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+        if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        return EW_OK;
+    }
+    ew_bf_io_run(dev, &fill, color);
     switch (s->method) {
     case EW_BF_BRUTE: {
         /* bands of rows, so a long run reports progress and can stop */

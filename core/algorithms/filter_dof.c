@@ -141,16 +141,15 @@ static ew_result execute(ew_op *op) {
      * packer makes of it, means infinitely far alike (ew_dof_coc). */
     const ew_image *dv = ew_op_image(op, "depth");
     const float *depth = s->depth;
-    if (ew__pixel_stride(dv) == (int64_t)sizeof(float) && ew__row_stride(dv) == (int64_t)sizeof(float) * s->w)
-        depth = (const float *)dv->data;
+    if (ew__image_packed_as(dv, 1)) depth = (const float *)dv->data;
     else ew_bf_pack_channels(dev, dv, 1, s->depth, NULL);
     /* the pyramid's (D, C) straight into its planes */
     ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, planes ? s->plan.attr[0] : s->attr, planes);
     switch (s->method) {
     case 0: {
         ew_bf_io_set fill = {0}, drain = {0};
-        ew_bf_io_pack_image_planes(&fill, color, s->C, s->plan.down[0]);
-        ew_bf_io_unpack_image_planes(&drain, s->plan.out, s->C, output, color);
+        ew_bf_io_pack_image(&fill, color, s->C, s->plan.down[0], 1);
+        ew_bf_io_unpack_image(&drain, s->plan.out, s->C, output, color, 1);
         const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
         if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;

@@ -20,6 +20,11 @@ int64_t ew__row_stride(const ew_image *img) {
     return img->row_stride ? img->row_stride : ew__pixel_stride(img) * img->width;
 }
 
+int ew__image_packed_as(const ew_image *img, int floats) {
+    return ew__pixel_stride(img) == (int64_t)sizeof(float) * floats &&
+           ew__row_stride(img) == (int64_t)sizeof(float) * floats * img->width;
+}
+
 int ew__image_valid(const ew_image *img, const char **why) {
     const char *w = NULL;
     if (!img) w = "no image view";

@@ -35,6 +35,9 @@ int ew__image_valid(const ew_image *img, const char **why);
 /* Byte strides with packed defaults filled in. */
 int64_t ew__pixel_stride(const ew_image *img);
 int64_t ew__row_stride(const ew_image *img);
+/* Whether the view is packed floats, `floats` a pixel, rows back to back
+ * (what the fast packers and in-place reads need). */
+int ew__image_packed_as(const ew_image *img, int floats);
 
 static inline float *ew__pixel(const ew_image *img, int x, int y) {
     return (float *)((char *)img->data + (int64_t)y * ew__row_stride(img) +

@@ -495,8 +495,8 @@ TEST(packing_inside_the_passes_equals_packing_around_them) {
                 ew_bf_unpack_image_planes(dev, p1.out, C, &o1v, &v);
                 /* inside */
                 ew_bf_io_set fill = {0}, drain = {0};
-                ew_bf_io_pack_image_planes(&fill, &v, C, p2.down[0]);
-                ew_bf_io_unpack_image_planes(&drain, p2.out, C, &o2v, &v);
+                ew_bf_io_pack_image(&fill, &v, C, p2.down[0], 1);
+                ew_bf_io_unpack_image(&drain, p2.out, C, &o2v, &v, 1);
                 const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
                 CHECK(ew_pyr_run_planes(dev, &p2, &io, NULL, NULL));
                 if (memcmp(o1, o2, sizeof(float) * n * C) != 0) {

@@ -218,12 +218,13 @@ static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t
  * on the stack). */
 #define EW_PYR_CR 2048
 
-static inline void up_run_shared(const ew_pyr_up_args *ap, int64_t y, int xs, int xe, const int kind, const int dup) {
+/* at: the run's centre attributes (all its pixels share them where the
+ * range function looks) */
+static inline void up_run_shared(const ew_pyr_up_args *ap, int64_t y, int xs, int xe, const float *at, const int kind,
+                                 const int dup) {
     const ew_pyr_up_args a = *ap;
     float fb[3][EW_PYR_CR + 4], gb[3][EW_PYR_CR + 4];
-    const long n = (long)a.w * a.h, j = (long)y * a.w + xs, cw2 = 2L * a.cw;
-    float at[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-    for (int k = 0; k < ew_bf_attrs(kind); k++) at[k] = a.attr[k * n + j];
+    const long cw2 = 2L * a.cw;
     const float gamma = a.row->gamma;
     const int cy = (int)(y >> 1);
     for (int cb = xs; cb < xe; cb += EW_PYR_CR) {
@@ -261,7 +262,7 @@ static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int
             ew_pyr_lookup(a.lut, ls, py, rr.wf, rr.wdc[py], &rr.gamma);
             ew_pyr_lookup(a.lut, ls, py + 1, rr.wf, rr.wdc[py + 1], &rr.gamma);
             a.row = &rr;
-            up_run_shared(&a, y, xs, e, kind, dup);
+            up_run_shared(&a, y, xs, e, at, kind, dup);
             pend = e;
         }
         xs = e;
