@@ -1,11 +1,14 @@
 /*
  * edgewise graph — run or check a node graph file (docs/graphs.md).
  */
+#include <errno.h>
 #include <jansson.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "edgewise/nodes.h"
@@ -26,6 +29,12 @@ static const char help[] =
     "  --report FILE           write the run's report (JSON: files written, metrics)\n"
     "  -q, --quiet             print errors only\n"
     "  -h, --help              this text\n"
+    "\n"
+    "On Dask (python3 -m edgewise.distributed; docs/distributed.md): chunks of frames\n"
+    "as tasks, resumable, outputs renamed into place when complete:\n"
+    "  --scheduler ADDRESS     a Dask scheduler, e.g. tcp://head:8786\n"
+    "  --workers N             a local Dask cluster of N worker processes\n"
+    "  --chunk N, --warmup N   frames per task; frames run first for temporal filters\n"
     "\n"
     "Node types and their parameters: edgewise nodes\n";
 
@@ -155,7 +164,61 @@ static int write_report(const char *path, const char *text) {
     return 0;
 }
 
+/* `graph run` with --scheduler or --workers goes to Dask: the Python package
+ * (edgewise.distributed) takes the same arguments and runs the graph there,
+ * so frames are parsed and run in one place for both. */
+static int wants_dask(int argc, char **argv) {
+    if (argc < 2 || strcmp(argv[1], "run") != 0) return 0;
+    for (int i = 2; i < argc; i++) {
+        if (!strcmp(argv[i], "--set") || !strcmp(argv[i], "--frames") || !strcmp(argv[i], "--report")) i++;
+        else if (!strcmp(argv[i], "--scheduler") || !strcmp(argv[i], "--workers") ||
+                 !strncmp(argv[i], "--scheduler=", 12) || !strncmp(argv[i], "--workers=", 10))
+            return 1;
+    }
+    return 0;
+}
+
+static int run_on_dask(int argc, char **argv) {
+    const char *py = getenv("EDGEWISE_PYTHON");
+    if (!py || !py[0]) py = EW_CLI_PYTHON3;
+    /* the libraries this program runs with: $ORIGIN/../lib, as its RUNPATH */
+    char self[PATH_MAX], dir[PATH_MAX + 32];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n > 0 && !getenv("EDGEWISE_LIB")) {
+        self[n] = '\0';
+        char *slash = strrchr(self, '/');
+        if (slash) *slash = '\0';
+        snprintf(dir, sizeof dir, "%s/../lib/libedgewise_nodes.so", self);
+        if (access(dir, R_OK) == 0) {
+            dir[strlen(dir) - strlen("/libedgewise_nodes.so")] = '\0';
+            setenv("EDGEWISE_LIB", dir, 1);
+        }
+    }
+    /* the package of the source tree this program was built from, when it is there */
+    if (access(EW_CLI_PYTHON_DIR "/edgewise/distributed.py", R_OK) == 0) {
+        const char *old = getenv("PYTHONPATH");
+        char *pp = (char *)malloc(strlen(EW_CLI_PYTHON_DIR) + (old ? strlen(old) : 0) + 2);
+        if (!pp) return cli_fail("out of memory");
+        sprintf(pp, "%s%s%s", EW_CLI_PYTHON_DIR, old && old[0] ? ":" : "", old && old[0] ? old : "");
+        setenv("PYTHONPATH", pp, 1);
+        free(pp);
+    }
+    char **args = (char **)calloc((size_t)argc + 4, sizeof *args);
+    if (!args) return cli_fail("out of memory");
+    args[0] = (char *)py;
+    args[1] = (char *)"-m";
+    args[2] = (char *)"edgewise.distributed";
+    for (int i = 1; i < argc; i++) args[i + 2] = argv[i];
+    fflush(stdout);
+    execvp(py, args);
+    const int e = errno;
+    free(args);
+    return cli_fail("cannot run %s for --scheduler/--workers: %s (it needs Python 3 with numpy and Dask: Debian "
+                    "python3-distributed; $EDGEWISE_PYTHON picks the interpreter)", py, strerror(e));
+}
+
 int cmd_graph(int argc, char **argv) {
+    if (wants_dask(argc, argv)) return run_on_dask(argc, argv);
     options o;
     if (!parse(argc, argv, &o)) return EW_EXIT_USAGE;
     ew_device *dev = cli_device(o.threads);

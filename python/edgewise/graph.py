@@ -143,6 +143,9 @@ class Graph(object):
         self._nodes = {}
         self._arrays = {}  # keeps caller arrays alive while the graph views them
         self._counter = 0
+        # what built this graph, replayable in another process (spec())
+        self._source = None
+        self._ops = []
 
     # ---- life cycle ----
     def close(self):
@@ -175,6 +178,8 @@ class Graph(object):
         """A graph from a graph file (relative paths in it are relative to the file)."""
         g = cls(device)
         g._check(g._nodes_lib.ew_graph_load_file(g._handle, _e(os.fspath(path))))
+        with open(os.fspath(path), encoding="utf-8") as f:
+            g._source = {"text": f.read(), "base_dir": os.path.dirname(os.path.abspath(os.fspath(path)))}
         return g
 
     @classmethod
@@ -182,6 +187,7 @@ class Graph(object):
         """A graph from graph-file text; relative paths are relative to base_dir (default: cwd)."""
         g = cls(device)
         g._check(g._nodes_lib.ew_graph_load_string(g._handle, _e(text), _e(base_dir)))
+        g._source = {"text": text, "base_dir": os.path.abspath(base_dir if base_dir is not None else os.getcwd())}
         return g
 
     def node(self, node_id):
@@ -208,6 +214,7 @@ class Graph(object):
                 self._counter += 1
                 id = "%s%d" % (type_name, self._counter)
         self._check(self._nodes_lib.ew_graph_add_node(self._handle, _e(id), _e(type_name)))
+        self._ops.append(["add", id, type_name])
         node = Node(self, id, type_name)
         self._nodes[id] = node
         for k, v in kwargs.items():
@@ -227,6 +234,7 @@ class Graph(object):
             src_node, src_port = src.node.id, src.name
         self._check(self._nodes_lib.ew_graph_connect(self._handle, _e(src_node), _e(src_port), _e(dst.node.id),
                                                      _e(dst.name)))
+        self._ops.append(["connect", src_node, src_port, dst.node.id, dst.name])
 
     def add_input(self, array, id=None):
         """An "input" node viewing `array` (not copied when float32 with
@@ -239,6 +247,7 @@ class Graph(object):
         view, kept = image_view(array)
         self._arrays[node_id] = kept
         self._check(self._nodes_lib.ew_graph_set_input(self._handle, _e(node_id), ctypes.byref(view)))
+        self._ops.append(["array", node_id])
 
     def set_param(self, node_id, name, value):
         lib, h, n, p = self._nodes_lib, self._handle, _e(node_id), _e(name)
@@ -260,13 +269,56 @@ class Graph(object):
         else:
             raise TypeError("node %r parameter %r: cannot pass a %s" % (node_id, name, type(value).__name__))
         self._check(r)
+        self._ops.append(["param", node_id, name, _plain(name, value)])
 
     def set(self, assignment):
         """Set a parameter from text, "node.param=value" (as --set does)."""
         self._check(self._nodes_lib.ew_graph_set_assignment(self._handle, _e(assignment)))
+        node_param, _, value = assignment.partition("=")
+        self._ops.append(["set", node_param + "=" + _plain(node_param.rpartition(".")[2], value)])
 
     def set_frames(self, first, last=None):
-        self._check(self._nodes_lib.ew_graph_set_frames(self._handle, int(first), int(first if last is None else last)))
+        last = first if last is None else last
+        self._check(self._nodes_lib.ew_graph_set_frames(self._handle, int(first), int(last)))
+        self._ops.append(["frames", int(first), int(last)])
+
+    # ---- shipping to other processes ----
+    def spec(self):
+        """What built this graph as plain data (JSON-able): the graph file's
+        text and directory, then every add, connect, parameter and frame
+        range since, with relative paths made absolute. Graph.from_spec()
+        rebuilds the same graph in another process or on another machine
+        (edgewise.distributed ships graphs this way). A graph viewing numpy
+        arrays ("input" nodes) cannot be shipped: ValueError."""
+        for op in self._ops:
+            if op[0] == "array":
+                raise ValueError("node %r views a numpy array: only a graph that reads its images from files can "
+                                 "run in another process" % op[1])
+        return {"edgewise_graph_spec": 1, "source": dict(self._source) if self._source else None,
+                "ops": [list(op) for op in self._ops]}
+
+    @classmethod
+    def from_spec(cls, spec, device=None):
+        """The graph spec() described."""
+        src = spec.get("source")
+        g = cls.loads(src["text"], src["base_dir"], device) if src else cls(device)
+        for op in spec.get("ops", ()):
+            kind = op[0]
+            if kind == "add":
+                g._check(g._nodes_lib.ew_graph_add_node(g._handle, _e(op[1]), _e(op[2])))
+                g._nodes[op[1]] = Node(g, op[1], op[2])
+                g._ops.append(list(op))
+            elif kind == "connect":
+                g.connect(Port(g.node(op[1]), op[2]) if op[2] is not None else g.node(op[1]), Port(g.node(op[3]), op[4]))
+            elif kind == "param":
+                g.set_param(op[1], op[2], op[3])
+            elif kind == "set":
+                g.set(op[1])
+            elif kind == "frames":
+                g.set_frames(op[1], op[2])
+            else:
+                raise ValueError("unknown graph spec operation %r" % (kind,))
+        return g
 
     # ---- running ----
     def validate(self):
@@ -315,6 +367,23 @@ class Graph(object):
         buf._edgewise_graph = self  # the memory belongs to the graph
         a = np.frombuffer(buf, dtype=np.float32).reshape(view.height, view.width, view.channels)
         return a.copy() if copy else a
+
+
+def _plain(name, value):
+    """A parameter value as plain data for spec(); a relative "path" is made
+    absolute here, as the library reads it relative to this process's
+    current directory."""
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    if isinstance(value, str):
+        return os.path.abspath(value) if name == "path" and value else value
+    return [float(x) for x in value]
 
 
 def run_node(type_name, outputs=None, device=None, progress=None, **kwargs):
