@@ -516,7 +516,9 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
     own_cluster = own_client = None
     import distributed  # noqa: the optional dependency, only now
     try:
-        if client is None:
+        if client is None and len(done) == len(all_frames):
+            pass  # nothing to do: no cluster to start
+        elif client is None:
             nw = int(workers) if workers else _default_workers()
             if threads is None:
                 threads = max(1, _default_workers() // nw)
@@ -527,9 +529,9 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
             client = own_client = distributed.Client(client)
         if threads is None:
             threads = 0
-        nworkers = max(1, len(client.scheduler_info().get("workers", {})))
+        nworkers = max(1, len(client.scheduler_info().get("workers", {}))) if client is not None else 0
         if chunk is None:  # about four tasks per worker; warm-up at most 1/8 of a chunk's frames
-            chunk = max(1, int(math.ceil(len(all_frames) / (4.0 * nworkers))), 8 * warmup)
+            chunk = max(1, int(math.ceil(len(all_frames) / (4.0 * max(1, nworkers)))), 8 * warmup)
         chunk = max(1, int(chunk))
         run_id = "%s-%s" % (time.strftime("%Y%m%d%H%M%S"), uuid.uuid4().hex[:6])
         topic = "edgewise-progress-" + run_id
@@ -607,7 +609,8 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
                 for name in names:
                     if name.startswith("%s%s-" % (SCRATCH_PREFIX, run_id)):
                         shutil.rmtree(os.path.join(root, name), ignore_errors=True)
-        nworkers = max(1, len(client.scheduler_info().get("workers", {})))
+        if client is not None:
+            nworkers = max(1, len(client.scheduler_info().get("workers", {})))
     finally:
         if own_client is not None:
             own_client.close()
