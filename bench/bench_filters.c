@@ -1,5 +1,5 @@
 /*
- * bench_filters — the benchmark of issue 4: the pyramid filter's quality
+ * bench_filters — the pyramid filter's benchmark: its quality
  * against the exact joint bilateral filter per use case, its time against
  * the radius at 2560x1440 (with a chart), its speed against the separable
  * and the exact filter at radius 24, and depth of field against a

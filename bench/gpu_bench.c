@@ -73,10 +73,8 @@ static void free_buffers(ew_device *dev, buffers *b) {
 /* One method at one size: ms per frame, or a negative value with why. */
 static double bench_one(ew_device *dev, const char *kind, const char *name, int w, int h, int frames,
                         char *why, size_t why_len) {
-    const int is_denoiser = !strcmp(kind, "denoiser");
-    ew_denoiser *d = NULL;
-    ew_filter *f = NULL;
-    ew_result r = is_denoiser ? ew_denoiser_create(dev, name, &d) : ew_filter_create(dev, name, &f);
+    ew_op *op = NULL;
+    ew_result r = ew_op_create(dev, name, &op);
     buffers b;
     memset(&b, 0, sizeof b);
     int32_t nimg = 0;
@@ -106,13 +104,13 @@ static double bench_one(ew_device *dev, const char *kind, const char *name, int 
         }
         b.n++;
         ew_image v = ew_image_packed((float *)data, w, h, c);
-        if (r == EW_OK) r = is_denoiser ? ew_denoiser_set_image(d, info.name, &v) : ew_filter_set_image(f, info.name, &v);
+        if (r == EW_OK) r = ew_op_set_image(op, info.name, &v);
     }
-    if (r == EW_OK) r = is_denoiser ? ew_denoiser_commit(d) : ew_filter_commit(f);
+    if (r == EW_OK) r = ew_op_commit(op);
     double ms = -1.0;
     for (int frame = -1; r == EW_OK && frame < frames; frame++) {
         const double t0 = now_ms();
-        r = is_denoiser ? ew_denoiser_execute(d) : ew_filter_execute(f);
+        r = ew_op_execute(op);
         if (r == EW_OK && dev->device_images) r = dev->backend->sync(dev, 1); /* the GPU work, not its queueing */
         if (frame == 0) ms = 0.0; /* frame -1 warms up */
         if (frame >= 0) ms += now_ms() - t0;
@@ -123,8 +121,7 @@ static double bench_one(ew_device *dev, const char *kind, const char *name, int 
     } else {
         ms /= frames;
     }
-    ew_denoiser_destroy(d);
-    ew_filter_destroy(f);
+    ew_op_destroy(op);
     free_buffers(dev, &b);
     return ms;
 }

@@ -85,11 +85,14 @@ static double display_max(const ew_param_info *p) {
     return d < hi ? d : hi;
 }
 
-static OfxStatus define_param(OfxParamSetHandle set, const ew_param_info *p) {
+static OfxStatus define_param(OfxParamSetHandle set, const ew_ofx_node *node, int index) {
     const OfxPropertySuiteV1 *P = ew_ofx.prop;
-    const char *type = p->type == EW_PARAM_FLOAT ? kOfxParamTypeDouble
-                       : p->type == EW_PARAM_BOOL ? kOfxParamTypeBoolean
-                                                  : kOfxParamTypeInteger;
+    const ew_param_info *p = &node->params[index];
+    const int choices = node->param_choices[index];
+    const char *type = choices > 0                ? kOfxParamTypeChoice
+                       : p->type == EW_PARAM_FLOAT ? kOfxParamTypeDouble
+                       : p->type == EW_PARAM_BOOL  ? kOfxParamTypeBoolean
+                                                   : kOfxParamTypeInteger;
     OfxPropertySetHandle props = NULL;
     OfxStatus st = ew_ofx.param->paramDefine(set, type, p->name, &props);
     if (st != kOfxStatOK) return st;
@@ -117,6 +120,13 @@ static OfxStatus define_param(OfxParamSetHandle set, const ew_param_info *p) {
         P->propSetInt(props, kOfxParamPropDigits, 0, digits > 6 ? 6 : digits);
     } else if (p->type == EW_PARAM_BOOL) {
         if ((st = P->propSetInt(props, kOfxParamPropDefault, 0, p->default_value != 0.0f)) != kOfxStatOK) return st;
+    } else if (choices > 0) { /* the names, in index order: the value is the library's index */
+        for (int c = 0; c < choices; c++) {
+            const char *name = ew_method_param_choice(node->kind, node->method, index, c);
+            if ((st = P->propSetString(props, kOfxParamPropChoiceOption, c, name ? name : "")) != kOfxStatOK) return st;
+        }
+        if ((st = P->propSetInt(props, kOfxParamPropDefault, 0, (int)lrintf(p->default_value))) != kOfxStatOK)
+            return st;
     } else {
         if ((st = P->propSetInt(props, kOfxParamPropDefault, 0, (int)lrintf(p->default_value))) != kOfxStatOK)
             return st;
@@ -152,6 +162,6 @@ OfxStatus ew_ofx_describe_in_context(const ew_ofx_node *node, OfxImageEffectHand
     if ((st = ew_ofx.effect->getParamSet(effect, &set)) != kOfxStatOK) return st;
     if (!set) return kOfxStatErrBadHandle;
     for (int i = 0; i < node->num_params; i++)
-        if ((st = define_param(set, &node->params[i])) != kOfxStatOK) return st;
+        if ((st = define_param(set, node, i)) != kOfxStatOK) return st;
     return kOfxStatOK;
 }

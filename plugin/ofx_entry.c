@@ -69,9 +69,18 @@ EW_OFX_SLOT(4)
 EW_OFX_SLOT(5)
 EW_OFX_SLOT(6)
 EW_OFX_SLOT(7)
+EW_OFX_SLOT(8)
+EW_OFX_SLOT(9)
+EW_OFX_SLOT(10)
+EW_OFX_SLOT(11)
+EW_OFX_SLOT(12)
+EW_OFX_SLOT(13)
+EW_OFX_SLOT(14)
+EW_OFX_SLOT(15)
 
-static OfxPluginEntryPoint *const entries[EW_OFX_MAX_PLUGINS] = {entry_0, entry_1, entry_2, entry_3,
-                                                                 entry_4, entry_5, entry_6, entry_7};
+static OfxPluginEntryPoint *const entries[EW_OFX_MAX_PLUGINS] = {
+    entry_0, entry_1, entry_2,  entry_3,  entry_4,  entry_5,  entry_6,  entry_7,
+    entry_8, entry_9, entry_10, entry_11, entry_12, entry_13, entry_14, entry_15};
 
 static OfxPlugin plugins[EW_OFX_MAX_PLUGINS];
 static pthread_once_t plugins_once = PTHREAD_ONCE_INIT;

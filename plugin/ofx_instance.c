@@ -211,7 +211,7 @@ OfxStatus ew_ofx_is_identity(const ew_ofx_node *node, OfxImageEffectHandle effec
     if ((st = time_of(in, &time)) != kOfxStatOK) return st;
     if (!out) return kOfxStatErrBadHandle;
     if (!node->identity_params[0]) return kOfxStatReplyDefault;
-    for (int k = 0; k < 2 && node->identity_params[k]; k++) {
+    for (int k = 0; k < EW_OFX_MAX_IDENTITY && node->identity_params[k]; k++) {
         int found = 0;
         for (int i = 0; i < node->num_params && !found; i++) {
             if (strcmp(node->params[i].name, node->identity_params[k]) != 0) continue;

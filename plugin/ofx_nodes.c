@@ -3,11 +3,11 @@
  * introspection (ew_method_*), so clips and parameters are declared in one
  * place: the library's descriptors.
  *
- * Every denoiser is user-facing, so each one the library offers becomes a
- * plugin ("bgrid" now, "nbg" when it lands, with no change here). Filters
- * are a curated list checked against the library: "bilateral" and
- * "separable" are the exact reference and a baseline, not compositing
- * tools. A listed filter the library lacks is skipped.
+ * Every method the library marks EW_METHOD_HOST becomes a plugin (every
+ * denoiser, and the filters meant as compositing tools; "bilateral" and
+ * "separable" are the exact reference and a baseline), with no change here
+ * when one is added. Its inputs are the images the descriptor marks as
+ * read, its identity test the parameters marked EW_PARAM_NOOP_AT_ZERO.
  */
 #include "ofx_plugin.h"
 
@@ -16,29 +16,18 @@
 #include <stdio.h>
 #include <string.h>
 
-typedef struct {
-    const char *kind, *method, *label;
-    const char *identity_params[2];
-} node_spec;
-
-static const node_spec denoiser_labels[] = {
-    {"denoiser", "bgrid", "Edgewise Denoise (bilateral grid)", {NULL, NULL}},
-    {"denoiser", "nbg", "Edgewise Denoise (neural bilateral grid)", {NULL, NULL}},
+/* Display names hosts show in their menus, where the generated
+ * "Edgewise Filter (name)" reads worse; a method missing here keeps that. */
+static const struct {
+    const char *method, *label;
+} labels[] = {
+    {"bgrid", "Edgewise Denoise (bilateral grid)"},
+    {"nbg", "Edgewise Denoise (neural bilateral grid)"},
+    {"pyramid", "Edgewise Edge Filter (pyramid)"},
+    {"dof", "Edgewise Depth of Field"},
+    {"atrous", "Edgewise A-Trous Filter"},
+    {"outlier", "Edgewise Firefly Suppression"},
 };
-
-static const node_spec filters[] = {
-    /* radius 0: "no filtering at all, whatever the model" */
-    {"filter", "pyramid", "Edgewise Edge Filter (pyramid)", {"radius", NULL}},
-    {"filter", "dof", "Edgewise Depth of Field", {NULL, NULL}},
-    /* radius 0 and iterations 0: zero a-trous iterations */
-    {"filter", "atrous", "Edgewise A-Trous Filter", {"radius", "iterations"}},
-    /* firefly suppression before any filter of the host's (issue 9) */
-    {"filter", "outlier", "Edgewise Firefly Suppression", {NULL, NULL}},
-};
-
-/* Library images that are not inputs: the result, and extra outputs a
- * compositing node has no second output clip for. */
-static int is_output_image(const char *name) { return !strcmp(name, "output") || !strcmp(name, "coc"); }
 
 /* Channels the plugin hands over for an auxiliary image: what the feature
  * is, not the descriptor's minimum (a guide may use colour). */
@@ -62,8 +51,7 @@ static pthread_once_t once = PTHREAD_ONCE_INIT;
 
 /* Fill a node from the library's descriptors; 0 if the library does not
  * offer the method or it does not fit the plugin's limits. */
-static int build(ew_ofx_node *n, const char *kind, const char *method, const char *label,
-                 const char *const identity[2]) {
+static int build(ew_ofx_node *n, const char *kind, const char *method) {
     memset(n, 0, sizeof *n);
     int32_t count = ew_method_count(kind);
     const char *name = NULL, *summary = NULL;
@@ -77,30 +65,41 @@ static int build(ew_ofx_node *n, const char *kind, const char *method, const cha
     n->summary = summary ? summary : "";
     snprintf(n->identifier, sizeof n->identifier, "org.edgewise.%s.%s", !strcmp(kind, "denoiser") ? "denoise" : "filter",
              method);
-    if (label)
-        snprintf(n->label, sizeof n->label, "%s", label);
-    else
-        snprintf(n->label, sizeof n->label, "Edgewise %s (%s)", !strcmp(kind, "denoiser") ? "Denoise" : "Filter",
-                 method);
+    snprintf(n->label, sizeof n->label, "Edgewise %s (%s)", !strcmp(kind, "denoiser") ? "Denoise" : "Filter", method);
+    for (size_t k = 0; k < sizeof labels / sizeof labels[0]; k++)
+        if (!strcmp(labels[k].method, method)) snprintf(n->label, sizeof n->label, "%s", labels[k].label);
     n->channels = !strcmp(kind, "denoiser") ? 3 : 4;
-    n->identity_params[0] = identity ? identity[0] : NULL;
-    n->identity_params[1] = identity ? identity[1] : NULL;
 
+    int num_identity = 0;
     for (int32_t i = 0; i < np; i++) {
-        if (ew_method_param(kind, method, i, &n->params[i]) != EW_OK || !plain_name(n->params[i].name)) return 0;
-        n->param_pixels[i] = ew_method_param_is_pixels(kind, method, i) == 1;
+        uint32_t flags = 0;
+        if (ew_method_param(kind, method, i, &n->params[i]) != EW_OK || !plain_name(n->params[i].name) ||
+            ew_method_param_flags(kind, method, i, &flags) != EW_OK)
+            return 0;
+        n->param_pixels[i] = (flags & EW_PARAM_PIXELS) != 0;
+        n->param_choices[i] = ew_method_param_num_choices(kind, method, i);
+        if (flags & EW_PARAM_NOOP_AT_ZERO) {
+            /* more than the plugin can test: never claim identity */
+            if (num_identity == EW_OFX_MAX_IDENTITY) return 0;
+            n->identity_params[num_identity++] = n->params[i].name;
+        }
     }
     n->num_params = (int)np;
 
     int has_color = 0;
     for (int32_t i = 0; i < ni; i++) {
         ew_image_info im;
-        if (ew_method_image(kind, method, i, &im) != EW_OK || !plain_name(im.name)) return 0;
+        uint32_t flags = 0;
+        if (ew_method_image(kind, method, i, &im) != EW_OK || !plain_name(im.name) ||
+            ew_method_image_flags(kind, method, i, &flags) != EW_OK)
+            return 0;
         if (!strcmp(im.name, "color")) {
             has_color = 1;
             continue;
         }
-        if (is_output_image(im.name)) continue;
+        /* the result, and extra outputs a compositing node has no second
+         * output clip for */
+        if (flags & EW_IMAGE_OUTPUT) continue;
         if (n->num_aux == EW_OFX_MAX_AUX) return 0;
         ew_ofx_aux *a = &n->aux[n->num_aux++];
         a->image = im.name;
@@ -114,23 +113,19 @@ static int build(ew_ofx_node *n, const char *kind, const char *method, const cha
 }
 
 static void build_all(void) {
-    /* every denoiser the library offers */
-    int32_t nd = ew_method_count("denoiser");
-    for (int32_t i = 0; i < nd && num_nodes < EW_OFX_MAX_PLUGINS; i++) {
-        const char *name = NULL;
-        if (ew_method_get("denoiser", i, &name, NULL, NULL, NULL) != EW_OK || !name) continue;
-        const node_spec *spec = NULL;
-        for (size_t k = 0; k < sizeof denoiser_labels / sizeof denoiser_labels[0]; k++)
-            if (!strcmp(denoiser_labels[k].method, name)) spec = &denoiser_labels[k];
-        if (build(&nodes[num_nodes], "denoiser", name, spec ? spec->label : NULL,
-                  spec ? spec->identity_params : NULL))
-            num_nodes++;
+    /* every method the library offers to hosts, denoisers first */
+    static const char *const kinds[] = {"denoiser", "filter"};
+    for (int k = 0; k < 2; k++) {
+        int32_t count = ew_method_count(kinds[k]);
+        for (int32_t i = 0; i < count && num_nodes < EW_OFX_MAX_PLUGINS; i++) {
+            const char *name = NULL;
+            uint32_t flags = 0;
+            if (ew_method_get(kinds[k], i, &name, NULL, NULL, NULL) != EW_OK || !name ||
+                ew_method_flags(kinds[k], name, &flags) != EW_OK || !(flags & EW_METHOD_HOST))
+                continue;
+            if (build(&nodes[num_nodes], kinds[k], name)) num_nodes++;
+        }
     }
-    /* the user-facing filters, if this library has them */
-    for (size_t k = 0; k < sizeof filters / sizeof filters[0] && num_nodes < EW_OFX_MAX_PLUGINS; k++)
-        if (build(&nodes[num_nodes], filters[k].kind, filters[k].method, filters[k].label,
-                  filters[k].identity_params))
-            num_nodes++;
 }
 
 int ew_ofx_node_count(void) {

@@ -16,9 +16,10 @@
 #include "edgewise/edgewise.h"
 #include "ofx_abi.h"
 
-#define EW_OFX_MAX_PLUGINS 8
+#define EW_OFX_MAX_PLUGINS 16
 #define EW_OFX_MAX_PARAMS 32
 #define EW_OFX_MAX_AUX 6
+#define EW_OFX_MAX_IDENTITY 2
 #define EW_OFX_GROUPING "Edgewise"
 
 /* ---- nodes: one OFX plugin per user-facing library method ------------- */
@@ -41,12 +42,15 @@ typedef struct ew_ofx_node {
     /* Channels of the source the method gets: 4 filters RGBA (premultiplied
      * colour and alpha blur alike), 3 denoises RGB and passes alpha through. */
     int channels;
-    /* Integer parameters that, all zero, make the method an exact identity. */
-    const char *identity_params[2];
+    /* Integer parameters that, all zero, make the method an exact identity
+     * (EW_PARAM_NOOP_AT_ZERO). */
+    const char *identity_params[EW_OFX_MAX_IDENTITY];
     int num_params;
     ew_param_info params[EW_OFX_MAX_PARAMS];
     /* 1: a length in pixels, multiplied by the render scale (proxies) */
     int param_pixels[EW_OFX_MAX_PARAMS];
+    /* > 0: an enum, shown as a choice of that many names */
+    int param_choices[EW_OFX_MAX_PARAMS];
     int num_aux;
     ew_ofx_aux aux[EW_OFX_MAX_AUX];
 } ew_ofx_node;

@@ -40,14 +40,12 @@ typedef struct {
     int num_mem;
     float *result; /* dom-sized, top-down, `channels` per pixel */
     ew_device *dev;
-    ew_denoiser *den;
-    ew_filter *flt;
+    ew_op *op;
     atomic_int aborted;
 } render_job;
 
 static void cleanup(render_job *r) {
-    ew_denoiser_destroy(r->den);
-    ew_filter_destroy(r->flt);
+    ew_op_destroy(r->op);
     ew_device_destroy(r->dev);
     for (int i = 0; i < r->num_mem; i++) {
         if (r->mem[i].locked) ew_ofx.effect->imageMemoryUnlock(r->mem[i].handle);
@@ -72,10 +70,8 @@ static float *scratch(render_job *r, size_t bytes) {
     return (float *)p;
 }
 
-/* ---- the library call, through whichever face the method has ---------- */
-static ew_result op_image(render_job *r, const char *name, const ew_image *v) {
-    return r->den ? ew_denoiser_set_image(r->den, name, v) : ew_filter_set_image(r->flt, name, v);
-}
+/* ---- the library call -------------------------------------------------- */
+static ew_result op_image(render_job *r, const char *name, const ew_image *v) { return ew_op_set_image(r->op, name, v); }
 
 static ew_result op_param(render_job *r, const ew_param_info *p, int pixels, double v) {
     if (pixels && r->scale != 1.0) {
@@ -84,9 +80,8 @@ static ew_result op_param(render_job *r, const ew_param_info *p, int pixels, dou
         if (v < p->min_value) v = p->min_value;
         if (v > p->max_value) v = p->max_value;
     }
-    if (p->type == EW_PARAM_FLOAT)
-        return r->den ? ew_denoiser_set_float(r->den, p->name, (float)v) : ew_filter_set_float(r->flt, p->name, (float)v);
-    return r->den ? ew_denoiser_set_int(r->den, p->name, (int32_t)v) : ew_filter_set_int(r->flt, p->name, (int32_t)v);
+    if (p->type == EW_PARAM_FLOAT) return ew_op_set_float(r->op, p->name, (float)v);
+    return ew_op_set_int(r->op, p->name, (int32_t)v);
 }
 
 static int progress(void *user, double fraction) {
@@ -235,10 +230,9 @@ static OfxStatus run_library(render_job *r) {
     desc.num_threads = ew_ofx_thread_count();
     ew_result e = ew_device_create(&desc, &r->dev);
     if (e != EW_OK) return library_status(r, e);
-    e = !strcmp(n->kind, "denoiser") ? ew_denoiser_create(r->dev, n->method, &r->den)
-                                     : ew_filter_create(r->dev, n->method, &r->flt);
+    e = ew_op_create(r->dev, n->method, &r->op);
     if (e != EW_OK) return library_status(r, e);
-    e = r->den ? ew_denoiser_set_progress(r->den, progress, r) : ew_filter_set_progress(r->flt, progress, r);
+    e = ew_op_set_progress(r->op, progress, r);
     if (e != EW_OK) return library_status(r, e);
 
     ew_image color = ew_ofx_image_view(&r->src, 0, r->channels);
@@ -262,8 +256,8 @@ static OfxStatus run_library(render_job *r) {
         }
         if ((e = op_param(r, &n->params[i], n->param_pixels[i], v)) != EW_OK) return library_status(r, e);
     }
-    e = r->den ? ew_denoiser_commit(r->den) : ew_filter_commit(r->flt);
-    if (e == EW_OK) e = r->den ? ew_denoiser_execute(r->den) : ew_filter_execute(r->flt);
+    e = ew_op_commit(r->op);
+    if (e == EW_OK) e = ew_op_execute(r->op);
     return library_status(r, e);
 }
 

@@ -84,7 +84,7 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     m.use_roughness = ew_op_image(op, "roughness") != NULL;
     if (m.kind == EW_RANGE_GI && !normal && !depth)
         return ew__fail(dev, EW_ERR_INVALID_STATE,
-                        "parameter 'model' = 1 (GI denoising) needs a 'normal' and/or a 'depth' image");
+                        "parameter 'model' = gi (GI denoising) needs a 'normal' and/or a 'depth' image");
     if (m.kind == EW_RANGE_GI && m.radius == 0) m.sigma_alpha = 0.0f;
     m.attrs = ew_bf_attrs(m.kind);
     /* radius 0 means no filtering at all, whatever the model */

@@ -121,7 +121,7 @@ static void release(ew_op *op) {
 static ew_result bind(ew_op *op, state *s, const char *name) {
     ew_op_destroy(s->inner);
     s->inner = NULL;
-    ew_result r = ew_op_create(op->dev, "denoiser", name, &s->inner);
+    ew_result r = ew_op_create_kind(op->dev, "denoiser", name, &s->inner);
     for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
         r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));
     return r;
@@ -204,4 +204,6 @@ const ew_op_type ew_denoise_auto = {
     /* it runs whatever its inner op runs on (bgrid and nbg are ported),
      * and reads the views only through the device (frame_noise) */
     .device_memory = 1,
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    .flags = EW_METHOD_HOST,
 };

@@ -29,7 +29,7 @@ static const ew_param_desc params[] = {
 };
 
 /*
- * Memory (issue 8, docs/backends.md): every buffer the backend touches is
+ * Memory (docs/backends.md): every buffer the backend touches is
  * device memory from one ew_dev_alloc at commit, reused by every execute;
  * execute moves only the input views in and the output view out. The two
  * scalars the host needs (the depth normalisation and the first pass's mean
@@ -170,12 +170,19 @@ static ew_result execute(ew_op *op) {
 }
 
 const ew_op_type ew_denoise_bgrid = {
-    "denoiser", "bgrid",
-    "bilateral grid guided by a hand-made guide: the mean of the normalised albedo, normal and depth "
-    "(the colour's luminance when no features are given)",
-    images, (int)(sizeof images / sizeof images[0]), params, (int)(sizeof params / sizeof params[0]),
-    commit, execute, release, NULL, NULL,
-    1,    /* device_memory: runs on CUDA (issue 8) */
-    NULL, /* describe: the method's name */
-    (const char *const[]){"spatial_rate", "prepass_rate", NULL}, /* pixel_params */
+    .kind = "denoiser",
+    .name = "bgrid",
+    .summary = "bilateral grid guided by a hand-made guide: the mean of the normalised albedo, normal and depth "
+               "(the colour's luminance when no features are given)",
+    .images = images,
+    .num_images = (int)(sizeof images / sizeof images[0]),
+    .params = params,
+    .num_params = (int)(sizeof params / sizeof params[0]),
+    .commit = commit,
+    .execute = execute,
+    .release = release,
+    .device_memory = 1, /* runs on CUDA */
+    .pixel_params = (const char *const[]){"spatial_rate", "prepass_rate", NULL},
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    .flags = EW_METHOD_HOST,
 };

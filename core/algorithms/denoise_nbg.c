@@ -32,9 +32,9 @@ static const ew_image_desc images[] = {
 
 static const ew_param_desc params[] = {
     {"model", EW_PARAM_INT, 0.0f, 0.0f, (float)(EW_NBG_NUM_MODELS - 1),
-     "built-in model: 0 = 2layer-3grid (real time, trained on 1-64 spp; the default), 1 = 2layer-1grid "
-     "(fastest), 2 = 7layer-3grid (offline), 3 = 2layer-3grid-1spp (trained on 1 spp: best for 1-2 spp); "
-     "ignored while weights are set with set_data"},
+     "built-in model: 2layer-3grid (real time, trained on 1-64 spp; the default), 2layer-1grid (fastest), "
+     "7layer-3grid (offline), 2layer-3grid-1spp (trained on 1 spp: best for 1-2 spp); ignored while weights "
+     "are set with set_data"},
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off "
      "(the shipped models were trained with 3)"},
@@ -273,7 +273,7 @@ static ew_result execute(ew_op *op) {
 
 /* Designated: fields added to ew_op_type later start as 0. device_memory:
  * every buffer comes from ew_dev_alloc and only the views cross between
- * host and device (issue 8), so it may run on a CUDA device, whose table
+ * host and device, so it may run on a CUDA device, whose table
  * has the conv5 / gn_input / nbg_* kernels. */
 static const char *describe(const ew_op *op) {
     const state *s = (const state *)op->state;
@@ -296,4 +296,8 @@ const ew_op_type ew_denoise_nbg = {
     .release_data = release_data,
     .device_memory = 1,
     .describe = describe,
+    .choices = (const ew_param_choices[]){{"model", ew_nbg_model_names}, {NULL, NULL}},
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    .data_params = (const char *const[]){"model", "weights", NULL},
+    .flags = EW_METHOD_HOST,
 };

@@ -94,4 +94,8 @@ const ew_op_type ew_filter_atrous = {
     .execute = execute,
     .release = release,
     .pixel_params = (const char *const[]){"radius", NULL},
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    /* zero iterations */
+    .noop_at_zero = (const char *const[]){"radius", "iterations", NULL},
+    .flags = EW_METHOD_HOST,
 };

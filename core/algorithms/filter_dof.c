@@ -33,7 +33,7 @@ static const ew_param_desc params[] = {
      "Eq. 8's CoC per pixel of the lens's CoC; 3 sqrt(2) / 2 gives a real lens's blur size (see docs/filters.md)"},
     {"sigma_spatial", EW_PARAM_FLOAT, 0.0f, 0.0f, 256.0f,
      "extra domain Gaussian sigma of Eq. 8 that limits every blur; 0 = none"},
-    {"method", EW_PARAM_INT, 0.0f, 0.0f, 2.0f, "0 pyramid (fast), 1 exact joint bilateral (slow), 2 separable"},
+    {"method", EW_PARAM_INT, 0.0f, 0.0f, 2.0f, "pyramid (fast), bilateral (exact, slow) or separable"},
     EW_PYR_WEIGHTS_PARAM,
 };
 
@@ -195,4 +195,12 @@ const ew_op_type ew_filter_dof = {
     /* the circle of confusion itself follows the image size (thin lens x
      * max(width, height) / sensor width): only the caps are lengths */
     .pixel_params = (const char *const[]){"radius", "sigma_spatial", NULL},
+    /* "method" in the order of execute's switch */
+    .choices = (const ew_param_choices[]){{"method", (const char *const[]){"pyramid", "bilateral", "separable", NULL}},
+                                          EW_PYR_WEIGHTS_CHOICES,
+                                          {NULL, NULL}},
+    .extra_outputs = (const char *const[]){"coc", NULL},
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    .data_params = (const char *const[]){"weights", "weights", NULL},
+    .flags = EW_METHOD_HOST,
 };

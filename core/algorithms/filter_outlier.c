@@ -3,7 +3,7 @@
  * similarity (kernels/outlier.h, ew_outlier_guided_px). A pixel far brighter
  * than the neighbours of its own surface is scaled down to their bound;
  * NaN/Inf samples are rebuilt from them. Meant before a spatial denoiser or
- * filter on low-sample renders (issue 9; measured in docs/temporal.md).
+ * filter on low-sample renders (measured in docs/temporal.md).
  */
 #include <stdlib.h>
 
@@ -121,4 +121,6 @@ const ew_op_type ew_filter_outlier = {
     .execute = execute,
     .release = release,
     .device_memory = 1,
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    .flags = EW_METHOD_HOST, /* before any filter of the host's */
 };

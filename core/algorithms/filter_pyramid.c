@@ -24,4 +24,10 @@ const ew_op_type ew_filter_pyramid = {
     .set_data = ew_pyr_op_set_data,
     .release_data = ew_pyr_op_release_data,
     .pixel_params = EW_BF_OP_PIXEL_PARAMS,
+    .choices = (const ew_param_choices[]){EW_BF_MODEL_CHOICES, EW_PYR_WEIGHTS_CHOICES, {NULL, NULL}},
+    .inplace_inputs = EW_BF_OP_INPLACE,
+    /* radius 0: no filtering at all, whatever the model */
+    .noop_at_zero = (const char *const[]){"radius", NULL},
+    .data_params = (const char *const[]){"weights", "weights", NULL},
+    .flags = EW_METHOD_HOST,
 };

@@ -21,4 +21,6 @@ const ew_op_type ew_filter_separable = {
     .execute = ew_bf_op_execute,
     .release = ew_bf_op_release,
     .pixel_params = EW_BF_OP_PIXEL_PARAMS,
+    .choices = (const ew_param_choices[]){EW_BF_MODEL_CHOICES, {NULL, NULL}},
+    .inplace_inputs = EW_BF_OP_INPLACE,
 };

@@ -147,4 +147,5 @@ const ew_op_type ew_filter_temporal = {
     .execute = execute,
     .release = release,
     .device_memory = 1,
+    .inplace_inputs = (const char *const[]){"color", NULL},
 };

@@ -87,10 +87,11 @@ extern const unsigned char ew_nbg_weights_2layer_3grid[], ew_nbg_weights_2layer_
 extern const size_t ew_nbg_weights_2layer_3grid_size, ew_nbg_weights_2layer_1grid_size,
     ew_nbg_weights_7layer_3grid_size, ew_nbg_weights_2layer_3grid_1spp_size;
 
+const char *const ew_nbg_model_names[EW_NBG_NUM_MODELS + 1] = {"2layer-3grid", "2layer-1grid", "7layer-3grid",
+                                                                "2layer-3grid-1spp", NULL};
+
 const char *ew_nbg_model_name(int model) {
-    static const char *const names[EW_NBG_NUM_MODELS] = {"2layer-3grid", "2layer-1grid", "7layer-3grid",
-                                                         "2layer-3grid-1spp"};
-    return model >= 0 && model < EW_NBG_NUM_MODELS ? names[model] : NULL;
+    return model >= 0 && model < EW_NBG_NUM_MODELS ? ew_nbg_model_names[model] : NULL;
 }
 
 void ew_nbg_builtin_weights(int model, const unsigned char **bytes, size_t *size) {

@@ -53,6 +53,8 @@ size_t ew_nbg_device_floats(const ew_guidenet *net, int width, int height, size_
  * model). */
 #define EW_NBG_NUM_MODELS 4
 const char *ew_nbg_model_name(int model);
+/* The built-in models' names by index, NULL-terminated (the "model" enum). */
+extern const char *const ew_nbg_model_names[EW_NBG_NUM_MODELS + 1];
 void ew_nbg_builtin_weights(int model, const unsigned char **bytes, size_t *size);
 
 #endif

@@ -1,6 +1,6 @@
 /*
  * backend_mem.c — what algorithms call to allocate device buffers and to
- * move caller views in and out of them (issue 8, docs/backends.md), so that
+ * move caller views in and out of them (docs/backends.md), so that
  * one code path serves the CPU (device memory is host memory: views are
  * packed straight into the buffers, no extra copy) and CUDA (views are
  * packed into a host staging buffer and uploaded, or, for device-pointer

@@ -32,7 +32,7 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
         if (desc->size < offsetof(ew_device_desc, num_threads) + sizeof(int32_t) ||
             desc->size > sizeof(ew_device_desc))
             return EW_ERR_INVALID_ARGUMENT;
-        /* issue 8: copy only what the caller's (maybe older) desc holds;
+        /* copy only what the caller's (maybe older) desc holds;
          * the fields it predates keep their defaults */
         memcpy(&d, desc, desc->size);
     }

@@ -5,8 +5,8 @@
 #include <string.h>
 
 const ew_op_type *ew_op_type_find(const char *kind, const char *name) {
-    for (int i = 0; ew_op_types[i]; i++)
-        if (!strcmp(ew_op_types[i]->kind, kind) && name && !strcmp(ew_op_types[i]->name, name)) return ew_op_types[i];
+    for (int i = 0; name && ew_op_types[i]; i++)
+        if ((!kind || !strcmp(ew_op_types[i]->kind, kind)) && !strcmp(ew_op_types[i]->name, name)) return ew_op_types[i];
     return NULL;
 }
 
@@ -14,14 +14,14 @@ static void list_names(const char *kind, char *buf, size_t len) {
     size_t used = 0;
     buf[0] = '\0';
     for (int i = 0; ew_op_types[i]; i++) {
-        if (strcmp(ew_op_types[i]->kind, kind) != 0) continue;
+        if (kind && strcmp(ew_op_types[i]->kind, kind) != 0) continue;
         int k = snprintf(buf + used, len - used, "%s%s", used ? ", " : "", ew_op_types[i]->name);
         if (k < 0 || (size_t)k >= len - used) break;
         used += (size_t)k;
     }
 }
 
-ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op **out) {
+ew_result ew_op_create_kind(ew_device *dev, const char *kind, const char *name, ew_op **out) {
     if (!out) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "output handle pointer is NULL");
     *out = NULL;
     if (!dev) return EW_ERR_INVALID_ARGUMENT;
@@ -31,12 +31,12 @@ ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op
         char names[256];
         list_names(kind, names, sizeof names);
         return ew__fail(dev, name ? EW_ERR_UNSUPPORTED : EW_ERR_INVALID_ARGUMENT, "unknown %s '%s' (available: %s)",
-                        kind, name ? name : "(null)", names);
+                        kind ? kind : "method", name ? name : "(null)", names);
     }
-    /* issue 8: an op still handing the backend host pointers would crash a GPU */
+    /* an op still handing the backend host pointers would crash a GPU */
     if (dev->device_memory && !t->device_memory)
         return ew__fail(dev, EW_ERR_UNSUPPORTED, "%s '%s' does not run on CUDA devices yet: use an EW_DEVICE_CPU device",
-                        kind, name);
+                        t->kind, name);
     ew_op *op = (ew_op *)calloc(1, sizeof *op);
     if (!op) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
     op->type = t;
@@ -44,6 +44,10 @@ ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op
     for (int i = 0; i < t->num_params; i++) op->params[i] = t->params[i].default_value;
     *out = op;
     return EW_OK;
+}
+
+ew_result ew_op_create(ew_device *dev, const char *method, ew_op **out) {
+    return ew_op_create_kind(dev, NULL, method, out);
 }
 
 static void release(ew_op *op) {
@@ -118,6 +122,58 @@ ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int) 
     return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown parameter '%s' for %s '%s' (%s)",
                     name ? name : "(null)", t->kind, t->name, names);
 }
+
+ew_result ew_op_set_int(ew_op *op, const char *name, int32_t value) { return ew_op_set_param(op, name, (float)value, 1); }
+ew_result ew_op_set_float(ew_op *op, const char *name, float value) { return ew_op_set_param(op, name, value, 0); }
+
+/* The slot of a parameter for the get calls, failing with the known names. */
+static int param_slot(const ew_op *op, const char *name) {
+    const ew_op_type *t = op->type;
+    for (int i = 0; name && i < t->num_params; i++)
+        if (!strcmp(name, t->params[i].name)) return i;
+    char names[256];
+    list_slots(t, names, sizeof names, 0);
+    ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown parameter '%s' for %s '%s' (%s)", name ? name : "(null)",
+             t->kind, t->name, names);
+    return -1;
+}
+
+ew_result ew_op_get_float(const ew_op *op, const char *name, float *out) {
+    if (!op || !out) return op ? ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "output pointer is NULL") : EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    int i = param_slot(op, name);
+    if (i < 0) return EW_ERR_INVALID_ARGUMENT;
+    *out = op->params[i];
+    return EW_OK;
+}
+
+ew_result ew_op_get_int(const ew_op *op, const char *name, int32_t *out) {
+    if (!op || !out) return op ? ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "output pointer is NULL") : EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    int i = param_slot(op, name);
+    if (i < 0) return EW_ERR_INVALID_ARGUMENT;
+    if (op->type->params[i].type == EW_PARAM_FLOAT)
+        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "parameter '%s' of %s '%s' is a float: use get_float", name,
+                        op->type->kind, op->type->name);
+    *out = (int32_t)op->params[i];
+    return EW_OK;
+}
+
+ew_result ew_op_set_progress(ew_op *op, ew_progress_fn fn, void *user) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    op->progress = fn;
+    op->progress_user = user;
+    return EW_OK;
+}
+
+const char *ew_op_describe(const ew_op *op) {
+    if (!op || !op->committed) return NULL;
+    const char *s = op->type->describe ? op->type->describe(op) : NULL;
+    return s ? s : op->type->name;
+}
+
+const char *ew_op_method(const ew_op *op) { return op ? op->type->name : NULL; }
+const char *ew_op_kind(const ew_op *op) { return op ? op->type->kind : NULL; }
 
 ew_result ew_op_set_data(ew_op *op, const char *name, const void *data, size_t size) {
     if (!op) return EW_ERR_INVALID_ARGUMENT;

@@ -2,7 +2,8 @@
  * op.h — what every denoiser and filter shares: named image slots and named
  * parameters declared once in a static descriptor, the set -> commit ->
  * execute life cycle, progress and cancellation. A method is an ew_op_type;
- * ew_denoiser and ew_filter are the public faces of an ew_op.
+ * an ew_op (public: edgewise.h) is one instance of it, and ew_denoiser /
+ * ew_filter are older names of the same handle.
  *
  * The descriptors are also what the node layer, the OFX plugin and the
  * Blender add-on read to build their parameters (a parameter is declared
@@ -22,6 +23,13 @@ typedef ew_image_info ew_image_desc;
 
 typedef struct ew_op ew_op;
 
+/* The choice names of an enum parameter (an EW_PARAM_INT whose value is the
+ * index of a name): fronts show and accept the names. */
+typedef struct ew_param_choices {
+    const char *param;         /* the parameter's name */
+    const char *const *names;  /* NULL-terminated; value i is names[i] */
+} ew_param_choices;
+
 typedef struct ew_op_type {
     const char *kind; /* "denoiser" or "filter" */
     const char *name;
@@ -40,7 +48,7 @@ typedef struct ew_op_type {
      * keeping what it needs in op->data_state (freed by release_data). */
     ew_result (*set_data)(ew_op *op, const char *name, const void *data, size_t size);
     void (*release_data)(ew_op *op);
-    /* issue 8: 1 when every buffer it hands the backend comes from
+    /* 1 when every buffer it hands the backend comes from
      * ew_dev_alloc and views move only through ew_dev_put_view/get_view
      * (docs/backends.md); only then may it run on a device with memory of
      * its own (CUDA): ew_op_create refuses it there otherwise. */
@@ -51,6 +59,25 @@ typedef struct ew_op_type {
     /* Optional, NULL-terminated: the parameters that are lengths in pixels
      * (ew_method_param_is_pixels). */
     const char *const *pixel_params;
+    /* Optional, ended by a {NULL, NULL} entry: enum parameters and their
+     * choice names (ew_method_param_choice). The parameter must be an
+     * EW_PARAM_INT with range [0, number of names - 1]. */
+    const ew_param_choices *choices;
+    /* Optional, NULL-terminated: images execute writes besides "output"
+     * (e.g. DoF's "coc"); every other image is read. */
+    const char *const *extra_outputs;
+    /* Optional, NULL-terminated: inputs the "output" view may be the very
+     * same view of (filtering in place). */
+    const char *const *inplace_inputs;
+    /* Optional, NULL-terminated: parameters that, all 0, make execute a
+     * copy of the input (EW_PARAM_NOOP_AT_ZERO). */
+    const char *const *noop_at_zero;
+    /* Optional, NULL-terminated pairs {parameter, data name}: the set_data
+     * slot that gives the parameter's value as a file's bytes instead
+     * (pyramid's "weights"; nbg's "model" -> "weights"). */
+    const char *const *data_params;
+    /* EW_METHOD_* bits (ew_method_flags). */
+    uint32_t flags;
 } ew_op_type;
 
 struct ew_op {
@@ -68,15 +95,14 @@ struct ew_op {
 
 /* Registry of every method, by kind. NULL-terminated. */
 extern const ew_op_type *const ew_op_types[];
+/* kind NULL: a method of any kind (names are unique across kinds). */
 const ew_op_type *ew_op_type_find(const char *kind, const char *name);
 
-ew_result ew_op_create(ew_device *dev, const char *kind, const char *name, ew_op **out);
-void ew_op_destroy(ew_op *op);
-ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view);
+/* ew_op_create restricted to one kind (the ew_denoiser_create /
+ * ew_filter_create faces, and ops that run another of a known kind). The
+ * other life-cycle calls are the public ew_op_* of edgewise.h. */
+ew_result ew_op_create_kind(ew_device *dev, const char *kind, const char *name, ew_op **out);
 ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int);
-ew_result ew_op_set_data(ew_op *op, const char *name, const void *data, size_t size);
-ew_result ew_op_commit(ew_op *op);
-ew_result ew_op_execute(ew_op *op);
 
 /* For op implementations: the image of a slot (NULL if unset), a parameter
  * value by index, and progress (returns 0 when the caller cancels). */

@@ -13,23 +13,32 @@ int cmd_denoise(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
-/* the NBG trainer (issue 3): runs train_nbg from this program's directory */
+/* the NBG trainer: runs train_nbg from this program's directory */
 int cmd_train(int argc, char **argv);
-/* edge-aware filters (issue 4): cmd_filter.c, cmd_dof.c */
+/* edge-aware filters: cmd_filter.c, cmd_dof.c (both cli_op.c) */
 int cmd_filter(int argc, char **argv);
 int cmd_dof(int argc, char **argv);
-/* node graphs (issue 5): cmd_graph.c, cmd_nodes.c */
+/* node graphs: cmd_graph.c, cmd_nodes.c */
 int cmd_graph(int argc, char **argv);
 int cmd_nodes(int argc, char **argv);
-/* helpers of cmd_filter.c shared with cmd_dof.c: the components of a pass
- * ("RGBA", "RGB", "XYZ", "Z", ...; NULL if absent), a pass read into a new
- * buffer, --weights (trained / analytic: *set_int = 1 / 0; a file: loaded
- * with set_data, *set_int = -1), and a count of non-finite floats */
+/* The components of a pass ("RGBA", "RGB", "XYZ", "Z", ...; NULL if
+ * absent), a pass read into a new buffer, and a count of non-finite floats. */
 const char *cli_pass_comps(const ewio_file *f, const char *layer, const char *pass);
 float *cli_read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
                      size_t errlen);
-int cli_set_weights(ew_filter *flt, ew_device *dev, const char *spec, int *set_int);
 long cli_count_nonfinite(const float *v, size_t n);
+
+/* A command that runs one library op on one pass (cli_op.c), its options
+ * generated from the op's descriptor. */
+typedef struct cli_op_command {
+    const char *name;   /* the command: "filter", "dof" */
+    const char *kind;   /* the library kind it runs */
+    const char *method; /* a fixed method, or NULL: --method picks one of kind (default: the first) */
+    int pass_option;    /* 1: --pass picks the pass to run on (default: the colour) */
+    const char *intro;  /* help: what the command does */
+    const char *outro;  /* help: notes after the options, or NULL */
+} cli_op_command;
+int cli_op_run(const cli_op_command *cmd, int argc, char **argv);
 
 /* Print "edgewise: <msg>" on stderr; returns EW_EXIT_FAIL. */
 int cli_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));

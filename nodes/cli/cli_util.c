@@ -90,3 +90,31 @@ int cli_check_writable(const char *path) {
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) return cli_fail("cannot write '%s': it is a directory", path);
     return 0;
 }
+
+const char *cli_pass_comps(const ewio_file *f, const char *layer, const char *pass) {
+    static const char *const comps[] = {"RGBA", "RGB", "XYZ", "Z", "R", "Y", "V", NULL};
+    for (int i = 0; comps[i]; i++)
+        if (ewio_has_pass(f, layer, pass, comps[i])) return comps[i];
+    return NULL;
+}
+
+float *cli_read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
+                     size_t errlen) {
+    size_t n = (size_t)ewio_width(f) * (size_t)ewio_height(f) * strlen(comps);
+    float *buf = (float *)malloc(n * sizeof(float));
+    if (!buf) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    if (ewio_get_pass(f, layer, pass, comps, buf, err, errlen) != 0) {
+        free(buf);
+        return NULL;
+    }
+    return buf;
+}
+
+long cli_count_nonfinite(const float *v, size_t n) {
+    long k = 0;
+    for (size_t i = 0; i < n; i++) k += !(v[i] - v[i] == 0.0f);
+    return k;
+}

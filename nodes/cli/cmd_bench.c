@@ -64,7 +64,7 @@ static const char help[] =
 
 static int n_specs;
 static ew_method_spec specs[MAX_METHODS];
-/* issue 9: a pre-filter step run on the colour before specs[m] (ew_method_spec
+/* A pre-filter step run on the colour before specs[m] (ew_method_spec
  * has none; NULL: none). Its time counts in the method's. */
 static const ew_method_spec *prefilter[MAX_METHODS];
 static ew_method_spec outlier_spec, outlier_blind_spec;
@@ -125,7 +125,7 @@ static void build_specs(void) {
         s = add("bilateral-gi", "filter", "bilateral", 1);
         param(s, "model", 1.0f);
     }
-    /* issue 9: firefly / outlier suppression as a node before a method
+    /* firefly / outlier suppression as a node before a method
      * (with the features, and without them to show what they are for) */
     if (has_method("filter", "outlier")) {
         memset(&outlier_spec, 0, sizeof outlier_spec);
@@ -239,7 +239,7 @@ static void write_png(const char *path, const float *rgb, const float *ref, int 
     ewio_free(f);
 }
 
-/* ---- --temporal: sequences (issue 9) -------------------------------------- */
+/* ---- --temporal: sequences -------------------------------------------- */
 
 #define MAX_FRAMES 64
 
@@ -313,18 +313,18 @@ static float albedo_factor(const ew_layer_data *ld, size_t i) {
 
 /* One frame of the filter "temporal" on buf, in place, with the frame's
  * normal, depth and motion vectors. */
-static int temporal_step(ew_filter *tf, float *buf, const ew_layer_data *ld, char *err, size_t errlen) {
+static int temporal_step(ew_op *tf, float *buf, const ew_layer_data *ld, char *err, size_t errlen) {
     ew_image c = ew_image_packed(buf, ld->width, ld->height, 3);
     ew_image n = ew_image_packed(ld->normal, ld->width, ld->height, 3);
     ew_image d = ew_image_packed(ld->depth, ld->width, ld->height, 1);
     ew_image v = ew_image_packed(ld->vector, ld->width, ld->height, 2);
-    ew_result r = ew_filter_set_image(tf, "color", &c);
-    if (r == EW_OK) r = ew_filter_set_image(tf, "output", &c);
-    if (r == EW_OK) r = ew_filter_set_image(tf, "normal", ld->normal ? &n : NULL);
-    if (r == EW_OK) r = ew_filter_set_image(tf, "depth", ld->depth ? &d : NULL);
-    if (r == EW_OK) r = ew_filter_set_image(tf, "vector", ld->vector ? &v : NULL);
-    if (r == EW_OK) r = ew_filter_commit(tf);
-    if (r == EW_OK) r = ew_filter_execute(tf);
+    ew_result r = ew_op_set_image(tf, "color", &c);
+    if (r == EW_OK) r = ew_op_set_image(tf, "output", &c);
+    if (r == EW_OK) r = ew_op_set_image(tf, "normal", ld->normal ? &n : NULL);
+    if (r == EW_OK) r = ew_op_set_image(tf, "depth", ld->depth ? &d : NULL);
+    if (r == EW_OK) r = ew_op_set_image(tf, "vector", ld->vector ? &v : NULL);
+    if (r == EW_OK) r = ew_op_commit(tf);
+    if (r == EW_OK) r = ew_op_execute(tf);
     if (r != EW_OK) snprintf(err, errlen, "temporal: %s", ew_result_string(r));
     return r != EW_OK;
 }
@@ -335,15 +335,15 @@ static int temporal_step(ew_filter *tf, float *buf, const ew_layer_data *ld, cha
 static int sequence_run(ew_device *dev, int m, int mode, const sequence *q, float **outs, double *ms, char *err,
                         size_t errlen) {
     const size_t n3 = (size_t)q->w * q->h * 3;
-    ew_filter *tf = NULL;
+    ew_op *tf = NULL;
     float *tmp = (float *)malloc(n3 * sizeof(float));
     int fail = !tmp;
     if (fail) snprintf(err, errlen, "out of memory");
-    if (!fail && mode != ACC_OFF && ew_filter_create(dev, "temporal", &tf) != EW_OK) {
+    if (!fail && mode != ACC_OFF && ew_op_create(dev, "temporal", &tf) != EW_OK) {
         snprintf(err, errlen, "temporal: %s", ew_device_last_error(dev));
         fail = 1;
     }
-    if (!fail && mode == ACC_AFTER_CLAMP && ew_filter_set_float(tf, "clamp", BENCH_TEMPORAL_CLAMP) != EW_OK) {
+    if (!fail && mode == ACC_AFTER_CLAMP && ew_op_set_float(tf, "clamp", BENCH_TEMPORAL_CLAMP) != EW_OK) {
         snprintf(err, errlen, "temporal: %s", ew_device_last_error(dev));
         fail = 1;
     }
@@ -375,7 +375,7 @@ static int sequence_run(ew_device *dev, int m, int mode, const sequence *q, floa
             for (size_t i = 0; i < n3; i++) outs[t][i] *= albedo_factor(ld, i);
         *ms += now_ms() - t0;
     }
-    ew_filter_destroy(tf);
+    ew_op_destroy(tf);
     free(tmp);
     return fail;
 }

@@ -3,6 +3,7 @@
  * the result atomically, keeping every other layer, pass and the metadata.
  */
 #include <errno.h>
+#include <getopt.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,7 +15,7 @@
 #include "cycles_passes.h"
 #include "method_run.h"
 
-static const char help[] =
+static const char intro[] =
     "usage: edgewise denoise IN -o OUT [options]\n"
     "\n"
     "Denoise a render. IN is a Cycles multilayer EXR (every view layer with a\n"
@@ -29,168 +30,272 @@ static const char help[] =
     "options:\n"
     "  -o, --output FILE     output file (required)\n"
     "  --layer NAME          denoise only this view layer\n"
-    "  --method NAME         auto (default): no more model than the frame needs, by its sample\n"
-    "                        count (the file's Cycles metadata; --samples overrides it) or a\n"
-    "                        noise estimate, and its passes: nbg 2layer-3grid-1spp at 1-2 spp,\n"
-    "                        nbg 2layer-3grid at 3-8 spp, a bilateral grid as fine as the frame\n"
-    "                        allows above that or without albedo/normal/depth (docs/nbg.md)\n"
-    "                        nbg: neural bilateral grid, guides learned by a small CNN (needs\n"
-    "                        albedo, normal and depth)\n"
-    "                        bgrid: bilateral grid guided by albedo/normal/depth (needs albedo)\n"
-    "                        bgrid-color: bilateral grid guided by the colour alone\n"
-    "  --model NAME|PATH     nbg's weights (implies --method nbg): a built-in model,\n"
-    "                        2layer-3grid (default; real time, trained on 1-64 spp),\n"
-    "                        2layer-3grid-1spp (trained on 1 spp), 2layer-1grid (fastest) or\n"
-    "                        7layer-3grid (offline), or a weights file written by train_nbg\n"
-    "                        (models/nbg/README.md)\n"
+    "  --method NAME         the library's denoiser (default: the first listed below)\n"
     "  --threads N           worker threads, 0 = all cores (default 0)\n"
     "  --half | --float      EXR pixel type of the written passes (default: as read)\n"
     "  --reference REF       also print PSNR/SSIM of input and output against REF\n"
     "  -q, --quiet           print errors only\n"
-    "  -h, --help            this text\n"
-    "\n"
-    "method parameters (--name-with-dashes VALUE):\n"
-    "%s"
-    "\n"
-    "Non-finite colour samples (NaN, Inf from half overflow) are treated as missing\n"
-    "and rebuilt from their neighbourhood; negative samples count as black.\n";
+    "  -h, --help            this text\n";
 
-#define MAX_SET (EW_RUN_MAX_PARAMS - 1) /* method parameters; one more slot is nbg's "model" */
+static const char outro[] =
+    "\n"
+    "A parameter only one denoiser has picks it when --method is not given (e.g.\n"
+    "--model runs nbg). Non-finite colour samples (NaN, Inf from half overflow)\n"
+    "are treated as missing and rebuilt from their neighbourhood; negative samples\n"
+    "count as black.\n";
+
+/* Command-line presets: a library method run on fewer of the layer's
+ * passes, or refusing to run without one (rather than falling back to a
+ * guide the user did not ask for). Methods themselves come from the
+ * library. */
+static const struct {
+    const char *name, *method;
+    int features;      /* 0: the layer's albedo, normal and depth are not given to it */
+    const char *needs; /* a feature pass the preset will not run without */
+    const char *summary;
+} presets[] = {
+    {"bgrid", "bgrid", 1, "albedo", NULL},
+    {"bgrid-color", "bgrid", 0, NULL, "bilateral grid guided by the colour alone"},
+};
+#define NUM_PRESETS ((int)(sizeof presets / sizeof presets[0]))
+
+#define MAX_SET (EW_RUN_MAX_PARAMS - 1)
+#define MAX_OPTS 96
 
 typedef struct {
     const char *in, *out, *layer, *method, *reference;
-    const char *model;    /* --model: a built-in name or a weights file (issue 3) */
-    int model_index;      /* the built-in's "model" parameter, or -1 for a file */
-    void *model_bytes;    /* the file's bytes */
-    size_t model_size;
+    int method_given;
     int threads, quiet;
     ewio_pixel_type type;
     int num_set; /* method parameters given on the command line */
-    char set_name[MAX_SET][64];
+    const char *set_name[MAX_SET]; /* the library's static names */
+    const char *set_text[MAX_SET];
+    /* resolved for the method */
     float set_value[MAX_SET];
+    const char *data_name; /* a parameter given as a file (set_data) */
+    const char *data_path;
+    void *data_bytes;
+    size_t data_size;
 } options;
 
-/* The parameter of any denoiser called `name` (NULL if none). */
-static int find_param(const char *name, ew_param_info *info) {
+/* Every denoiser's parameters, once each, as getopt_long options. */
+typedef struct {
+    char option[MAX_OPTS][64];
+    const char *param[MAX_OPTS];
+    int n;
+    struct option longs[MAX_OPTS + 12];
+} param_options;
+
+enum { OPT_LAYER = 1000, OPT_METHOD, OPT_THREADS, OPT_HALF, OPT_FLOAT, OPT_REFERENCE, OPT_PARAM = 2000 };
+
+static void build_options(param_options *po) {
+    memset(po, 0, sizeof *po);
     for (int32_t i = 0; i < ew_method_count("denoiser"); i++) {
-        const char *m;
-        int32_t np;
+        const char *m = NULL;
+        int32_t np = 0;
         ew_method_get("denoiser", i, &m, NULL, NULL, &np);
-        for (int32_t k = 0; k < np; k++)
-            if (ew_method_param("denoiser", m, k, info) == EW_OK && !strcmp(info->name, name)) return 1;
+        for (int32_t k = 0; k < np && po->n < MAX_OPTS; k++) {
+            ew_param_info p;
+            if (ew_method_param("denoiser", m, k, &p) != EW_OK) continue;
+            int dup = 0;
+            for (int q = 0; q < po->n; q++) dup |= !strcmp(po->param[q], p.name);
+            if (dup) continue;
+            po->param[po->n] = p.name;
+            snprintf(po->option[po->n], sizeof po->option[0], "%s", p.name);
+            for (char *c = po->option[po->n]; *c; c++)
+                if (*c == '_') *c = '-';
+            po->n++;
+        }
     }
-    return 0;
+    static const struct option fixed[] = {
+        {"output", required_argument, NULL, 'o'},        {"quiet", no_argument, NULL, 'q'},
+        {"help", no_argument, NULL, 'h'},                {"layer", required_argument, NULL, OPT_LAYER},
+        {"method", required_argument, NULL, OPT_METHOD}, {"threads", required_argument, NULL, OPT_THREADS},
+        {"half", no_argument, NULL, OPT_HALF},           {"float", no_argument, NULL, OPT_FLOAT},
+        {"reference", required_argument, NULL, OPT_REFERENCE},
+    };
+    int n = 0;
+    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++) po->longs[n++] = fixed[i];
+    for (int i = 0; i < po->n; i++) po->longs[n++] = (struct option){po->option[i], required_argument, NULL, OPT_PARAM + i};
+    po->longs[n] = (struct option){NULL, 0, NULL, 0};
+}
+
+static int32_t param_index(const char *method, const char *name) {
+    ew_param_info p;
+    for (int32_t k = 0; ew_method_param("denoiser", method, k, &p) == EW_OK; k++)
+        if (!strcmp(p.name, name)) return k;
+    return -1;
 }
 
 static void print_help(void) {
-    char params[4096];
-    size_t used = 0;
-    params[0] = '\0';
+    fputs(intro, stdout);
     for (int32_t i = 0; i < ew_method_count("denoiser"); i++) {
-        const char *m;
-        int32_t np;
-        ew_method_get("denoiser", i, &m, NULL, NULL, &np);
-        for (int32_t k = 0; k < np && used < sizeof params; k++) {
+        const char *m = NULL, *summary = NULL;
+        int32_t np = 0;
+        ew_method_get("denoiser", i, &m, &summary, NULL, &np);
+        printf("\n--method %s: %s\n", m, summary ? summary : "");
+        for (int k = 0; k < NUM_PRESETS; k++)
+            if (!strcmp(presets[k].method, m) && presets[k].summary)
+                printf("--method %s: %s\n", presets[k].name, presets[k].summary);
+        for (int32_t k = 0; k < np; k++) {
             ew_param_info p;
             ew_method_param("denoiser", m, k, &p);
-            if (!strcmp(p.name, "model")) continue; /* nbg's: --model NAME|PATH, listed above */
-            char opt[64];
-            snprintf(opt, sizeof opt, "--%s", p.name);
+            char opt[64], head[96];
+            snprintf(opt, sizeof opt, "%s", p.name);
             for (char *c = opt; *c; c++)
                 if (*c == '_') *c = '-';
-            int n = snprintf(params + used, sizeof params - used, "  %-20s  %s (%s, %g..%g, default %g)\n", opt, p.hint, m,
-                             (double)p.min_value, (double)p.max_value, (double)p.default_value);
-            if (n < 0) break;
-            used += (size_t)n;
+            int32_t nc = ew_method_param_num_choices("denoiser", m, k);
+            const char *data = ew_method_param_data("denoiser", m, k);
+            snprintf(head, sizeof head, "  --%s %s", opt, nc > 0 ? (data ? "NAME|FILE" : "NAME") : "VALUE");
+            printf("%-24s", head);
+            if (nc > 0) {
+                for (int32_t c = 0; c < nc; c++) printf("%s%s", c ? ", " : "", ew_method_param_choice("denoiser", m, k, c));
+                printf("%s (default %s): ", data ? ", or a file" : "",
+                       ew_method_param_choice("denoiser", m, k, (int32_t)p.default_value));
+            } else {
+                printf("%g..%g (default %g): ", (double)p.min_value, (double)p.max_value, (double)p.default_value);
+            }
+            printf("%s\n", p.hint ? p.hint : "");
         }
     }
-    printf(help, params);
+    fputs(outro, stdout);
 }
 
-/* nbg's built-in models, by its "model" parameter (README.md, docs/nbg.md) */
-static const char *const builtin[] = {"2layer-3grid", "2layer-1grid", "7layer-3grid", "2layer-3grid-1spp"};
-#define NUM_BUILTIN 4
+/* The library method a --method name runs (a preset's, or itself). */
+static const char *library_method(const char *name) {
+    for (int k = 0; k < NUM_PRESETS; k++)
+        if (!strcmp(presets[k].name, name)) return presets[k].method;
+    return name;
+}
 
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
-    o->method = "auto";
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const char *val = i + 1 < argc ? argv[i + 1] : NULL;
-#define NEED_VALUE()                                                              \
-    do {                                                                          \
-        if (!val) { fprintf(stderr, "edgewise: %s needs a value\n", a); return 0; } \
-        i++;                                                                      \
-    } while (0)
-        if (!strcmp(a, "-h") || !strcmp(a, "--help")) { print_help(); exit(0); }
-        else if (!strcmp(a, "-o") || !strcmp(a, "--output")) { NEED_VALUE(); o->out = val; }
-        else if (!strcmp(a, "--layer")) { NEED_VALUE(); o->layer = val; }
-        else if (!strcmp(a, "--method")) { NEED_VALUE(); o->method = val; }
-        else if (!strcmp(a, "--model")) { NEED_VALUE(); o->model = val; }
-        else if (!strcmp(a, "--reference")) { NEED_VALUE(); o->reference = val; }
-        else if (!strcmp(a, "--threads")) { NEED_VALUE(); if (!cli_parse_int(a, val, 0, 1024, &o->threads)) return 0; }
-        else if (!strcmp(a, "--half")) o->type = EWIO_HALF;
-        else if (!strcmp(a, "--float")) o->type = EWIO_FLOAT;
-        else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) o->quiet = 1;
-        else if (a[0] == '-' && a[1] == '-' && strlen(a) < 64) {
-            char name[64];
-            ew_param_info p;
-            snprintf(name, sizeof name, "%s", a + 2);
-            for (char *c = name; *c; c++)
-                if (*c == '-') *c = '_';
-            if (!find_param(name, &p)) {
-                fprintf(stderr, "edgewise: unknown option '%s' (see 'edgewise denoise --help')\n", a);
-                return 0;
+    param_options *po = (param_options *)malloc(sizeof *po);
+    if (!po) return 0;
+    build_options(po);
+    const char *first = NULL;
+    ew_method_get("denoiser", 0, &first, NULL, NULL, NULL);
+    o->method = first ? first : "";
+    opterr = 0;
+    optind = 1;
+    int c, ok = 1;
+    while (ok && (c = getopt_long(argc, argv, ":o:qh", po->longs, NULL)) != -1) {
+        const char *a = argv[optind - 1];
+        switch (c) {
+        case 'o': o->out = optarg; break;
+        case 'q': o->quiet = 1; break;
+        case 'h': print_help(); free(po); exit(0);
+        case OPT_LAYER: o->layer = optarg; break;
+        case OPT_METHOD: o->method = optarg; o->method_given = 1; break;
+        case OPT_THREADS: ok = cli_parse_int("--threads", optarg, 0, 1024, &o->threads); break;
+        case OPT_HALF: o->type = EWIO_HALF; break;
+        case OPT_FLOAT: o->type = EWIO_FLOAT; break;
+        case OPT_REFERENCE: o->reference = optarg; break;
+        case ':': fprintf(stderr, "edgewise: %s needs a value\n", a); ok = 0; break;
+        case '?': fprintf(stderr, "edgewise: unknown option '%s' (see 'edgewise denoise --help')\n", a); ok = 0; break;
+        default:
+            if (c >= OPT_PARAM && c < OPT_PARAM + po->n) {
+                if (o->num_set == MAX_SET) {
+                    fprintf(stderr, "edgewise: at most %d method parameters\n", MAX_SET);
+                    ok = 0;
+                    break;
+                }
+                o->set_name[o->num_set] = po->param[c - OPT_PARAM];
+                o->set_text[o->num_set++] = optarg;
             }
-            if (o->num_set == MAX_SET) {
-                fprintf(stderr, "edgewise: at most %d method parameters\n", MAX_SET);
-                return 0;
-            }
-            NEED_VALUE();
-            if (!cli_parse_float(a, val, p.min_value, p.max_value, &o->set_value[o->num_set])) return 0;
-            snprintf(o->set_name[o->num_set++], sizeof o->set_name[0], "%s", name);
+            break;
         }
-        else if (a[0] == '-' && a[1] != '\0') { fprintf(stderr, "edgewise: unknown option '%s' (see 'edgewise denoise --help')\n", a); return 0; }
-        else if (!o->in) o->in = a;
-        else { fprintf(stderr, "edgewise: unexpected argument '%s'\n", a); return 0; }
-#undef NEED_VALUE
+    }
+    free(po);
+    if (!ok) return 0;
+    for (int i = optind; i < argc; i++) {
+        if (!o->in) o->in = argv[i];
+        else { fprintf(stderr, "edgewise: unexpected argument '%s'\n", argv[i]); return 0; }
     }
     if (!o->in) { fprintf(stderr, "edgewise: denoise needs an input file (see 'edgewise denoise --help')\n"); return 0; }
     if (!o->out) { fprintf(stderr, "edgewise: denoise needs an output file: -o OUT\n"); return 0; }
-    if (strcmp(o->method, "auto") && strcmp(o->method, "nbg") && strcmp(o->method, "bgrid") &&
-        strcmp(o->method, "bgrid-color")) {
-        fprintf(stderr, "edgewise: unknown method '%s' (auto, nbg, bgrid, bgrid-color)\n", o->method);
+    /* without --method, a parameter only one denoiser has picks it */
+    for (int i = 0; i < o->num_set && !o->method_given; i++) {
+        if (param_index(library_method(o->method), o->set_name[i]) >= 0) continue;
+        const char *only = NULL;
+        int count = 0;
+        for (int32_t k = 0; k < ew_method_count("denoiser"); k++) {
+            const char *m = NULL;
+            ew_method_get("denoiser", k, &m, NULL, NULL, NULL);
+            if (param_index(m, o->set_name[i]) >= 0) { only = m; count++; }
+        }
+        if (count == 1) o->method = only;
+    }
+    const char *lm = library_method(o->method);
+    const char *kind = ew_method_kind(lm);
+    if (!kind || strcmp(kind, "denoiser") != 0) {
+        char names[512];
+        size_t used = 0;
+        names[0] = '\0';
+        for (int32_t k = 0; k < ew_method_count("denoiser") && used < sizeof names; k++) {
+            const char *m = NULL;
+            ew_method_get("denoiser", k, &m, NULL, NULL, NULL);
+            int n = snprintf(names + used, sizeof names - used, "%s%s", k ? ", " : "", m);
+            if (n > 0) used += (size_t)n;
+        }
+        for (int k = 0; k < NUM_PRESETS && used < sizeof names; k++) {
+            if (ew_method_kind(presets[k].name)) continue; /* a preset named like its method */
+            int n = snprintf(names + used, sizeof names - used, ", %s", presets[k].name);
+            if (n > 0) used += (size_t)n;
+        }
+        fprintf(stderr, "edgewise: unknown method '%s' (%s)\n", o->method, names);
         return 0;
     }
-    if (o->model && strcmp(o->method, "auto") && strcmp(o->method, "nbg")) {
-        fprintf(stderr, "edgewise: --model is for --method nbg, not '%s'\n", o->method);
-        return 0;
+    /* the values, checked against the method's own descriptor */
+    for (int i = 0; i < o->num_set; i++) {
+        char opt[64];
+        snprintf(opt, sizeof opt, "--%s", o->set_name[i]);
+        for (char *ch = opt; *ch; ch++)
+            if (*ch == '_') *ch = '-';
+        int32_t k = param_index(lm, o->set_name[i]);
+        if (k < 0) {
+            fprintf(stderr, "edgewise: denoiser '%s' has no parameter %s (see 'edgewise denoise --help')\n", lm, opt);
+            return 0;
+        }
+        ew_param_info p;
+        ew_method_param("denoiser", lm, k, &p);
+        int32_t nc = ew_method_param_num_choices("denoiser", lm, k);
+        const char *data = ew_method_param_data("denoiser", lm, k);
+        if (nc > 0) {
+            int32_t choice = ew_method_param_choice_index("denoiser", lm, k, o->set_text[i]);
+            if (choice >= 0) {
+                o->set_value[i] = (float)choice;
+            } else if (data) { /* a file instead of a built-in choice: read in cmd_denoise */
+                o->data_name = data;
+                o->data_path = o->set_text[i];
+                o->set_name[i] = NULL;
+            } else {
+                fprintf(stderr, "edgewise: unknown %s '%s'\n", opt, o->set_text[i]);
+                return 0;
+            }
+        } else if (!cli_parse_float(opt, o->set_text[i], p.min_value, p.max_value, &o->set_value[i])) {
+            return 0;
+        }
     }
-    if (o->model) o->method = "nbg"; /* a model names the method */
-    /* --model: a built-in model's name, else a weights file (read later) */
-    o->model_index = 0;
-    for (int k = 0; o->model && k < NUM_BUILTIN; k++)
-        if (!strcmp(o->model, builtin[k])) o->model_index = k;
-    if (o->model && strcmp(o->model, builtin[o->model_index]) != 0) o->model_index = -1;
     return 1;
 }
 
-/* The bytes of a weights file for --model PATH (its validation is the
- * library's, at ew_denoiser_set_data). */
-static int read_model(options *o) {
-    FILE *f = fopen(o->model, "rb");
-    if (!f) return cli_fail("cannot read model '%s': %s (built-in models: 2layer-3grid, 2layer-1grid, 7layer-3grid)",
-                            o->model, strerror(errno));
+/* The bytes of a file given for a data parameter (its validation is the
+ * library's, at set_data). */
+static int read_data(options *o) {
+    FILE *f = fopen(o->data_path, "rb");
+    if (!f) return cli_fail("cannot read '%s': %s (see 'edgewise denoise --help' for the built-in names)",
+                            o->data_path, strerror(errno));
     long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
     if (n <= 0 || n > (1L << 28) || fseek(f, 0, SEEK_SET) != 0) {
         fclose(f);
-        return cli_fail("cannot read model '%s': not a weights file (size %ld)", o->model, n);
+        return cli_fail("cannot read '%s': not a weights file (size %ld)", o->data_path, n);
     }
-    o->model_bytes = malloc((size_t)n);
-    o->model_size = (size_t)n;
-    int bad = !o->model_bytes || fread(o->model_bytes, 1, (size_t)n, f) != (size_t)n;
+    o->data_bytes = malloc((size_t)n);
+    o->data_size = (size_t)n;
+    int bad = !o->data_bytes || fread(o->data_bytes, 1, (size_t)n, f) != (size_t)n;
     fclose(f);
-    if (bad) return cli_fail("cannot read model '%s'", o->model);
+    if (bad) return cli_fail("cannot read '%s'", o->data_path);
     return 0;
 }
 
@@ -216,20 +321,16 @@ static void make_spec(const job *j, const char *method, ew_method_spec *spec) {
     memset(spec, 0, sizeof *spec);
     spec->label = method;
     spec->kind = "denoiser";
-    spec->name = !strcmp(method, "bgrid-color") ? "bgrid" : method;
-    if (!strcmp(method, "nbg")) {
-        if (j->o->model_index >= 0) {
-            spec->param_names[spec->num_params] = "model";
-            spec->param_values[spec->num_params++] = (float)j->o->model_index;
-        } else {
-            spec->data_name = "weights";
-            spec->data = j->o->model_bytes;
-            spec->data_size = j->o->model_size;
-        }
-    }
-    for (int k = 0; k < j->o->num_set; k++) { /* MAX_SET leaves room for "model" */
+    spec->name = library_method(method);
+    for (int k = 0; k < j->o->num_set; k++) {
+        if (!j->o->set_name[k]) continue; /* given as data */
         spec->param_names[spec->num_params] = j->o->set_name[k];
         spec->param_values[spec->num_params++] = j->o->set_value[k];
+    }
+    if (j->o->data_name) {
+        spec->data_name = j->o->data_name;
+        spec->data = j->o->data_bytes;
+        spec->data_size = j->o->data_size;
     }
 }
 
@@ -239,17 +340,31 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     const char *layer = lp->layer;
     char layers[512];
     ew_list_layers(j->f, layers, sizeof layers);
-    const char *method = j->o->method;
-    if (!strcmp(method, "nbg") && (!lp->albedo || !lp->normal || !lp->depth))
-        return cli_fail("layer '%s' lacks the %s pass that --method nbg needs (it reads Denoising Albedo, Normal "
-                        "and Depth); layers found: %s. Enable Denoising Data in Blender's view layer passes, or "
-                        "use --method auto",
-                        layer, !lp->albedo ? "albedo" : !lp->normal ? "normal" : "depth", layers);
-    if (!strcmp(method, "bgrid") && !lp->albedo)
-        return cli_fail("layer '%s' has no albedo pass (looked for 'Denoising Albedo' and 'DiffCol'), which "
-                        "--method bgrid needs; layers found: %s. Enable Denoising Data in Blender's view layer "
-                        "passes, or use --method bgrid-color",
-                        layer, layers);
+    const char *method = j->o->method, *lm = library_method(method);
+    /* the images the method cannot run without, from its descriptor */
+    ew_image_info im;
+    for (int32_t k = 0; ew_method_image("denoiser", lm, k, &im) == EW_OK; k++) {
+        if (!im.required || !strcmp(im.name, "color") || !strcmp(im.name, "output")) continue;
+        const char *have = !strcmp(im.name, "albedo") ? lp->albedo : !strcmp(im.name, "normal") ? lp->normal
+                           : !strcmp(im.name, "depth") ? lp->depth : NULL;
+        if (!have)
+            return cli_fail("layer '%s' lacks the %s pass that --method %s needs (it reads Denoising Albedo, Normal "
+                            "and Depth); layers found: %s. Enable Denoising Data in Blender's view layer passes, or "
+                            "use --method auto",
+                            layer, im.name, lm, layers);
+    }
+    for (int k = 0; k < NUM_PRESETS; k++) {
+        if (strcmp(presets[k].name, method) != 0 || !presets[k].needs) continue;
+        if (!strcmp(presets[k].needs, "albedo") && !lp->albedo) {
+            const char *without = NULL;
+            for (int q = 0; q < NUM_PRESETS; q++)
+                if (!strcmp(presets[q].method, presets[k].method) && !presets[q].features) without = presets[q].name;
+            return cli_fail("layer '%s' has no albedo pass (looked for 'Denoising Albedo' and 'DiffCol'), which "
+                            "--method %s needs; layers found: %s. Enable Denoising Data in Blender's view layer "
+                            "passes%s%s",
+                            layer, method, layers, without ? ", or use --method " : "", without ? without : "");
+        }
+    }
 
     int nc = (int)strlen(lp->color_comps);
     float *orig = (float *)malloc((size_t)w * h * nc * sizeof(float));
@@ -263,7 +378,10 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(orig);
         return cli_fail("%s", j->err);
     }
-    if (!strcmp(method, "bgrid-color")) { /* guided by the colour alone */
+    int features = 1;
+    for (int k = 0; k < NUM_PRESETS; k++)
+        if (!strcmp(presets[k].name, method)) features = presets[k].features;
+    if (!features) { /* guided by the colour alone */
         free(in.albedo);
         free(in.normal);
         free(in.depth);
@@ -283,8 +401,8 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(orig);
         return cli_fail("denoising layer '%s' failed: %s", layer, j->err);
     }
-    if (!strcmp(method, "nbg") && j->o->model_index < 0) /* the weights file's path */
-        snprintf(chosen, sizeof chosen, "nbg %s", j->o->model);
+    if (j->o->data_path) /* what ran is the file's */
+        snprintf(chosen, sizeof chosen, "%s %s", lm, j->o->data_path);
     /* Keep the noisy original beside the result, as Blender does. */
     int put = 0;
     if (strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0')
@@ -334,7 +452,7 @@ static int print_quality(job *j, const ew_layer_passes *lp, const float *noisy_r
 int cmd_denoise(int argc, char **argv) {
     options o;
     if (!parse(argc, argv, &o)) return EW_EXIT_USAGE;
-    if (o.model && o.model_index < 0 && read_model(&o) != 0) return EW_EXIT_FAIL;
+    if (o.data_path && read_data(&o) != 0) return EW_EXIT_FAIL;
     if (same_file(o.in, o.out))
         return cli_fail("refusing to write the output over the input '%s': choose another -o", o.in);
 
@@ -398,6 +516,6 @@ done:
     ewio_free(j.f);
     free(j.out);
     free(noisy_first);
-    free(o.model_bytes);
+    free(o.data_bytes);
     return rc;
 }

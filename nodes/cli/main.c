@@ -17,7 +17,7 @@ static const char usage[] =
     "  denoise IN -o OUT   denoise a render (Cycles multilayer EXR, or EXR/PNG/TIFF colour)\n"
     "  info IN             list the layers, passes and metadata of an image file\n"
     "  compare TEST REF    PSNR and SSIM of TEST against REF (tone-mapped)\n"
-    "  filter IN -o OUT    edge-aware filter of a pass: pyramid, bilateral, separable, atrous\n"
+    "  filter IN -o OUT    one of the library's filters on a pass (filter --help lists them)\n"
     "  dof IN -o OUT       depth of field from the depth pass and Blender camera values\n"
     "  bench DIR -o OUT    every method on a directory of renders: quality and time (CSV)\n"
     "  train --data DIR    train a neural bilateral grid model (runs train_nbg; models/nbg/README.md)\n"

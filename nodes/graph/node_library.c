@@ -3,7 +3,7 @@
  * "filter" (method chosen by a parameter) and nodes bound to one filter
  * ("pyramid", "bilateral", "atrous", "dof", "outlier"). Their images and parameters
  * come from the library's introspection (node_registry.c); here they are
- * handed to ew_denoiser_* / ew_filter_* unchanged.
+ * handed to the library's ew_op_* unchanged.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -11,8 +11,7 @@
 #include "graph.h"
 
 typedef struct {
-    ew_denoiser *den;
-    ew_filter *fil;
+    ew_op *op;
     ew_run *run; /* the run in progress, for the progress trampoline */
 } lib_state;
 
@@ -20,10 +19,7 @@ static int is_denoiser(const ew_gnode *n) { return !strcmp(n->type->lib_kind, "d
 
 static void lib_release(ew_gnode *n) {
     lib_state *s = (lib_state *)n->state;
-    if (s) {
-        ew_denoiser_destroy(s->den);
-        ew_filter_destroy(s->fil);
-    }
+    if (s) ew_op_destroy(s->op);
     free(s);
     n->state = NULL;
 }
@@ -47,26 +43,23 @@ static ew_result lib_prepare(ew_gnode *n, ew_run *r) {
     lib_state *s = (lib_state *)calloc(1, sizeof *s);
     if (!s) return ew_node_fail(n, EW_ERR_OUT_OF_MEMORY, "out of memory");
     n->state = s;
-    ew_result res = is_denoiser(n) ? ew_denoiser_create(dev, n->sig.method, &s->den)
-                                   : ew_filter_create(dev, n->sig.method, &s->fil);
+    ew_result res = ew_op_create(dev, n->sig.method, &s->op);
     if (res != EW_OK) return lib_error(n, res, "cannot create");
     for (int i = n->sig.num_static_params; i < n->sig.num_params && res == EW_OK; i++) {
         const ew_nparam_desc *p = &n->sig.params[i];
         double v = n->values[i].num;
         if (p->type == EW_NODE_PARAM_FLOAT)
-            res = s->den ? ew_denoiser_set_float(s->den, p->name, (float)v) : ew_filter_set_float(s->fil, p->name, (float)v);
-        else
-            res = s->den ? ew_denoiser_set_int(s->den, p->name, (int32_t)v) : ew_filter_set_int(s->fil, p->name, (int32_t)v);
+            res = ew_op_set_float(s->op, p->name, (float)v);
+        else /* int, bool, and an enum's choice index */
+            res = ew_op_set_int(s->op, p->name, (int32_t)v);
         if (res != EW_OK)
             return ew_node_fail(n, res, "parameter '%s': %s", p->name, ew_device_last_error(dev));
     }
-    res = s->den ? ew_denoiser_set_progress(s->den, lib_progress, s) : ew_filter_set_progress(s->fil, lib_progress, s);
+    res = ew_op_set_progress(s->op, lib_progress, s);
     return res == EW_OK ? EW_OK : lib_error(n, res, "");
 }
 
-static ew_result set_image(lib_state *s, const char *name, const ew_image *v) {
-    return s->den ? ew_denoiser_set_image(s->den, name, v) : ew_filter_set_image(s->fil, name, v);
-}
+static ew_result set_image(lib_state *s, const char *name, const ew_image *v) { return ew_op_set_image(s->op, name, v); }
 
 static ew_result lib_execute(ew_gnode *n, ew_run *r) {
     lib_state *s = (lib_state *)n->state;
@@ -98,12 +91,12 @@ static ew_result lib_execute(ew_gnode *n, ew_run *r) {
         if (res == EW_OK) res = set_image(s, d->name, &v);
         if (res != EW_OK) return ew_node_fail(n, res, "output '%s': %s", d->name, ew_device_last_error(n->g->dev));
     }
-    res = s->den ? ew_denoiser_commit(s->den) : ew_filter_commit(s->fil);
-    if (res == EW_OK) res = s->den ? ew_denoiser_execute(s->den) : ew_filter_execute(s->fil);
+    res = ew_op_commit(s->op);
+    if (res == EW_OK) res = ew_op_execute(s->op);
     s->run = NULL;
     if (res == EW_ERR_CANCELLED || r->cancelled) return ew_node_fail(n, EW_ERR_CANCELLED, "cancelled (frame %d)", r->frame);
     if (res != EW_OK) return lib_error(n, res, "");
-    if (s->den) ew_run_report_method(r, n, ew_denoiser_describe(s->den)); /* e.g. what "auto" picked */
+    if (is_denoiser(n)) ew_run_report_method(r, n, ew_op_describe(s->op)); /* e.g. what "auto" picked */
     return EW_OK;
 }
 

@@ -87,12 +87,6 @@ static ew_pass lib_pass(const char *kind, const char *name) {
     return EW_PASS_ANY;
 }
 
-/* The introspection has no direction: "output" is the output (op.h), and an
- * image documented as "written ..." (the DoF's "coc") is an extra output. */
-static int lib_is_output(const ew_image_info *im) {
-    return !strcmp(im->name, "output") || (im->hint && !strncmp(im->hint, "written", 7));
-}
-
 static const char *find_method(const char *kind, const char *name, int32_t *num_images, int32_t *num_params) {
     for (int32_t i = 0; i < ew_method_count(kind); i++) {
         const char *m = NULL;
@@ -129,24 +123,20 @@ int ew_node_sig_build(const ew_node_type *t, const char *method, ew_node_sig *s)
         return 0;
     }
     s->method = m;
-    int color_in = -1, out_port = -1;
-    int out_inplace = 0;
+    int inplace_in = -1, out_port = -1;
     for (int32_t i = 0; i < ni; i++) {
         ew_image_info im;
-        if (ew_method_image(kind, m, i, &im) != EW_OK) continue;
+        uint32_t flags = 0;
+        if (ew_method_image(kind, m, i, &im) != EW_OK || ew_method_image_flags(kind, m, i, &flags) != EW_OK) continue;
         ew_port_desc d = {im.name, lib_pass(kind, im.name), im.min_channels, im.required, im.hint};
-        if (lib_is_output(&im)) {
+        if (flags & EW_IMAGE_OUTPUT) {
             if (s->num_outputs >= EW_SIG_MAX_PORTS) continue;
-            if (!strcmp(im.name, "output")) {
-                out_port = s->num_outputs;
-                out_inplace = im.hint && strstr(im.hint, "may be the colour") != NULL;
-                d.required = 0;
-            }
+            if (!strcmp(im.name, "output")) out_port = s->num_outputs;
             d.required = 0; /* outputs are wanted only when connected */
             s->outputs[s->num_outputs++] = d;
         } else {
             if (s->num_inputs >= EW_SIG_MAX_PORTS) continue;
-            if (!strcmp(im.name, "color")) color_in = s->num_inputs;
+            if ((flags & EW_IMAGE_INPLACE) && inplace_in < 0) inplace_in = s->num_inputs;
             s->inputs[s->num_inputs++] = d;
         }
     }
@@ -156,7 +146,7 @@ int ew_node_sig_build(const ew_node_type *t, const char *method, ew_node_sig *s)
         s->outputs[0] = s->outputs[out_port];
         s->outputs[out_port] = tmp;
     }
-    s->inplace_input = (out_port >= 0 && out_inplace) ? color_in : -1;
+    s->inplace_input = out_port >= 0 ? inplace_in : -1;
     for (int32_t i = 0; i < np && s->num_params < EW_SIG_MAX_PARAMS; i++) {
         ew_param_info p;
         if (ew_method_param(kind, m, i, &p) != EW_OK) continue;
@@ -176,6 +166,12 @@ int ew_node_sig_build(const ew_node_type *t, const char *method, ew_node_sig *s)
         d.def_string = "";
         d.label = p.name;
         d.hint = p.hint ? p.hint : "";
+        if (ew_method_param_num_choices(kind, m, i) > 0) { /* shown and given by choice name */
+            const char *def = ew_method_param_choice(kind, m, i, (int32_t)p.default_value);
+            d.type = EW_NODE_PARAM_ENUM;
+            d.def_string = def ? def : "";
+            s->lib_enum[s->num_params] = (int)i + 1;
+        }
         s->params[s->num_params++] = d;
     }
     return 1;
@@ -199,8 +195,19 @@ int ew_sig_find_param(const ew_node_sig *s, const char *name) {
     return -1;
 }
 
+/* The library parameter index of a library enum of s, or -1. */
+static int32_t lib_enum_of(const ew_node_sig *s, const ew_nparam_desc *p) {
+    long k = p - s->params;
+    return k >= 0 && k < s->num_params && s->lib_enum[k] > 0 ? (int32_t)s->lib_enum[k] - 1 : -1;
+}
+
 int ew_param_num_choices(const ew_node_sig *s, const ew_nparam_desc *p) {
     if (p->type != EW_NODE_PARAM_ENUM) return 0;
+    int32_t li = lib_enum_of(s, p);
+    if (li >= 0) {
+        int32_t n = ew_method_param_num_choices(s->type->lib_kind, s->method, li);
+        return n > 0 ? (int)n : 0;
+    }
     if (!p->choices) return s->type->lib_kind ? (int)ew_method_count(s->type->lib_kind) : 0;
     int n = 0;
     while (p->choices[n]) n++;
@@ -209,6 +216,8 @@ int ew_param_num_choices(const ew_node_sig *s, const ew_nparam_desc *p) {
 
 const char *ew_param_choice(const ew_node_sig *s, const ew_nparam_desc *p, int i) {
     if (i < 0 || i >= ew_param_num_choices(s, p)) return NULL;
+    int32_t li = lib_enum_of(s, p);
+    if (li >= 0) return ew_method_param_choice(s->type->lib_kind, s->method, li, i);
     if (p->choices) return p->choices[i];
     const char *m = NULL;
     ew_method_get(s->type->lib_kind, i, &m, NULL, NULL, NULL);

@@ -104,6 +104,10 @@ typedef struct ew_node_sig {
     ew_nparam_desc params[EW_SIG_MAX_PARAMS];
     int num_params;
     int num_static_params; /* params[0..num_static_params) are the type's own */
+    /* For each parameter: 1 + its index among the library method's
+     * parameters when it is one of the library's enums (choices come from
+     * ew_method_param_choice), else 0. */
+    int lib_enum[EW_SIG_MAX_PARAMS];
     int inplace_input;
 } ew_node_sig;
 
@@ -115,7 +119,7 @@ int ew_sig_find_input(const ew_node_sig *s, const char *name);
 int ew_sig_find_output(const ew_node_sig *s, const char *name);
 int ew_sig_find_param(const ew_node_sig *s, const char *name);
 /* Enum choices: count and the i-th name (the library's methods when
- * choices == NULL). */
+ * choices == NULL, a library enum's names when sig->lib_enum says so). */
 int ew_param_num_choices(const ew_node_sig *s, const ew_nparam_desc *p);
 const char *ew_param_choice(const ew_node_sig *s, const ew_nparam_desc *p, int i);
 /* "a, b, c" lists for messages. */

@@ -85,11 +85,25 @@ static ew_result convert(ew_gnode *n, const ew_nparam_desc *p, const ew_raw *r, 
         break;
     }
     case EW_NODE_PARAM_ENUM: {
+        int nc = ew_param_num_choices(&n->sig, p);
+        /* A library enum was an integer before it had names: graph files
+         * that give its index still mean the same choice. */
+        const int lib_enum = n->sig.lib_enum[p - n->sig.params] > 0;
+        double idx = 0.0;
+        if (lib_enum && (r->kind == EW_RAW_INT || r->kind == EW_RAW_NUMBER || (r->kind == EW_RAW_TEXT && parse_double(r->str, &idx)))) {
+            if (r->kind != EW_RAW_TEXT) idx = r->num;
+            if (idx == floor(idx) && idx >= 0 && idx < nc) {
+                v->num = idx;
+                v->str = ew_param_choice(&n->sig, p, (int)idx);
+                return EW_OK;
+            }
+            return ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT, "node '%s' parameter '%s': %g is not a choice index in [0, %d]",
+                                 n->id, p->name, idx, nc - 1);
+        }
         if (r->kind != EW_RAW_STRING && r->kind != EW_RAW_TEXT) {
             bad_type = raw_kind_name(r);
             break;
         }
-        int nc = ew_param_num_choices(&n->sig, p);
         for (int i = 0; i < nc; i++)
             if (!strcmp(ew_param_choice(&n->sig, p, i), r->str)) {
                 v->num = i;

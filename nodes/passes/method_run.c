@@ -73,32 +73,19 @@ static float *slot_buffer(const ew_layer_data *in, const char *slot, float *colo
     return NULL;
 }
 
-/* The denoiser and filter faces of the same calls. */
-static ew_result set_image(int f, void *op, const char *nm, const ew_image *v) {
-    return f ? ew_filter_set_image((ew_filter *)op, nm, v) : ew_denoiser_set_image((ew_denoiser *)op, nm, v);
-}
-static ew_result set_float(int f, void *op, const char *nm, float v) {
-    return f ? ew_filter_set_float((ew_filter *)op, nm, v) : ew_denoiser_set_float((ew_denoiser *)op, nm, v);
-}
-static ew_result set_int(int f, void *op, const char *nm, int32_t v) {
-    return f ? ew_filter_set_int((ew_filter *)op, nm, v) : ew_denoiser_set_int((ew_denoiser *)op, nm, v);
-}
-static ew_result set_data(int f, void *op, const char *nm, const void *data, size_t size) {
-    return f ? ew_filter_set_data((ew_filter *)op, nm, data, size) : ew_denoiser_set_data((ew_denoiser *)op, nm, data, size);
-}
-static ew_result commit(int f, void *op) {
-    return f ? ew_filter_commit((ew_filter *)op) : ew_denoiser_commit((ew_denoiser *)op);
-}
-static ew_result execute(int f, void *op) {
-    return f ? ew_filter_execute((ew_filter *)op) : ew_denoiser_execute((ew_denoiser *)op);
+/* The method's parameter called `name` (0 if it has none). */
+static int find_param(const ew_method_spec *spec, const char *name, ew_param_info *p) {
+    for (int32_t k = 0; ew_method_param(spec->kind, spec->name, k, p) == EW_OK; k++)
+        if (!strcmp(p->name, name)) return 1;
+    return 0;
 }
 
-/* Whether the method has a parameter called `name`. */
-static int has_param(const ew_method_spec *spec, const char *name) {
+/* A value given as a number, set as the parameter's declared type (an
+ * unknown name goes to set_float, whose error names the known ones). */
+static ew_result set_number(ew_op *op, const ew_method_spec *spec, const char *name, float v) {
     ew_param_info p;
-    for (int32_t k = 0; ew_method_param(spec->kind, spec->name, k, &p) == EW_OK; k++)
-        if (!strcmp(p.name, name)) return 1;
-    return 0;
+    if (find_param(spec, name, &p) && p.type != EW_PARAM_FLOAT) return ew_op_set_int(op, name, (int32_t)v);
+    return ew_op_set_float(op, name, v);
 }
 
 int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_data *in, float *out, double *ms,
@@ -122,10 +109,8 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
         color = out; /* demodulate into out, filter in place */
         for (size_t i = 0; i < n * 3; i++) out[i] = in->color[i] / albedo_factor(in->albedo[i]);
     }
-    ew_filter *fop = NULL;
-    ew_denoiser *dop = NULL;
-    ew_result r = is_filter ? ew_filter_create(dev, spec->name, &fop) : ew_denoiser_create(dev, spec->name, &dop);
-    void *op = is_filter ? (void *)fop : (void *)dop;
+    ew_op *op = NULL;
+    ew_result r = ew_op_create(dev, spec->name, &op);
     if (r != EW_OK) {
         snprintf(err, errlen, "%s: %s", spec->label, ew_device_last_error(dev));
         return 1;
@@ -153,29 +138,27 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
             continue;
         }
         views[i] = ew_image_packed(buf, w, h, ch);
-        r = set_image(is_filter, op, info.name, &views[i]);
+        r = ew_op_set_image(op, info.name, &views[i]);
     }
     int samples_set = 0;
     for (int k = 0; r == EW_OK && k < spec->num_params; k++) {
-        r = set_float(is_filter, op, spec->param_names[k], spec->param_values[k]);
-        if (r == EW_ERR_INVALID_ARGUMENT && strstr(ew_device_last_error(dev), "set_int"))
-            r = set_int(is_filter, op, spec->param_names[k], (int32_t)spec->param_values[k]);
+        r = set_number(op, spec, spec->param_names[k], spec->param_values[k]);
         samples_set |= !strcmp(spec->param_names[k], "samples");
     }
-    if (r == EW_OK && !samples_set && in->samples > 0 && has_param(spec, "samples"))
-        r = set_int(is_filter, op, "samples", in->samples);
-    if (r == EW_OK && spec->data_name) r = set_data(is_filter, op, spec->data_name, spec->data, spec->data_size);
+    ew_param_info sp;
+    if (r == EW_OK && !samples_set && in->samples > 0 && find_param(spec, "samples", &sp))
+        r = ew_op_set_int(op, "samples", in->samples);
+    if (r == EW_OK && spec->data_name) r = ew_op_set_data(op, spec->data_name, spec->data, spec->data_size);
     double t0 = now_ms();
-    if (r == EW_OK) r = commit(is_filter, op);
-    if (r == EW_OK) r = execute(is_filter, op);
+    if (r == EW_OK) r = ew_op_commit(op);
+    if (r == EW_OK) r = ew_op_execute(op);
     *ms = now_ms() - t0;
     if (r == EW_OK && spec->chosen && spec->chosen_len) {
-        const char *what = is_filter ? spec->name : ew_denoiser_describe(dop);
+        const char *what = ew_op_describe(op);
         snprintf(spec->chosen, spec->chosen_len, "%s", what ? what : spec->name);
     }
     if (r != EW_OK && !err[0]) snprintf(err, errlen, "%s: %s", spec->label, ew_device_last_error(dev));
-    ew_filter_destroy(fop);
-    ew_denoiser_destroy(dop);
+    ew_op_destroy(op);
     if (r == EW_OK && demod)
         for (size_t i = 0; i < n * 3; i++) out[i] *= albedo_factor(in->albedo[i]);
     return r != EW_OK;

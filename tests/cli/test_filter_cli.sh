@@ -34,14 +34,16 @@ expect filter_bad_method 2 "unknown --method 'median'" -- filter "$IN" -o "$T/o.
 expect filter_bad_model 2 "unknown --model 'fancy'" -- filter "$IN" -o "$T/o.exr" --model fancy
 expect filter_bad_radius 2 "--radius expects an integer in [0, 256]" -- filter "$IN" -o "$T/o.exr" --radius 300
 expect dof_no_output 2 "-o OUT" -- dof "$IN"
-expect dof_focus_in_lens 2 "--focus-distance 0.02 m must be beyond the focal length" -- dof "$IN" -o "$T/o.exr" --focus-distance 0.02
+expect dof_focus_in_lens 1 "'focus_distance' = 0.02 m is not beyond the focal length" -- dof "$IN" -o "$T/o.exr" --layer ViewLayer --focus-distance 0.02
+expect filter_param_of_another_method 2 "filter 'atrous' has no parameter --model" -- filter "$IN" -o "$T/o.exr" --method atrous --model gi
+expect filter_library_range 2 "--sigma-normal expects a number in [0, 100]" -- filter "$IN" -o "$T/o.exr" --method atrous --sigma-normal 500
 no_file "$T/o.exr" usage_errors_write_nothing
 
 # ---- bad input
 expect filter_missing_file 1 "cannot read '$T/nope.exr'" -- filter "$T/nope.exr" -o "$T/o.exr"
 expect filter_output_is_input 1 "refusing to write the output over the input" -- filter "$IN" -o "$IN"
 expect filter_unknown_pass 1 "has no pass 'Emit'" -- filter "$IN" -o "$T/o.exr" --pass Emit
-expect filter_gi_without_features 1 "--model gi needs a normal or depth pass" -- filter "$IN" -o "$T/o.exr" --model gi --layer "Back Plate"
+expect filter_gi_without_features 1 "model' = gi (GI denoising) needs a 'normal' and/or a 'depth' image" -- filter "$IN" -o "$T/o.exr" --model gi --layer "Back Plate"
 expect filter_no_colour 1 "no colour pass" -- filter "$T/depth_only.exr" -o "$T/o.exr"
 echo "garbage" >"$T/bad.ewpw"
 expect filter_bad_weights_file 1 "--weights '$T/bad.ewpw': data 'weights': not a pyramid weights file" -- filter "$IN" -o "$T/o.exr" --weights "$T/bad.ewpw"
@@ -56,7 +58,7 @@ for m in pyramid bilateral separable atrous; do
 done
 "$EW" compare "$T/pyramid.exr" "$IN" | grep -Eq "PSNR [0-9.]+ dB" && ok filtering_changes_the_image || bad filtering_changes_the_image
 "$EW" info "$T/pyramid.exr" | grep -q "layer 'ViewLayer'" && ok output_keeps_other_layers || bad output_keeps_other_layers
-expect model_gi 0 "gi, radius 8, normal, depth" -- filter "$IN" -o "$T/gi.exr" --layer ViewLayer --model gi
+expect model_gi 0 "normal, depth; model gi, radius 8," -- filter "$IN" -o "$T/gi.exr" --layer ViewLayer --model gi
 expect model_depth_on_depth 0 "'Denoising Depth'" -- filter "$IN" -o "$T/dz.exr" --layer ViewLayer --pass "Denoising Depth" --model depth
 expect model_color_guide 0 "" -- filter "$IN" -o "$T/g.exr" --layer ViewLayer --guide-pass "Denoising Albedo" --sigma-range 0.05
 expect weights_analytic 0 "" -- filter "$IN" -o "$T/a.exr" --weights analytic --radius 20
@@ -64,13 +66,20 @@ if [ -f "$WEIGHTS" ]; then
   expect weights_file 0 "" -- filter "$IN" -o "$T/wf.exr" --weights "$WEIGHTS" --radius 20
   "$EW" compare "$T/wf.exr" "$T/a.exr" | grep -Eq "PSNR [0-9.]+ dB" && ok trained_differs_from_analytic || bad trained_differs_from_analytic
 fi
-expect png_output_and_reference 0 "output vs reference: PSNR" -- filter "$IN" -o "$T/o.png" --radius 4 --reference "$IN"
+expect png_output_and_reference 0 "-> output PSNR" -- filter "$IN" -o "$T/o.png" --radius 4 --reference "$IN"
 [ -s "$T/o.png" ] && ok png_written || bad png_written
 
 # ---- depth of field (two_layers' ViewLayer has Denoising Depth: 5 left, 1.5 right)
-expect dof_runs 0 "CoC from" -- dof "$IN" -o "$T/dof.exr" --layer ViewLayer --focus-distance 5 --fstop 1.4 --coc-pass CoC
+expect dof_runs 0 "dof 'coc' (pass 'CoC') ranges from -" -- dof "$IN" -o "$T/dof.exr" --layer ViewLayer --focus-distance 5 --fstop 1.4 --coc-pass CoC
 "$EW" info "$T/dof.exr" | grep -q "ViewLayer.CoC.Z" && ok dof_writes_coc_pass || bad dof_writes_coc_pass
-expect dof_exact_with_reference 0 "with depth of field PSNR" -- dof "$IN" -o "$T/dofx.exr" --layer ViewLayer --focus-distance 5 --method bilateral --reference "$IN"
+expect dof_exact_with_reference 0 "-> output PSNR" -- dof "$IN" -o "$T/dofx.exr" --layer ViewLayer --focus-distance 5 --method bilateral --reference "$IN"
+
+# every filter of the library is a --method, with its own parameters in the help
+for m in $("$EW" nodes --json 2>/dev/null | python3 -c 'import json,sys; print(" ".join(json.load(sys.stdin)["filter"]["params"][0]["choices"]))' 2>/dev/null); do
+  "$EW" filter --help | grep -q -- "--method $m:" && ok "help_lists_$m" || bad "help_lists_$m"
+done
+expect dof_method_by_name 0 "method separable" -- dof "$IN" -o "$T/dofs.exr" --layer ViewLayer --focus-distance 5 --method separable
+expect dof_method_unknown 2 "unknown --method 'fast' (pyramid, bilateral, separable" -- dof "$IN" -o "$T/o2.exr" --method fast
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -129,8 +129,19 @@ TEST(library_params_come_from_introspection) {
                 CHECK_NEAR(p.default_value, lp.default_value, 0);
                 CHECK_NEAR(p.min_value, lp.min_value, 0);
                 CHECK_NEAR(p.max_value, lp.max_value, 0);
-                CHECK_EQ_INT(p.type, lp.type == EW_PARAM_FLOAT ? EW_NODE_PARAM_FLOAT
-                                     : lp.type == EW_PARAM_INT ? EW_NODE_PARAM_INT : EW_NODE_PARAM_BOOL);
+                /* an enum of the library is shown and given by its choice names */
+                const int32_t nc = ew_method_param_num_choices(kinds[k], name, i);
+                CHECK_EQ_INT(p.type, nc > 0                      ? EW_NODE_PARAM_ENUM
+                                     : lp.type == EW_PARAM_FLOAT ? EW_NODE_PARAM_FLOAT
+                                     : lp.type == EW_PARAM_INT   ? EW_NODE_PARAM_INT
+                                                                 : EW_NODE_PARAM_BOOL);
+                CHECK_EQ_INT(p.num_choices, nc);
+                for (int32_t c = 0; c < nc; c++) {
+                    const char *choice = NULL;
+                    CHECK_EQ_INT(ew_node_type_param_choice(node, name, i + 1, c, &choice), EW_OK);
+                    CHECK(!strcmp(choice, ew_method_param_choice(kinds[k], name, i, c)));
+                }
+                if (nc > 0) CHECK(!strcmp(p.default_string, ew_method_param_choice(kinds[k], name, i, (int32_t)lp.default_value)));
             }
             CHECK_EQ_INT(t.num_inputs + t.num_outputs, ni);
         }
@@ -231,6 +242,38 @@ TEST(wrong_parameter_type_and_range) {
     EXPECT_INVALID(j, EW_ERR_INVALID_ARGUMENT, "node 'x': parameter 'channels': 'Q' is not one of");
     EXPECT_INVALID(HEAD "\"r\": {\"type\": \"read\"}, \"out\": {\"type\": \"output\", \"inputs\": {\"image\": \"r.color\"}}}}",
                    EW_ERR_INVALID_ARGUMENT, "node 'r': parameter 'path' is required");
+}
+
+/* A library enum by name; the index older graph files give means the same
+ * choice; an unknown name lists the names. */
+TEST(library_enums_by_name) {
+    enum { W = 16, H = 12 };
+    static float in[W * H * 3], out_name[W * H * 3], out_index[W * H * 3];
+    for (int i = 0; i < W * H * 3; i++) in[i] = (float)((i * 7919) % 97) / 97.0f;
+    float *outs[2] = {out_name, out_index};
+    const char *model[2] = {"\"none\"", "3"};
+    for (int k = 0; k < 2; k++) {
+        char j[1024];
+        snprintf(j, sizeof j,
+                 HEAD "\"in\": {\"type\": \"input\"}, \"x\": {\"type\": \"pyramid\", \"params\": {\"model\": %s, "
+                      "\"radius\": 4}, \"inputs\": {\"color\": \"in\"}}, \"out\": {\"type\": \"output\", \"inputs\": "
+                      "{\"image\": \"x\"}}}}",
+                 model[k]);
+        ew_graph *g = graph_from(j);
+        CHECK(g);
+        ew_image vi = ew_image_packed(in, W, H, 3), vo = ew_image_packed(outs[k], W, H, 3);
+        CHECK_EQ_INT(ew_graph_set_input(g, "in", &vi), EW_OK);
+        CHECK_EQ_INT(ew_graph_set_output(g, "out", &vo), EW_OK);
+        CHECK_EQ_INT(ew_graph_run(g), EW_OK);
+        ew_graph_destroy(g);
+    }
+    CHECK(memcmp(out_name, out_index, sizeof out_name) == 0);
+    CHECK(memcmp(out_name, in, sizeof in) != 0); /* it filtered */
+    char j[1024];
+    snprintf(j, sizeof j, HEAD "%s\"x\": {\"type\": \"pyramid\", \"params\": {\"model\": \"fancy\"}, \"inputs\": {\"color\": \"in\"}}}}", in_out);
+    EXPECT_INVALID(j, EW_ERR_INVALID_ARGUMENT, "node 'x' parameter 'model': unknown value 'fancy' (one of: color, gi, depth, none)");
+    snprintf(j, sizeof j, HEAD "%s\"x\": {\"type\": \"pyramid\", \"params\": {\"model\": 4}, \"inputs\": {\"color\": \"in\"}}}}", in_out);
+    EXPECT_INVALID(j, EW_ERR_INVALID_ARGUMENT, "node 'x' parameter 'model': 4 is not a choice index in [0, 3]");
 }
 
 TEST(connection_errors_name_both_ends) {

@@ -175,6 +175,13 @@ const hp_schema hs_param_bool[] = {
     {NULL, 0, 0, 0},
 };
 
+const hp_schema hs_param_choice[] = {
+    PARAM_PROPS,
+    {"OfxParamPropDefault", 'i', 1, RW},
+    {"OfxParamPropChoiceOption", 's', 0, RW},
+    {NULL, 0, 0, 0},
+};
+
 /* ---- action arguments ------------------------------------------------------ */
 const hp_schema hs_describe_in_context_in[] = {{"OfxImageEffectPropContext", 's', 1, RO}, {NULL, 0, 0, 0}};
 

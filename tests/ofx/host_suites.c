@@ -99,6 +99,7 @@ host_param *he_add_param(host_effect *e, const char *type, const char *name) {
     const hp_schema *schema = !strcmp(type, "OfxParamTypeDouble")    ? hs_param_double
                               : !strcmp(type, "OfxParamTypeInteger") ? hs_param_int
                               : !strcmp(type, "OfxParamTypeBoolean") ? hs_param_bool
+                              : !strcmp(type, "OfxParamTypeChoice")  ? hs_param_choice
                                                                      : NULL;
     if (!schema || e->num_params == (int)(sizeof e->params / sizeof e->params[0])) return NULL;
     host_param *p = (host_param *)calloc(1, sizeof *p);
@@ -374,7 +375,8 @@ static OfxStatus param_define(OfxParamSetHandle set, const char *type, const cha
         host_violation("paramDefine on an instance");
         return kOfxStatErrUnsupported;
     }
-    if (strcmp(type, "OfxParamTypeDouble") && strcmp(type, "OfxParamTypeInteger") && strcmp(type, "OfxParamTypeBoolean")) {
+    if (strcmp(type, "OfxParamTypeDouble") && strcmp(type, "OfxParamTypeInteger") && strcmp(type, "OfxParamTypeBoolean") &&
+        strcmp(type, "OfxParamTypeChoice")) {
         host_violation("paramDefine of type %s, which this host does not offer", type);
         return kOfxStatErrUnknown;
     }

@@ -86,7 +86,7 @@ extern const OfxPropertySuiteV1 host_property_suite;
 /* Schemas (host_schema.c). */
 extern const hp_schema hs_host[], hs_effect_descriptor[], hs_context_descriptor[], hs_instance[];
 extern const hp_schema hs_clip_descriptor[], hs_clip_instance[], hs_image[];
-extern const hp_schema hs_param_double[], hs_param_int[], hs_param_bool[];
+extern const hp_schema hs_param_double[], hs_param_int[], hs_param_bool[], hs_param_choice[];
 extern const hp_schema hs_describe_in_context_in[], hs_rod_in[], hs_rod_out[], hs_roi_in[];
 extern const hp_schema hs_identity_in[], hs_identity_out[], hs_render_in[], hs_clip_prefs_out[];
 

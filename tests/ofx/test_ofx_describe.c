@@ -13,21 +13,19 @@
 
 static char err[512];
 
-/* The plugins a bundle built against this library must offer. */
+/* The plugins a bundle built against this library must offer: every
+ * method the library marks as a host tool, read from the library. */
 static int expected_identifiers(char ids[][64], int max) {
     int n = 0;
-    for (int32_t i = 0; i < ew_method_count("denoiser") && n < max; i++) {
+    for (int32_t i = 0; i < ew_method_count(NULL) && n < max; i++) {
         const char *name = NULL;
-        if (ew_method_get("denoiser", i, &name, NULL, NULL, NULL) == EW_OK)
-            snprintf(ids[n++], 64, "org.edgewise.denoise.%s", name);
+        uint32_t flags = 0;
+        if (ew_method_get(NULL, i, &name, NULL, NULL, NULL) != EW_OK || ew_method_flags(NULL, name, &flags) != EW_OK)
+            continue;
+        if (flags & EW_METHOD_HOST)
+            snprintf(ids[n++], 64, "org.edgewise.%s.%s", !strcmp(ew_method_kind(name), "denoiser") ? "denoise" : "filter",
+                     name);
     }
-    const char *filters[] = {"pyramid", "dof", "atrous", "outlier"};
-    for (int k = 0; k < 4 && n < max; k++)
-        for (int32_t i = 0; i < ew_method_count("filter"); i++) {
-            const char *name = NULL;
-            if (ew_method_get("filter", i, &name, NULL, NULL, NULL) == EW_OK && !strcmp(name, filters[k]))
-                snprintf(ids[n++], 64, "org.edgewise.filter.%s", name);
-        }
     return n;
 }
 
@@ -71,8 +69,8 @@ TEST(enumerates_one_plugin_per_user_facing_method) {
     host_bundle b;
     if (hb_open(&b, err, sizeof err)) FAIL_AT("%s", err);
     CHECK(b.dl);
-    char want[8][64];
-    int n = expected_identifiers(want, 8);
+    char want[32][64]; /* more than the plugin's limit, so a surplus shows */
+    int n = expected_identifiers(want, 32);
     CHECK(n >= 1);
     CHECK_EQ_INT(b.get_count(), n);
     for (int i = 0; i < n; i++) {
@@ -93,6 +91,9 @@ TEST(enumerates_one_plugin_per_user_facing_method) {
     /* the user-facing filters this library has are all there */
     CHECK(hb_find(&b, "org.edgewise.denoise.bgrid") >= 0);
     CHECK(hb_find(&b, "org.edgewise.filter.bilateral") < 0); /* the exact reference is not a tool */
+    /* tests/gain runs these tests on a library with one method more */
+    const char *extra = getenv("EW_EXPECT_PLUGIN");
+    if (extra && hb_find(&b, extra) < 0) FAIL_AT("no plugin %s", extra);
     hb_close(&b);
 }
 
@@ -152,7 +153,9 @@ static void check_clips(const char *context) {
         for (int32_t k = 0; k < ni; k++) {
             ew_image_info im;
             CHECK_EQ_INT(ew_method_image(kind, method, k, &im), EW_OK);
-            if (!strcmp(im.name, "color") || !strcmp(im.name, "output") || !strcmp(im.name, "coc")) continue;
+            uint32_t flags = 0;
+            CHECK_EQ_INT(ew_method_image_flags(kind, method, k, &flags), EW_OK);
+            if (!strcmp(im.name, "color") || (flags & EW_IMAGE_OUTPUT)) continue;
             char clip[32];
             snprintf(clip, sizeof clip, "%s", im.name);
             clip[0] = (char)(clip[0] - 'a' + 'A');
@@ -221,6 +224,13 @@ TEST(parameters_are_generated_from_the_descriptors) {
                 double dmin = hp_d(q, "OfxParamPropDisplayMin", 0), dmax = hp_d(q, "OfxParamPropDisplayMax", 0);
                 CHECK(dmin >= info.min_value && dmax <= info.max_value && dmin < dmax);
                 CHECK(hp_d(q, "OfxParamPropIncrement", 0) > 0.0);
+            } else if (ew_method_param_num_choices(kind, method, k) > 0) { /* an enum: its names */
+                CHECK(!strcmp(p->type, "OfxParamTypeChoice"));
+                CHECK_EQ_INT(hp_i(q, "OfxParamPropDefault", 0), (int)info.default_value);
+                int32_t nc = ew_method_param_num_choices(kind, method, k);
+                CHECK_EQ_INT(hp_count(q, "OfxParamPropChoiceOption"), nc);
+                for (int32_t ci = 0; ci < nc; ci++)
+                    CHECK(!strcmp(hp_s(q, "OfxParamPropChoiceOption", ci), ew_method_param_choice(kind, method, k, ci)));
             } else if (info.type == EW_PARAM_INT) {
                 CHECK(!strcmp(p->type, "OfxParamTypeInteger"));
                 CHECK_EQ_INT(hp_i(q, "OfxParamPropDefault", 0), (int)info.default_value);

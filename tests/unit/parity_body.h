@@ -382,8 +382,8 @@ TEST(temporal_filter_sequence_on_device_memory) {
     for (int device_images = 0; device_images <= 1; device_images++) {
         OPEN_PAIR(p, device_images);
         ew_op *a = NULL, *b = NULL;
-        CHECK_EQ_INT(ew_op_create(p.cpu, "filter", "temporal", &a), EW_OK);
-        CHECK_EQ_INT(ew_op_create(p.dut, "filter", "temporal", &b), EW_OK);
+        CHECK_EQ_INT(ew_op_create_kind(p.cpu, "filter", "temporal", &a), EW_OK);
+        CHECK_EQ_INT(ew_op_create_kind(p.dut, "filter", "temporal", &b), EW_OK);
         ew_op_set_param(a, "clamp", 1.5f, 0);
         ew_op_set_param(b, "clamp", 1.5f, 0);
         int ok = 1;
@@ -856,7 +856,7 @@ TEST(bgrid_denoiser_matches_cpu_through_device_memory) {
  * parameter at its default); the output, N*C floats, into out. */
 static ew_result run_op_generic(ew_device *dev, const ew_op_type *t, float *out, int *out_channels) {
     ew_op *op = NULL;
-    ew_result r = ew_op_create(dev, t->kind, t->name, &op);
+    ew_result r = ew_op_create_kind(dev, t->kind, t->name, &op);
     if (r != EW_OK) return r;
     float *out_buf = NULL;
     int oc = 0;

@@ -253,3 +253,254 @@ TEST(introspection_lists_methods_and_parameters) {
     CHECK(found);
     CHECK_EQ_INT(ew_method_get("denoiser", -1, &name, NULL, NULL, NULL), EW_ERR_INVALID_ARGUMENT);
 }
+
+/* ---- the one op handle and its older names ---- */
+
+/* One run of `method` on a fixed noisy 4-channel image through the chosen
+ * face; returns the checksum bits of the output. */
+static void run_pyramid(ew_device *dev, int via_filter_names, float *out, int w, int h) {
+    float *in = (float *)malloc((size_t)w * h * 4 * sizeof(float));
+    unsigned s = 7;
+    for (int i = 0; i < w * h * 4; i++) {
+        s = s * 1664525u + 1013904223u;
+        in[i] = (float)(s >> 8) / 16777216.0f;
+    }
+    ew_image vi = ew_image_packed(in, w, h, 4), vo = ew_image_packed(out, w, h, 4);
+    if (via_filter_names) {
+        ew_filter *f = NULL;
+        CHECK_EQ_INT(ew_filter_create(dev, "pyramid", &f), EW_OK);
+        CHECK_EQ_INT(ew_filter_set_image(f, "color", &vi), EW_OK);
+        CHECK_EQ_INT(ew_filter_set_image(f, "output", &vo), EW_OK);
+        CHECK_EQ_INT(ew_filter_set_int(f, "model", 3), EW_OK);
+        CHECK_EQ_INT(ew_filter_set_float(f, "sigma_spatial", 2.5f), EW_OK);
+        CHECK_EQ_INT(ew_filter_commit(f), EW_OK);
+        CHECK_EQ_INT(ew_filter_execute(f), EW_OK);
+        ew_filter_destroy(f);
+    } else {
+        ew_op *op = NULL;
+        CHECK_EQ_INT(ew_op_create(dev, "pyramid", &op), EW_OK);
+        CHECK_EQ_INT(ew_op_set_image(op, "color", &vi), EW_OK);
+        CHECK_EQ_INT(ew_op_set_image(op, "output", &vo), EW_OK);
+        CHECK_EQ_INT(ew_op_set_int(op, "model", 3), EW_OK);
+        CHECK_EQ_INT(ew_op_set_float(op, "sigma_spatial", 2.5f), EW_OK);
+        CHECK_EQ_INT(ew_op_commit(op), EW_OK);
+        CHECK_EQ_INT(ew_op_execute(op), EW_OK);
+        ew_op_destroy(op);
+    }
+    free(in);
+}
+
+TEST(op_handle_runs_what_the_filter_names_run) {
+    ew_device *dev = cpu(2);
+    enum { W = 37, H = 21 };
+    static float a[W * H * 4], b[W * H * 4];
+    run_pyramid(dev, 1, a, W, H);
+    run_pyramid(dev, 0, b, W, H);
+    CHECK(memcmp(a, b, sizeof a) == 0);
+    ew_device_destroy(dev);
+}
+
+TEST(op_handle_creates_every_kind_and_names_it) {
+    ew_device *dev = cpu(1);
+    ew_op *op = (ew_op *)1;
+    CHECK_EQ_INT(ew_op_create(dev, "magic", &op), EW_ERR_UNSUPPORTED);
+    CHECK(op == NULL);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "magic");
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "pyramid"); /* the available names, of every kind */
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "bgrid");
+    CHECK_EQ_INT(ew_op_create(dev, "bgrid", &op), EW_OK);
+    CHECK(strcmp(ew_op_kind(op), "denoiser") == 0 && strcmp(ew_op_method(op), "bgrid") == 0);
+    CHECK(ew_op_describe(op) == NULL); /* not committed */
+    /* the older names take the same handle */
+    float px[8 * 8 * 3] = {0};
+    ew_image v = ew_image_packed(px, 8, 8, 3);
+    CHECK_EQ_INT(ew_denoiser_set_image(op, "color", &v), EW_OK);
+    CHECK_EQ_INT(ew_op_set_image(op, "output", &v), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_commit(op), EW_OK);
+    CHECK(strcmp(ew_op_describe(op), "bgrid") == 0);
+    CHECK(ew_denoiser_describe(op) == ew_op_describe(op));
+    CHECK_EQ_INT(ew_op_execute(op), EW_OK);
+    ew_op_destroy(op);
+    CHECK_EQ_INT(ew_op_create(dev, "dof", &op), EW_OK);
+    CHECK(strcmp(ew_op_kind(op), "filter") == 0);
+    ew_op_destroy(op);
+    /* the kind-bound older create still refuses the other kind */
+    ew_filter *f = NULL;
+    CHECK_EQ_INT(ew_filter_create(dev, "bgrid", &f), EW_ERR_UNSUPPORTED);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "unknown filter 'bgrid'");
+    ew_op_destroy(NULL);
+    CHECK(ew_op_kind(NULL) == NULL && ew_op_method(NULL) == NULL && ew_op_describe(NULL) == NULL);
+    ew_device_destroy(dev);
+}
+
+TEST(op_get_reads_parameters_back) {
+    ew_device *dev = cpu(1);
+    ew_op *op = NULL;
+    CHECK_EQ_INT(ew_op_create(dev, "pyramid", &op), EW_OK);
+    int32_t i = -1;
+    float f = -1.0f;
+    /* defaults from the descriptor */
+    CHECK_EQ_INT(ew_op_get_int(op, "radius", &i), EW_OK);
+    ew_param_info p;
+    CHECK_EQ_INT(ew_method_param("filter", "pyramid", 1, &p), EW_OK);
+    CHECK(strcmp(p.name, "radius") == 0 && i == (int32_t)p.default_value);
+    CHECK_EQ_INT(ew_op_get_float(op, "sigma_range", &f), EW_OK);
+    CHECK(f == 0.1f);
+    /* what was set */
+    CHECK_EQ_INT(ew_op_set_int(op, "radius", 17), EW_OK);
+    CHECK_EQ_INT(ew_op_get_int(op, "radius", &i), EW_OK);
+    CHECK_EQ_INT(i, 17);
+    CHECK_EQ_INT(ew_op_get_float(op, "radius", &f), EW_OK); /* any parameter reads as a float */
+    CHECK(f == 17.0f);
+    CHECK_EQ_INT(ew_op_set_float(op, "sigma_range", 0.25f), EW_OK);
+    CHECK_EQ_INT(ew_op_get_float(op, "sigma_range", &f), EW_OK);
+    CHECK(f == 0.25f);
+    /* a refused value leaves the old one */
+    CHECK_EQ_INT(ew_op_set_int(op, "radius", 100000), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_op_get_int(op, "radius", &i), EW_OK);
+    CHECK_EQ_INT(i, 17);
+    /* errors name the problem */
+    CHECK_EQ_INT(ew_op_get_int(op, "sigma_range", &i), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "get_float");
+    CHECK_EQ_INT(ew_op_get_float(op, "colour", &f), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "sigma_range");
+    CHECK_EQ_INT(ew_op_get_float(op, "radius", NULL), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_op_get_float(NULL, "radius", &f), EW_ERR_INVALID_ARGUMENT);
+    ew_op_destroy(op);
+
+    /* what the method writes back: temporal's one-shot reset reads 0 after
+     * the commit that used it */
+    CHECK_EQ_INT(ew_op_create(dev, "temporal", &op), EW_OK);
+    float px[8 * 8 * 3] = {0};
+    ew_image v = ew_image_packed(px, 8, 8, 3);
+    ew_op_set_image(op, "color", &v);
+    ew_op_set_image(op, "output", &v);
+    CHECK_EQ_INT(ew_op_set_int(op, "reset", 1), EW_OK);
+    CHECK_EQ_INT(ew_op_get_int(op, "reset", &i), EW_OK);
+    CHECK_EQ_INT(i, 1);
+    CHECK_EQ_INT(ew_op_commit(op), EW_OK);
+    CHECK_EQ_INT(ew_op_get_int(op, "reset", &i), EW_OK);
+    CHECK_EQ_INT(i, 0);
+    ew_op_destroy(op);
+    ew_device_destroy(dev);
+}
+
+/* ---- descriptors: direction, in-place, enum names, method flags ---- */
+
+static int32_t image_index(const char *method, const char *image) {
+    ew_image_info im;
+    for (int32_t i = 0; ew_method_image(NULL, method, i, &im) == EW_OK; i++)
+        if (!strcmp(im.name, image)) return i;
+    return -1;
+}
+
+static int32_t param_index(const char *method, const char *param) {
+    ew_param_info p;
+    for (int32_t i = 0; ew_method_param(NULL, method, i, &p) == EW_OK; i++)
+        if (!strcmp(p.name, param)) return i;
+    return -1;
+}
+
+TEST(descriptors_state_image_direction_and_inplace) {
+    uint32_t fl = 99;
+    /* every method: "output" is written, "color" read and may be the output */
+    for (int32_t m = 0; m < ew_method_count(NULL); m++) {
+        const char *name = NULL;
+        int32_t ni = 0;
+        CHECK_EQ_INT(ew_method_get(NULL, m, &name, NULL, &ni, NULL), EW_OK);
+        CHECK(ew_method_kind(name) != NULL);
+        int outputs = 0;
+        for (int32_t i = 0; i < ni; i++) {
+            ew_image_info im;
+            CHECK_EQ_INT(ew_method_image(NULL, name, i, &im), EW_OK);
+            CHECK_EQ_INT(ew_method_image_flags(NULL, name, i, &fl), EW_OK);
+            if (!strcmp(im.name, "output")) CHECK_EQ_INT((int)fl, (int)EW_IMAGE_OUTPUT);
+            if (!strcmp(im.name, "color")) CHECK_EQ_INT((int)fl, (int)EW_IMAGE_INPLACE);
+            /* an output is never also an in-place input */
+            CHECK(!((fl & EW_IMAGE_OUTPUT) && (fl & EW_IMAGE_INPLACE)));
+            outputs += (fl & EW_IMAGE_OUTPUT) != 0;
+        }
+        CHECK(outputs >= 1);
+    }
+    CHECK_EQ_INT(ew_method_count(NULL), ew_method_count("denoiser") + ew_method_count("filter"));
+    /* the DoF's circle of confusion is a second output; its depth is read */
+    CHECK_EQ_INT(ew_method_image_flags("filter", "dof", image_index("dof", "coc"), &fl), EW_OK);
+    CHECK_EQ_INT((int)fl, (int)EW_IMAGE_OUTPUT);
+    CHECK_EQ_INT(ew_method_image_flags(NULL, "dof", image_index("dof", "depth"), &fl), EW_OK);
+    CHECK_EQ_INT((int)fl, 0);
+    CHECK_EQ_INT(ew_method_image_flags("denoiser", "dof", 0, &fl), EW_ERR_INVALID_ARGUMENT); /* wrong kind */
+    CHECK_EQ_INT(ew_method_image_flags(NULL, "dof", 99, &fl), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_method_image_flags(NULL, "dof", 0, NULL), EW_ERR_INVALID_ARGUMENT);
+    CHECK(strcmp(ew_method_kind("nbg"), "denoiser") == 0 && strcmp(ew_method_kind("atrous"), "filter") == 0);
+    CHECK(ew_method_kind("magic") == NULL && ew_method_kind(NULL) == NULL);
+}
+
+TEST(descriptors_name_enum_choices) {
+    const int32_t model = param_index("pyramid", "model");
+    CHECK_EQ_INT(ew_method_param_num_choices("filter", "pyramid", model), 4);
+    const char *want[] = {"color", "gi", "depth", "none"};
+    for (int32_t c = 0; c < 4; c++) {
+        CHECK(strcmp(ew_method_param_choice("filter", "pyramid", model, c), want[c]) == 0);
+        CHECK_EQ_INT(ew_method_param_choice_index(NULL, "pyramid", model, want[c]), c);
+    }
+    CHECK(ew_method_param_choice("filter", "pyramid", model, 4) == NULL);
+    CHECK(ew_method_param_choice("filter", "pyramid", model, -1) == NULL);
+    CHECK_EQ_INT(ew_method_param_choice_index(NULL, "pyramid", model, "fancy"), -1);
+    CHECK_EQ_INT(ew_method_param_num_choices(NULL, "pyramid", param_index("pyramid", "radius")), 0);
+    CHECK_EQ_INT(ew_method_param_num_choices(NULL, "pyramid", 99), -1);
+    CHECK_EQ_INT(ew_method_param_num_choices(NULL, "magic", 0), -1);
+    /* DoF's method and nbg's models */
+    const int32_t dm = param_index("dof", "method");
+    CHECK_EQ_INT(ew_method_param_num_choices(NULL, "dof", dm), 3);
+    CHECK(strcmp(ew_method_param_choice(NULL, "dof", dm, 1), "bilateral") == 0);
+    const int32_t nm = param_index("nbg", "model");
+    CHECK(strcmp(ew_method_param_choice(NULL, "nbg", nm, 3), "2layer-3grid-1spp") == 0);
+    /* every enum's range is exactly its choices, and its default one of them */
+    for (int32_t m = 0; m < ew_method_count(NULL); m++) {
+        const char *name = NULL;
+        int32_t np = 0;
+        ew_method_get(NULL, m, &name, NULL, NULL, &np);
+        for (int32_t k = 0; k < np; k++) {
+            ew_param_info p;
+            ew_method_param(NULL, name, k, &p);
+            int32_t n = ew_method_param_num_choices(NULL, name, k);
+            CHECK(n >= 0);
+            if (n == 0) continue;
+            CHECK_EQ_INT(p.type, EW_PARAM_INT);
+            CHECK(p.min_value == 0.0f && p.max_value == (float)(n - 1));
+            CHECK(ew_method_param_choice(NULL, name, k, (int32_t)p.default_value) != NULL);
+        }
+    }
+}
+
+TEST(descriptors_flag_params_and_methods) {
+    uint32_t fl = 0;
+    CHECK_EQ_INT(ew_method_param_flags(NULL, "atrous", param_index("atrous", "radius"), &fl), EW_OK);
+    CHECK_EQ_INT((int)fl, (int)(EW_PARAM_PIXELS | EW_PARAM_NOOP_AT_ZERO));
+    CHECK_EQ_INT(ew_method_param_flags(NULL, "atrous", param_index("atrous", "iterations"), &fl), EW_OK);
+    CHECK_EQ_INT((int)fl, (int)EW_PARAM_NOOP_AT_ZERO);
+    CHECK_EQ_INT(ew_method_param_flags(NULL, "dof", param_index("dof", "fstop"), &fl), EW_OK);
+    CHECK_EQ_INT((int)fl, 0);
+    /* the flag and the older query agree everywhere */
+    for (int32_t m = 0; m < ew_method_count(NULL); m++) {
+        const char *name = NULL;
+        int32_t np = 0;
+        ew_method_get(NULL, m, &name, NULL, NULL, &np);
+        for (int32_t k = 0; k < np; k++) {
+            CHECK_EQ_INT(ew_method_param_flags(NULL, name, k, &fl), EW_OK);
+            CHECK_EQ_INT((fl & EW_PARAM_PIXELS) != 0, ew_method_param_is_pixels(ew_method_kind(name), name, k));
+        }
+    }
+    /* host tools vs references */
+    CHECK_EQ_INT(ew_method_flags(NULL, "pyramid", &fl), EW_OK);
+    CHECK(fl & EW_METHOD_HOST);
+    CHECK_EQ_INT(ew_method_flags("filter", "bilateral", &fl), EW_OK);
+    CHECK(!(fl & EW_METHOD_HOST));
+    CHECK_EQ_INT(ew_method_flags(NULL, "magic", &fl), EW_ERR_INVALID_ARGUMENT);
+    /* parameters a file may give instead */
+    CHECK(strcmp(ew_method_param_data(NULL, "pyramid", param_index("pyramid", "weights")), "weights") == 0);
+    CHECK(strcmp(ew_method_param_data(NULL, "nbg", param_index("nbg", "model")), "weights") == 0);
+    CHECK(ew_method_param_data(NULL, "pyramid", param_index("pyramid", "radius")) == NULL);
+    CHECK(ew_method_param_data(NULL, "bilateral", 0) == NULL);
+    CHECK(ew_method_param_data(NULL, "magic", 0) == NULL);
+}

@@ -99,7 +99,7 @@ TEST(unported_ops_are_refused_on_device_memory) {
     for (int i = 0; ew_op_types[i]; i++) {
         const ew_op_type *t = ew_op_types[i];
         ew_op *op = NULL;
-        ew_result r = ew_op_create(lg, t->kind, t->name, &op);
+        ew_result r = ew_op_create_kind(lg, t->kind, t->name, &op);
         if (t->device_memory) {
             CHECK_EQ_INT(r, EW_OK);
         } else {

@@ -125,12 +125,12 @@ const ew_backend ew_cpu_backend = {
     .pyr_row_hooks = 1,
     .atrous_pass = ew_cpu_atrous_pass,
     .dof_attributes = ew_cpu_dof_attributes,
-    /* neural bilateral grid (issue 3; core/algorithms/guidenet_cpu.c, nbg.c) */
+    /* neural bilateral grid (core/algorithms/guidenet_cpu.c, nbg.c) */
     .conv5 = ew_cpu_conv5,
     .gn_input = ew_cpu_gn_input,
     .nbg_guides = ew_cpu_nbg_guides,
     .nbg_blend = ew_cpu_nbg_blend,
-    /* device memory (issue 8, cpu_memory.c) */
+    /* device memory (cpu_memory.c) */
     .mem_alloc = ew_cpu_mem_alloc,
     .mem_free = ew_cpu_mem_free,
     .mem_upload = ew_cpu_mem_upload,

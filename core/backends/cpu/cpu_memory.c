@@ -1,5 +1,5 @@
 /*
- * cpu_memory.c — the memory entries of the CPU backend (issue 8). Device
+ * cpu_memory.c — the memory entries of the CPU backend. Device
  * memory is host memory here, so these are malloc/memcpy; they exist so that
  * algorithms have one code path for the CPU and for backends with memory of
  * their own (docs/backends.md). Work runs synchronously on the device's

@@ -124,55 +124,82 @@ EW_API ew_image ew_image_packed(float *data, int32_t width, int32_t height, int3
  * May be called from a worker thread, one call at a time. */
 typedef int (*ew_progress_fn)(void *user, double fraction);
 
-/* ---- denoiser --------------------------------------------------------- */
+/* ---- operations: every denoiser and filter ------------------------------ */
 /*
- * Methods (name given at creation):
- *   "bgrid"  bilateral grid with a hand-made guide: the mean of the
- *            normalised auxiliary features (the baseline of Meng et al. 2020,
- *            Fig. 7), or the luminance of the colour when no features are set.
+ * One handle for every method (as OIDN's one OIDNFilter): create by the
+ * method's name ("auto", "bgrid", "nbg", "pyramid", "dof", ...: listed by
+ * ew_method_* below), set images and parameters by name, commit, execute.
  *
- * Images (ew_denoiser_set_image): "color" (3 ch, required), "albedo" (3 ch),
- * "normal" (3 ch, in [-1,1]), "depth" (1 ch), "output" (3 ch, required; may
- * alias "color" exactly).
+ * Images (ew_op_set_image) are named by the method's descriptor, e.g.
+ * "color" (required), "albedo", "normal", "depth", "output" (required).
+ * ew_method_image_flags says which are written (EW_IMAGE_OUTPUT) and which
+ * inputs "output" may be the very same view of (EW_IMAGE_INPLACE).
  *
- * Parameters: see ew_denoiser_set_int / set_float and the documentation of
- * each method in README.md. Non-finite colour samples (NaN, +-Inf) are treated
- * as missing: they get no weight and their pixels are reconstructed from the
+ * Parameters: see ew_method_param and the documentation of each method in
+ * README.md. Non-finite colour samples (NaN, +-Inf) are treated as missing:
+ * they get no weight and their pixels are reconstructed from the
  * neighbourhood, so the output is finite.
  */
-typedef struct ew_denoiser ew_denoiser;
+typedef struct ew_op ew_op;
 
-EW_API ew_result ew_denoiser_create(ew_device *dev, const char *method, ew_denoiser **out);
-EW_API void ew_denoiser_destroy(ew_denoiser *d); /* NULL is a no-op */
+/* `method` is a name of any kind; an unknown one gives EW_ERR_UNSUPPORTED
+ * with the available names in ew_device_last_error. */
+EW_API ew_result ew_op_create(ew_device *dev, const char *method, ew_op **out);
+EW_API void ew_op_destroy(ew_op *op); /* NULL is a no-op */
 /* Pass NULL as view to unset an image. The view is copied, not the pixels. */
-EW_API ew_result ew_denoiser_set_image(ew_denoiser *d, const char *name, const ew_image *view);
-EW_API ew_result ew_denoiser_set_int(ew_denoiser *d, const char *name, int32_t value);
-EW_API ew_result ew_denoiser_set_float(ew_denoiser *d, const char *name, float value);
+EW_API ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view);
+/* An EW_PARAM_INT or EW_PARAM_BOOL parameter (an enum: the index of its
+ * choice name, ew_method_param_choice). */
+EW_API ew_result ew_op_set_int(ew_op *op, const char *name, int32_t value);
+/* An EW_PARAM_FLOAT parameter (an integer one refuses it: use set_int). */
+EW_API ew_result ew_op_set_float(ew_op *op, const char *name, float value);
+/* A parameter's current value: what was set, the default otherwise, or what
+ * the method itself wrote back (e.g. temporal's one-shot "reset" reads 0
+ * after the commit that used it). get_float reads any parameter; get_int
+ * refuses a float one. */
+EW_API ew_result ew_op_get_int(const ew_op *op, const char *name, int32_t *out);
+EW_API ew_result ew_op_get_float(const ew_op *op, const char *name, float *out);
 /* Opaque data by name, e.g. "weights": the bytes of a weights file (see
  * models/README.md). Copied and validated at once; NULL/0 unsets. */
-EW_API ew_result ew_denoiser_set_data(ew_denoiser *d, const char *name, const void *data, size_t size);
-EW_API ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, void *user);
+EW_API ew_result ew_op_set_data(ew_op *op, const char *name, const void *data, size_t size);
+EW_API ew_result ew_op_set_progress(ew_op *op, ew_progress_fn fn, void *user);
 /* Validate images and parameters and allocate scratch memory. */
-EW_API ew_result ew_denoiser_commit(ew_denoiser *d);
+EW_API ew_result ew_op_commit(ew_op *op);
 /* Run. Allocates nothing. */
-EW_API ew_result ew_denoiser_execute(ew_denoiser *d);
-/* What a committed denoiser runs, in words: for "auto", the method, model
- * or grid settings it picked for this frame and from what (e.g. "nbg
+EW_API ew_result ew_op_execute(ew_op *op);
+/* What a committed op runs, in words: for "auto", the method, model or grid
+ * settings it picked for this frame and from what (e.g. "nbg
  * 2layer-3grid-1spp (1 spp)"); for the others, the method's name. NULL
  * before a successful commit. The text lives until the next commit or
  * destroy. */
+EW_API const char *ew_op_describe(const ew_op *op);
+/* The op's method name and kind ("denoiser" or "filter"); static strings,
+ * NULL for a NULL op. */
+EW_API const char *ew_op_method(const ew_op *op);
+EW_API const char *ew_op_kind(const ew_op *op);
+
+/* ---- older names of the same handle ------------------------------------ */
+/*
+ * ew_denoiser_* and ew_filter_* are the ew_op_* calls under the names of
+ * earlier versions (same handle, same behaviour), kept so existing callers
+ * build and link unchanged. Their create only accepts a method of its kind.
+ */
+typedef struct ew_op ew_denoiser;
+typedef struct ew_op ew_filter;
+
+EW_API ew_result ew_denoiser_create(ew_device *dev, const char *method, ew_denoiser **out);
+EW_API void ew_denoiser_destroy(ew_denoiser *d);
+EW_API ew_result ew_denoiser_set_image(ew_denoiser *d, const char *name, const ew_image *view);
+EW_API ew_result ew_denoiser_set_int(ew_denoiser *d, const char *name, int32_t value);
+EW_API ew_result ew_denoiser_set_float(ew_denoiser *d, const char *name, float value);
+EW_API ew_result ew_denoiser_set_data(ew_denoiser *d, const char *name, const void *data, size_t size);
+EW_API ew_result ew_denoiser_set_progress(ew_denoiser *d, ew_progress_fn fn, void *user);
+EW_API ew_result ew_denoiser_commit(ew_denoiser *d);
+EW_API ew_result ew_denoiser_execute(ew_denoiser *d);
 EW_API const char *ew_denoiser_describe(const ew_denoiser *d);
 
-/* ---- filters ---------------------------------------------------------- */
-/*
- * Edge-aware filters share the denoiser's life cycle: create by type name,
- * set images and parameters by name, commit, execute. Types and their
- * images/parameters are listed by ew_method_* below and in README.md.
- */
-typedef struct ew_filter ew_filter;
-
 EW_API ew_result ew_filter_create(ew_device *dev, const char *type, ew_filter **out);
-EW_API void ew_filter_destroy(ew_filter *f); /* NULL is a no-op */
+EW_API void ew_filter_destroy(ew_filter *f);
 EW_API ew_result ew_filter_set_image(ew_filter *f, const char *name, const ew_image *view);
 EW_API ew_result ew_filter_set_int(ew_filter *f, const char *name, int32_t value);
 EW_API ew_result ew_filter_set_float(ew_filter *f, const char *name, float value);
@@ -214,6 +241,46 @@ EW_API ew_result ew_method_param(const char *kind, const char *name, int32_t ind
  * multiplies it by that scale so the result looks the same. 0 when it is
  * not, -1 for an unknown method or index. */
 EW_API int32_t ew_method_param_is_pixels(const char *kind, const char *name, int32_t index);
+
+/*
+ * What fronts need beyond the structs above, as separate queries so the
+ * structs keep their layout. kind may be NULL in every ew_method_* call:
+ * method names are unique across kinds, and ew_method_count(NULL) /
+ * ew_method_get(NULL, i, ...) walk every method.
+ */
+/* "denoiser" or "filter" for a method name, NULL for an unknown one. */
+EW_API const char *ew_method_kind(const char *name);
+
+/* Image direction and aliasing. */
+#define EW_IMAGE_OUTPUT 0x1u  /* written by execute; every other image is read */
+#define EW_IMAGE_INPLACE 0x2u /* an input the "output" view may be the very same view of */
+EW_API ew_result ew_method_image_flags(const char *kind, const char *name, int32_t index, uint32_t *flags);
+
+/* Enum parameters: an EW_PARAM_INT whose value is the index of a choice
+ * name (e.g. pyramid's model: "color", "gi", "depth", "none"). Fronts show
+ * and accept the names. num_choices is 0 for other parameters, -1 for an
+ * unknown method or index; choice returns NULL out of range. */
+EW_API int32_t ew_method_param_num_choices(const char *kind, const char *name, int32_t index);
+EW_API const char *ew_method_param_choice(const char *kind, const char *name, int32_t index, int32_t choice);
+/* The index of a choice name, or -1. */
+EW_API int32_t ew_method_param_choice_index(const char *kind, const char *name, int32_t index, const char *choice);
+
+/* Parameter bits: EW_PARAM_PIXELS as ew_method_param_is_pixels;
+ * EW_PARAM_NOOP_AT_ZERO: when every parameter of the method with this bit is
+ * 0, execute copies the input unchanged (a host may skip rendering). */
+#define EW_PARAM_PIXELS 0x1u
+#define EW_PARAM_NOOP_AT_ZERO 0x2u
+EW_API ew_result ew_method_param_flags(const char *kind, const char *name, int32_t index, uint32_t *flags);
+
+/* The set_data name that gives parameter `index`'s value as the bytes of a
+ * file instead (pyramid's "weights" table, nbg's "model" -> "weights"), or
+ * NULL when there is none. Static string. */
+EW_API const char *ew_method_param_data(const char *kind, const char *name, int32_t index);
+
+/* Method bits: EW_METHOD_HOST: offered as a tool in host applications (OFX
+ * plugins, menus); methods without it are references and baselines. */
+#define EW_METHOD_HOST 0x1u
+EW_API ew_result ew_method_flags(const char *kind, const char *name, uint32_t *flags);
 
 /* ---- metrics ---------------------------------------------------------- */
 /*
