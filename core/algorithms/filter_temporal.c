@@ -15,7 +15,8 @@ static const ew_image_desc images[] = {
     {"color", 3, 1, "the frame's colour (demodulated radiance works best)"},
     {"normal", 3, 0, "normals, for rejecting history across edges"},
     {"depth", 1, 0, "depth, for rejecting disoccluded history"},
-    {"vector", 2, 0, "motion in pixels per frame towards the previous frame (Cycles Vector.XY)"},
+    {"vector", 2, 0, "motion in pixels per frame towards the previous frame, as Cycles writes Vector.XY: previous "
+                     "position = (x + X, y - Y) with rows top first (its y axis points up)"},
     {"output", 3, 1, "accumulated colour; may be the colour view itself"},
 };
 
@@ -23,7 +24,7 @@ static const ew_param_desc params[] = {
     {"alpha_min", EW_PARAM_FLOAT, 0.2f, 0.01f, 1.0f, "smallest weight of the current frame (1 = no accumulation)"},
     {"normal_cos", EW_PARAM_FLOAT, 0.9f, -1.0f, 1.0f, "history whose normal has a smaller cosine to the current one is rejected"},
     {"depth_rel", EW_PARAM_FLOAT, 0.1f, 0.0f, 10.0f, "history whose depth differs by more than this fraction is rejected"},
-    {"motion_sign", EW_PARAM_INT, 1.0f, -1.0f, 1.0f, "+1: previous position = pixel + vector (Cycles); -1: pixel - vector"},
+    {"motion_sign", EW_PARAM_INT, 1.0f, -1.0f, 1.0f, "+1: Cycles' Vector pass, previous position = (x + X, y - Y) with rows top first; -1: both negated"},
     {"max_frames", EW_PARAM_INT, 32.0f, 1.0f, 100000.0f, "cap of the history length"},
     {"clamp", EW_PARAM_FLOAT, 0.0f, 0.0f, 100.0f,
      "clamp the history to the frame's 3x3 mean +- this many standard deviations per channel (variance clipping "

@@ -20,7 +20,8 @@ typedef struct ew_temporal_params {
     float alpha_min;      /* 0.2 */
     float normal_cos;     /* taps whose normals differ by more (cosine below) are rejected: 0.9 */
     float depth_rel;      /* taps whose depth differs by more than this fraction are rejected: 0.1 */
-    float motion_sign;    /* +1: previous position = p + motion; -1: p - motion */
+    float motion_sign;    /* +1: Blender's Vector pass, rows top first: previous position = (x + X, y - Y)
+                           * (its y axis points up); -1: the opposite of both */
     float max_frames;     /* cap of the history length */
     float clamp;          /* history clamp, in the current frame's standard deviations (ew_temporal_clip); <= 0: off */
 } ew_temporal_params;
@@ -29,7 +30,7 @@ typedef struct ew_temporal_buffers {
     const float *color;   /* 3 per pixel, current frame */
     const float *normal;  /* 3 per pixel or NULL */
     const float *depth;   /* 1 per pixel or NULL */
-    const float *motion;  /* 2 per pixel (x, y) in pixels, or NULL (static camera) */
+    const float *motion;  /* 2 per pixel (X, Y) in pixels, Blender's Vector.XY, or NULL (static camera) */
     const float *prev_color, *prev_normal, *prev_depth, *prev_len; /* history (prev_len NULL: none) */
     float *out_color;     /* 3 per pixel */
     float *out_len;       /* 1 per pixel */
@@ -88,7 +89,12 @@ EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_te
     if (b->prev_len) {
         float mx = b->motion ? b->motion[j * 2] : 0.0f, my = b->motion ? b->motion[j * 2 + 1] : 0.0f;
         if (!ew_finitef(mx) || !ew_finitef(my)) mx = my = 1e9f; /* no history */
-        float px = (float)x + p->motion_sign * mx, py = (float)y + p->motion_sign * my;
+        /* Cycles' Vector.XY is previous minus current position in a frame
+         * whose y axis points up (Blender's rows go bottom-up); our rows go
+         * top-down, so the row offset is -Y. Checked on rendered sequences:
+         * a camera panning and one rising, the albedo of frame t-1
+         * reprojected onto frame t (docs/temporal.md). */
+        float px = (float)x + p->motion_sign * mx, py = (float)y - p->motion_sign * my;
         if (px > -1.0f && py > -1.0f && px < (float)p->width && py < (float)p->height) {
             int x0 = (int)floorf(px), y0 = (int)floorf(py);
             float fx = px - (float)x0, fy = py - (float)y0;

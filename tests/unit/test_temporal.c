@@ -71,6 +71,32 @@ TEST(motion_vectors_carry_history) {
     ew_device_destroy(dev);
 }
 
+/* The same pattern moving 2 px down (rows top first) and 1 px left per
+ * frame. Cycles' Vector.Y is measured with its y axis pointing up (Blender's
+ * rows go bottom-up): content that moved down came from above, Y = +2, and
+ * X = previous minus current column = +1. Measured on a rendered rising
+ * camera: reprojection error 0.0024 with (x + X, y - Y), 0.051 with y + Y. */
+TEST(vertical_motion_follows_cycles_y_axis) {
+    ew_device *dev;
+    ew_filter *f = make(&dev);
+    CHECK(f);
+    static float color[W * H * 3], out[W * H * 3], vec[W * H * 2];
+    for (int i = 0; i < W * H; i++) { vec[2 * i] = 1.0f; vec[2 * i + 1] = 2.0f; }
+    double worst = 0;
+    for (int fr = 0; fr < 6; fr++) {
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                for (int c = 0; c < 3; c++)
+                    color[(y * W + x) * 3 + c] = (float)(((x + fr) / 4 + (y - 2 * fr + 100) / 4) % 2);
+        CHECK(run(f, color, vec, NULL, out));
+        for (int y = 2; y < H; y++)
+            for (int x = 0; x < W - 1; x++) worst = fmax(worst, fabs(out[(y * W + x) * 3] - color[(y * W + x) * 3]));
+    }
+    CHECK_NEAR(worst, 0.0, 1e-5);
+    ew_filter_destroy(f);
+    ew_device_destroy(dev);
+}
+
 TEST(depth_disagreement_rejects_history) {
     ew_device *dev;
     ew_filter *f = make(&dev);
