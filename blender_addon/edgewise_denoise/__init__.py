@@ -1,38 +1,35 @@
-"""Edgewise Denoise: denoise Cycles render layers (stills and animations)
-with libedgewise, through the project's `edgewise` Python package."""
+"""Edgewise Denoise: denoise Cycles renders (every view layer, stills and
+animations) with libedgewise, inside the render, before the compositor,
+the render window and the output files see it."""
 bl_info = {
     "name": "Edgewise Denoise",
     "author": "Edgewise",
-    "version": (0, 1, 0),
+    "version": (0, 2, 0),
     "blender": (3, 4, 0),
-    "location": "Properties > Render > Edgewise Denoise; Image Editor > Sidebar > Edgewise",
-    "description": "Denoise Cycles renders (every view layer, stills and animations) with libedgewise",
+    "location": "Properties > Render > Edgewise Denoise",
+    "description": "Denoise Cycles renders with libedgewise, as Cycles' own Denoise does",
     "category": "Render",
 }
 
 # bpy is imported in register() only, so that `core` (pure Python) can be
 # imported and unit-tested without Blender.
-classes = ()
 
 
 def register():
-    global classes
     import bpy
-    from . import handlers, operators, panels, properties
-    settings = properties.build_settings_class()
-    classes = (settings,) + operators.classes + panels.classes
-    for cls in classes:
+    from . import engine, handlers, operators, panels, properties
+    properties.register()
+    for cls in operators.classes + panels.classes:
         bpy.utils.register_class(cls)
-    bpy.types.Scene.edgewise = bpy.props.PointerProperty(type=settings)
     handlers.register()
+    engine.install()
 
 
 def unregister():
-    global classes
     import bpy
-    from . import handlers
+    from . import engine, handlers, operators, panels, properties
+    engine.uninstall()
     handlers.unregister()
-    del bpy.types.Scene.edgewise
-    for cls in reversed(classes):
+    for cls in reversed(operators.classes + panels.classes):
         bpy.utils.unregister_class(cls)
-    classes = ()
+    properties.unregister()

@@ -1,19 +1,23 @@
 """Pure-Python logic of the Edgewise Denoise add-on (no bpy import).
 
-Everything here can be unit-tested with a plain python3: finding the
-`edgewise` package and its libraries, the settings generated from the
-library's node descriptors, which passes a method needs, output paths, and
-the denoise jobs themselves (file in, array or file out, run by the
-library, safe to call from a worker thread because they never touch bpy).
+Everything here can be unit-tested with a plain python3: finding and loading
+the `edgewise` package and its libraries (without touching sys.path), the
+settings generated from the library's node descriptors, which passes a
+method uses, and the denoising itself on numpy arrays, as the render engine
+hands them over (engine.py). Nothing here touches bpy, so it is safe in
+Blender's render thread.
 """
+import ctypes
+import importlib.util
 import os
 import sys
-import tempfile
 import threading
 
-ADDON_DIR = os.path.dirname(os.path.abspath(__file__))
-DENOISED_SUFFIX = "_denoised"
-RESULT_IMAGE = "Edgewise Denoised"
+# realpath: a developer install is a symlink into Blender's add-ons folder;
+# the repository (python/edgewise, build/lib) is found from the link's target.
+ADDON_DIR = os.path.dirname(os.path.realpath(__file__))
+REPO_DIR = os.path.dirname(os.path.dirname(ADDON_DIR))
+LIB_NAMES = ("libedgewise.so", "libedgewise_nodes.so")
 
 # Blender view-layer switches that provide each library pass.
 PASS_SOURCES = {
@@ -24,78 +28,156 @@ PASS_SOURCES = {
 }
 PASS_LABELS = {"albedo": "Denoising Albedo", "normal": "Denoising Normal", "depth": "Denoising Depth",
                "vector": "Vector"}
+# Render-result pass names read for each library pass, in order of preference
+# (as the library's read node does for files).
+BLENDER_PASSES = {
+    "albedo": ("Denoising Albedo", "DiffCol"),
+    "normal": ("Denoising Normal",),
+    "depth": ("Denoising Depth",),
+    "vector": ("Vector",),
+}
 
 
 class AddonLibraryError(RuntimeError):
     """The edgewise package or its libraries cannot be used; str() says why and what to do."""
 
 
-def package_dirs(library_path=""):
-    """Directories that may hold the `edgewise` Python package, in order:
-    bundled inside the add-on, next to a configured library path, the
-    repository's python/ (add-on used from the repo folder)."""
-    dirs = [ADDON_DIR]
+# ---- finding and loading the package and the library ------------------------
+
+def package_dir():
+    """The directory holding the `edgewise` package: the copy bundled inside
+    the add-on (zip install), else the repository's python/ (used from the repo)."""
+    for d in (ADDON_DIR, os.path.join(REPO_DIR, "python")):
+        if os.path.isfile(os.path.join(d, "edgewise", "__init__.py")):
+            return d
+    return None
+
+
+def library_candidates(library_path=""):
+    """Directories to load libedgewise from. The Library setting, when set, is
+    the only candidate: a bad setting is refused, never replaced silently by
+    another copy. Otherwise $EDGEWISE_LIB, the bundled copy, the repo's build/lib."""
     if library_path:
-        p = os.path.abspath(os.path.expanduser(library_path))
-        d = p if os.path.isdir(p) else os.path.dirname(p)
-        dirs += [d, os.path.join(d, "python")]
+        p = os.path.realpath(os.path.expanduser(library_path))
+        return [p if os.path.isdir(p) else os.path.dirname(p)]
+    dirs = []
     env = os.environ.get("EDGEWISE_LIB")
     if env:
-        d = env if os.path.isdir(env) else os.path.dirname(env)
-        dirs.append(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(d))), "python"))
-    repo = os.path.dirname(os.path.dirname(ADDON_DIR))
-    dirs.append(os.path.join(repo, "python"))
-    out = []
-    for d in dirs:
-        if d not in out and os.path.isfile(os.path.join(d, "edgewise", "__init__.py")):
-            out.append(d)
-    return out
+        dirs.append(os.path.realpath(env if os.path.isdir(env) else os.path.dirname(os.path.abspath(env))))
+    dirs += [os.path.join(ADDON_DIR, "edgewise"), os.path.join(REPO_DIR, "build", "lib")]
+    return dirs
 
 
 def _explain(err):
     text = str(err)
     if any(s in text for s in ("wrong ELF class", "invalid ELF header", "not a dynamic executable",
-                               "mach-o", "file too short", "version `GLIBC")):
+                               "mach-o", "file too short", "version `GLIBC", "ELF load command")):
         return ("the Edgewise library was found but cannot be loaded on this platform (%s): "
-                "it is not a library for this platform (built for another platform or architecture, or damaged); rebuild it here" % text)
+                "it is not a library for this platform (built for another platform or architecture, or damaged); "
+                "rebuild it here" % text)
     return text
 
 
-_load_lock = threading.Lock()
+def check_library_dir(d):
+    """None when directory d holds loadable Edgewise libraries, else why not
+    (a sentence for the panel). Loads them with ctypes: a damaged or foreign
+    file fails here with the loader's reason, nothing else happens."""
+    if not os.path.exists(d):
+        return "Library folder %s does not exist" % d
+    if not os.path.isdir(d):
+        return "Library %s is not a folder" % d
+    missing = [n for n in LIB_NAMES if not os.path.isfile(os.path.join(d, n))]
+    if missing:
+        return "no %s in %s: point Library at the folder holding the built libraries (build/lib)" % (
+            " or ".join(missing), d)
+    try:
+        core = ctypes.CDLL(os.path.join(d, LIB_NAMES[0]))
+        ctypes.CDLL(os.path.join(d, LIB_NAMES[1]))
+        core.ew_version_string
+    except (OSError, AttributeError) as e:
+        return _explain(e)
+    return None
+
+
+_lock = threading.Lock()
+_loaded = {"key": None, "ew": None, "error": None, "count": 0}
+
+
+def _import_package(pkg_dir, lib_dir):
+    """A private instance of the `edgewise` package, bound to the libraries in
+    lib_dir. Imported under this add-on's own module name (nothing is added to
+    sys.path and `import edgewise` elsewhere in Blender is unaffected)."""
+    _loaded["count"] += 1
+    base = __package__ or "edgewise_denoise"
+    name = "%s._edgewise%d" % (base, _loaded["count"])
+    init = os.path.join(pkg_dir, "edgewise", "__init__.py")
+    spec = importlib.util.spec_from_file_location(name, init,
+                                                  submodule_search_locations=[os.path.dirname(init)])
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    try:
+        spec.loader.exec_module(mod)
+        lib = sys.modules[name + "._lib"]
+        lib._candidate_dirs = lambda: [lib_dir]  # this instance loads this library, nothing else
+        lib.libs()
+    except BaseException:
+        for k in [k for k in sys.modules if k == name or k.startswith(name + ".")]:
+            del sys.modules[k]
+        raise
+    return mod
 
 
 def load_edgewise(library_path=""):
-    """Import the `edgewise` package and load libedgewise. library_path (the
-    add-on's setting) is a directory holding libedgewise.so, or the path of
-    the library; it takes precedence over $EDGEWISE_LIB. Raises
-    AddonLibraryError with a message meant for the user."""
-    with _load_lock:
-        if library_path:
-            p = os.path.abspath(os.path.expanduser(library_path))
-            if not os.path.exists(p):
-                raise AddonLibraryError("Edgewise library path %r does not exist (Edgewise add-on settings)" % p)
-            os.environ["EDGEWISE_LIB"] = p
-        if "edgewise" not in sys.modules:
-            dirs = package_dirs(library_path)
-            if not dirs:
-                raise AddonLibraryError(
-                    "the Edgewise Python package was not found: install the add-on with the bundled "
-                    "'edgewise' package and library, or use it from the repository (blender_addon/ next "
-                    "to python/)")
-            sys.path.insert(0, dirs[0])
-        try:
-            import edgewise
-            from edgewise import _lib
-            _lib.libs()
-        except ImportError as e:
-            raise AddonLibraryError("cannot import the Edgewise Python package: %s" % e)
-        except OSError as e:  # LibraryNotFoundError is an OSError
-            raise AddonLibraryError(_explain(e))
-        return edgewise
+    """The `edgewise` package bound to libedgewise. library_path (the add-on's
+    Library setting) is a directory holding libedgewise.so, or the path of the
+    library; when set, it is the only library used. The result is cached per
+    setting; a changed setting loads the new library at once (see reset()).
+    Raises AddonLibraryError with a message meant for the user."""
+    key = library_path or ""
+    with _lock:
+        if _loaded["key"] == key:
+            if _loaded["ew"] is not None:
+                return _loaded["ew"]
+            raise AddonLibraryError(_loaded["error"])
+        ew, error = None, None
+        pkg = package_dir()
+        if pkg is None:
+            error = ("the Edgewise Python package was not found: install the add-on zip (it bundles the package "
+                     "and the library), or use the add-on from the repository (blender_addon/ next to python/)")
+        else:
+            reasons = []
+            for d in library_candidates(library_path):
+                why = check_library_dir(d)
+                if why is None:
+                    try:
+                        ew = _import_package(pkg, d)
+                        break
+                    except (ImportError, OSError, AttributeError) as e:
+                        why = _explain(e)
+                reasons.append(why)
+                if library_path:
+                    break
+            if ew is None:
+                if library_path:
+                    error = "Library setting refused: %s" % reasons[0]
+                else:
+                    error = ("libedgewise not found (looked in: %s). Build the project (cmake --build build) or "
+                             "set Library to the folder holding libedgewise.so" % "; ".join(reasons))
+        _loaded.update(key=key, ew=ew, error=error)
+        if ew is None:
+            raise AddonLibraryError(error)
+        return ew
+
+
+def reset():
+    """Forget the loaded library: the next load_edgewise() resolves the
+    setting again (called when the Library setting changes and by Reload)."""
+    with _lock:
+        _loaded.update(key=None, ew=None, error=None)
 
 
 def library_status(library_path=""):
-    """(ok, text) for the panels: where the library is, or why it is missing."""
+    """(ok, text) for the panels: where the library is, or why it is refused."""
     try:
         ew = load_edgewise(library_path)
         return True, "libedgewise %s (%s)" % (ew.version(), ew.library_dir())
@@ -108,6 +190,11 @@ def library_status(library_path=""):
 FALLBACK_METHODS = ("auto",)
 
 
+def readable(name):
+    """A label for a descriptor name that has none: "firefly_k" -> "Firefly K"."""
+    return " ".join(w[:1].upper() + w[1:] for w in name.replace("-", " ").replace("_", " ").split())
+
+
 def method_names(ew=None):
     """The denoise node's 'method' choices (library introspection)."""
     try:
@@ -118,6 +205,38 @@ def method_names(ew=None):
     except (AddonLibraryError, KeyError):
         pass
     return FALLBACK_METHODS
+
+
+def method_items(ew=None):
+    """(identifier, label, description) of each method for an EnumProperty:
+    the label is the descriptor's choice name when the library gives one,
+    the description the method's summary."""
+    out = []
+    names = method_names(ew)
+    labels = {}
+    try:
+        ew = ew or load_edgewise()
+        for p in ew.node_type("denoise")["params"]:
+            if p["name"] == "method":
+                labels = dict(zip(p.get("choices") or (), p.get("choice_labels") or p.get("choice_names") or ()))
+    except (AddonLibraryError, KeyError):
+        ew = None
+    for m in names:
+        summary = ""
+        if ew is not None and m != "auto":
+            try:
+                summary = ew.node_type("denoise", m).get("summary") or ""
+            except KeyError:
+                pass
+        out.append((m, labels.get(m) or readable(m), summary or "Edgewise denoiser '%s'" % m))
+    return out
+
+
+def enum_items(p):
+    """(identifier, label, description) of an enum parameter's choices."""
+    labels = p.get("choice_labels") or p.get("choice_names") or ()
+    return [(c, (labels[i] if i < len(labels) and labels[i] else readable(c)), "")
+            for i, c in enumerate(p["choices"])]
 
 
 def method_params(method, ew=None):
@@ -174,204 +293,192 @@ def coerce_params(params, values):
     return out
 
 
-# ---- paths --------------------------------------------------------------------
-
-def denoised_path(path, layer=None, multi_layer=False):
-    """Where the denoised copy of rendered file `path` goes: next to it,
-    `<stem>_denoised.exr`, or `<stem>_denoised_<layer>.exr` when the render
-    has several view layers."""
-    d, name = os.path.split(path)
-    stem = name.rsplit(".", 1)[0] if "." in name else name
-    if multi_layer and layer:
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in layer)
-        return os.path.join(d, "%s%s_%s.exr" % (stem, DENOISED_SUFFIX, safe))
-    return os.path.join(d, "%s%s.exr" % (stem, DENOISED_SUFFIX))
-
-
-def sequence_pattern(path, frame):
-    """Turn a rendered frame's path into the library's '#' pattern: the
-    rightmost digit run of the file name whose value is `frame` becomes
-    '#'s ("/r/shot_0007.exr", 7 -> "/r/shot_####.exr"). None if not found."""
-    d, name = os.path.split(path)
-    i = len(name)
-    while i > 0:
-        j = i
-        while j > 0 and name[j - 1].isdigit():
-            j -= 1
-        if j < i and int(name[j:i]) == frame:
-            return os.path.join(d, name[:j] + "#" * (i - j) + name[i:])
-        i = j - 1 if j == i else j
-    return None
-
-
-def result_image_name(layer, n_layers):
-    return RESULT_IMAGE if n_layers <= 1 else "%s - %s" % (RESULT_IMAGE, layer)
-
-
-def temp_exr_path():
-    fd, p = tempfile.mkstemp(prefix="edgewise_render_", suffix=".exr")
-    os.close(fd)
-    return p
-
-
-# ---- denoise jobs (no bpy: safe in a worker thread) ---------------------------
+# ---- denoising arrays ---------------------------------------------------------
 
 class Settings(object):
-    def __init__(self, method="auto", params=None, threads=0, samples=0, library_path=""):
+    def __init__(self, method="auto", params=None, threads=0, samples=0, library_path="", temporal=False):
         self.method = method
         self.params = dict(params or {})
         self.threads = int(threads)
         self.samples = int(samples)
         self.library_path = library_path
+        self.temporal = bool(temporal)
 
 
 _devices = {}
 
 
 def _device(ew, threads):
-    if threads <= 0:
-        return ew.default_device()
-    if threads not in _devices:
-        _devices[threads] = ew.Device(threads)
-    return _devices[threads]
+    key = (id(ew), threads)
+    if key not in _devices:
+        _devices[key] = ew.default_device() if threads <= 0 else ew.Device(threads)
+    return _devices[key]
 
 
-def _graph(ew, path, layer, settings):
-    params = coerce_params(method_params(settings.method, ew), settings.params)
-    if settings.samples > 0 and any(p["name"] == "samples" for p in method_params(settings.method, ew)):
-        params.setdefault("samples", settings.samples)
+def colour_guided_method(method, inputs, have):
+    """The method to run when the render lacks passes the chosen one requires:
+    the method itself when every required guide is there, else "auto", which
+    runs colour-guided grids without albedo/normal/depth (as the CLI's auto
+    does). Returns (method, note) where note says what was substituted."""
+    missing = [p["name"] for p in inputs if p.get("required") and p["name"] != "color" and p["name"] not in have]
+    if not missing:
+        return method, ""
+    return "auto", "%s needs %s (no Denoising Data): ran auto, colour-guided" % (method, "/".join(missing))
+
+
+def denoise_arrays(passes, settings, progress=None, ew=None):
+    """Denoise one view layer held in numpy arrays (rows top first):
+    passes["color"] (H, W, 3 or 4: RGB + alpha, as Blender's Combined) and the
+    optional "albedo", "normal", "depth". Returns (rgba float32 (H, W, 4) with
+    the input's alpha (1 without), what ran). progress(fraction) may return
+    False to cancel (the library raises CancelledError)."""
+    import numpy as np
+    ew = ew or load_edgewise(settings.library_path)
+    color = np.ascontiguousarray(passes["color"], np.float32)
+    h, w = color.shape[:2]
+    method = settings.method
+    inputs = method_inputs(method, ew)
+    have = [k for k in ("albedo", "normal", "depth") if passes.get(k) is not None]
+    method, note = colour_guided_method(method, inputs, have)
+    if method != settings.method:
+        inputs = method_inputs(method, ew)
+    mparams = method_params(method, ew)
+    params = coerce_params(mparams, settings.params) if method == settings.method else {}
+    if settings.samples > 0 and any(p["name"] == "samples" for p in mparams):
+        params["samples"] = settings.samples
+    names = set(p["name"] for p in inputs)
     g = ew.Graph(_device(ew, settings.threads))
-    rd = g.add("read", id="read", path=path, layer=layer or "")
-    inputs = dict((p["name"], p) for p in method_inputs(settings.method, ew))
-    kwargs = {"color": rd["color"]}
-    for name in ("albedo", "normal", "depth"):
-        if name in inputs:
-            kwargs[name] = rd[name]
-    g.add("denoise", id="denoise", method=settings.method, **dict(kwargs, **params))
-    return g
+    kwargs = {"color": np.ascontiguousarray(color[:, :, :3])}
+    for k in have:
+        if k in names:
+            kwargs[k] = np.ascontiguousarray(passes[k], np.float32)
+    den = g.add("denoise", id="denoise", method=method, **dict(kwargs, **params))
+    g.add("output", id="out", image=den["output"])
+    report = g.run(progress)
+    ran = report["frames"][0].get("methods", {}).get("denoise", method) if report.get("frames") else method
+    rgb = g.output("out")
+    out = np.empty((h, w, 4), np.float32)
+    out[:, :, :3] = rgb[:, :, :3]
+    out[:, :, 3] = color[:, :, 3] if color.shape[2] > 3 else 1.0
+    return out, (ran + ("; " + note if note else ""))
 
 
-def _finite_progress(progress, cancel, base, span):
-    def cb(f):
-        if cancel is not None and cancel.is_set():
-            return False
-        if progress is not None:
-            progress(base + span * max(0.0, min(1.0, f)))
-        return True
-    return cb
+class TemporalHistory(object):
+    """The library's temporal filter for one view layer across the frames of
+    an animation render: the history lives in the filter between frames.
+    Frames must come in order; a gap or a new size starts over."""
 
+    def __init__(self, ew, threads=0):
+        self.ew = ew
+        self.filter = ew.Filter("temporal", _device(ew, threads))
+        self.frame = None
+        self.shape = None
 
-def denoise_file(path, layers, settings, progress=None, cancel=None, methods=None):
-    """Denoise view layers `layers` of multilayer EXR `path`. Returns
-    {layer: (H, W, 4) float32 array, top row first} (alpha from Combined.A
-    when present, else 1). progress(fraction); cancel: a threading.Event;
-    methods: a dict that receives {layer: what the denoiser ran}, e.g. the
-    model "auto" picked."""
-    ew = load_edgewise(settings.library_path)
-    out = {}
-    for i, layer in enumerate(layers):
-        g = _graph(ew, path, layer, settings)
-        g.add("output", id="out", image=g.node("denoise")["output"])
-        report = g.run(_finite_progress(progress, cancel, float(i) / len(layers), 1.0 / len(layers)))
-        if methods is not None:
-            methods[layer] = report["frames"][0].get("methods", {}).get("denoise", settings.method)
-        rgb = g.output("out")
-        h, w = rgb.shape[:2]
+    def accumulate(self, frame, color, normal, depth, vector, **params):
+        """color (H, W, 3), normal (H, W, 3) or None, depth (H, W[, 1]) or None,
+        vector (H, W, 2..4: Blender's Vector pass, rows top first). Returns the
+        accumulated colour (H, W, 3)."""
         import numpy as np
-        rgba = np.ones((h, w, 4), np.float32)
-        rgba[:, :, :3] = rgb[:, :, :3]
-        out[layer] = rgba
-    return out
+        if self.frame is None or frame != self.frame + 1 or color.shape != self.shape:
+            self.filter.set("reset", 1)
+        self.frame, self.shape = frame, color.shape
+        for k, v in params.items():
+            self.filter.set(k, v)
+        out = np.empty(color.shape[:2] + (3,), np.float32)
+        c = lambda a: None if a is None else np.ascontiguousarray(a, np.float32)  # noqa: E731
+        self.filter.run(color=c(color[:, :, :3]), normal=c(normal), depth=c(depth),
+                        vector=None if vector is None else c(vector[:, :, :2]), output=out)
+        return out
+
+    def close(self):
+        self.filter.close()
 
 
-def denoise_file_to_files(path, layers, settings, progress=None, cancel=None):
-    """Denoise rendered frame `path` and write each layer next to it
-    (denoised_path). Returns the written paths."""
-    ew = load_edgewise(settings.library_path)
-    written = []
-    for i, layer in enumerate(layers):
-        dst = denoised_path(path, layer, len(layers) > 1)
-        g = _graph(ew, path, layer, settings)
-        g.add("write", id="write", image=g.node("denoise")["output"], path=dst, layer=layer or "",
-              pixel_type="float")
-        g.run(_finite_progress(progress, cancel, float(i) / len(layers), 1.0 / len(layers)))
-        written.append(dst)
-    return written
+# Temporal accumulation, as the add-on runs it: the noisy colour is
+# accumulated along the Vector pass by the library's temporal filter (normal
+# and depth rejection of disoccluded history; at least half of each output is
+# the current frame), then denoised. Where the accumulated history disagrees
+# with the frame by more than the frame's noise explains (a shadow that moved
+# over static geometry, a disocclusion the normal/depth test missed, vectors
+# that point the wrong way), the pixel takes the per-frame denoised result
+# instead (history_mismatch). Measured on rendered 4-spp shots (96x72 and
+# 160x120; camera panning/rising 1.5-4 px a frame, an object moving 6 px a
+# frame): plain accumulation (alpha_min 0.2) lost up to 5.4 dB to a moving
+# shadow; with the test no frame is below per-frame denoising and frames 2+
+# gain 0.07-0.45 dB; with deliberately wrong vectors nearly every pixel
+# falls back (a synthetic shot: within 0.25 dB of per-frame, 9 dB below
+# without the test). 2.5 standard errors: 3 and 4 let more wrong history
+# through on the synthetic shot; a per-pixel (1x1) test as well cost the
+# rendered shots 0.2-0.3 dB of their gain.
+TEMPORAL_PARAMS = {"alpha_min": 0.5}
+MISMATCH_RADII = (1, 2)  # 3x3 and 5x5 windows
+MISMATCH_Z = 2.5         # standard errors of the windowed noise
 
 
-def denoise_sequence(pattern, first, last, layers, settings, progress=None, cancel=None):
-    """Temporal pass over rendered frames first..last of `pattern` ('#' =
-    frame number): per view layer, one library graph reads each frame's
-    colour, normal, depth and Vector, accumulates history along the motion
-    vectors (temporal node), denoises the result and writes it next to the
-    frame (denoised_path of the pattern), replacing the per-frame results.
-    Returns the written patterns."""
-    ew = load_edgewise(settings.library_path)
-    written = []
-    for i, layer in enumerate(layers):
-        dst = denoised_path(pattern, layer, len(layers) > 1)
-        params = coerce_params(method_params(settings.method, ew), settings.params)
-        g = ew.Graph(_device(ew, settings.threads))
-        rd = g.add("read", id="read", path=pattern, layer=layer or "")
-        tp = g.add("temporal", id="temporal", color=rd["color"], normal=rd["normal"], depth=rd["depth"],
-                   vector=rd["vector"])
-        inputs = dict((p["name"], p) for p in method_inputs(settings.method, ew))
-        kwargs = {"color": tp["output"]}
-        for name in ("albedo", "normal", "depth"):
-            if name in inputs:
-                kwargs[name] = rd[name]
-        g.add("denoise", id="denoise", method=settings.method, **dict(kwargs, **params))
-        g.add("write", id="write", image=g.node("denoise")["output"], path=dst, layer=layer or "",
-              pixel_type="float")
-        g.set_frames(first, last)
-        g.run(_finite_progress(progress, cancel, float(i) / len(layers), 1.0 / len(layers)))
-        written.append(dst)
-    return written
+def box_mean(img, r):
+    """Mean over the (2r+1)^2 window around each pixel (edges repeated), per channel."""
+    import numpy as np
+    k = 2 * r + 1
+    pad = np.pad(np.asarray(img, np.float64), ((r, r), (r, r), (0, 0)), mode="edge")
+    c = np.pad(np.cumsum(np.cumsum(pad, axis=0), axis=1), ((1, 0), (1, 0), (0, 0)))
+    h, w = img.shape[:2]
+    return (c[k:k + h, k:k + w] - c[:h, k:k + w] - c[k:k + h, :w] + c[:h, :w]) / (k * k)
 
 
-class Job(object):
-    """A denoise run in a worker thread: poll() from the UI thread (a timer
-    or a modal operator) to read progress and the result; cancel() stops it
-    at the library's next progress check."""
+def history_mismatch(cur, acc, single, radii=MISMATCH_RADII, z=MISMATCH_Z):
+    """Pixels whose accumulated colour `acc` disagrees with the frame `cur`
+    beyond noise: in a window around the pixel (3x3 or 5x5; the smaller one
+    catches differences of alternating sign that cancel in the larger), the
+    mean of acc - cur (half the history's difference from the frame) exceeds
+    z standard errors of the frame's noise, estimated from what the per-frame
+    denoiser removed (cur - single) in the same window. On the channel mean
+    (render noise is correlated across RGB)."""
+    import numpy as np
+    diff = (acc - cur).mean(axis=2, keepdims=True)
+    res = (cur - single).mean(axis=2, keepdims=True)
+    bad = np.zeros(cur.shape[:2], bool)
+    for r in radii:
+        d = box_mean(diff, r)[:, :, 0]
+        sigma = np.sqrt(np.maximum(box_mean(res * res, r)[:, :, 0], 0.0))
+        bad |= np.abs(d) > z * sigma / (2 * r + 1) + 1e-6
+    # a pixel most of whose neighbours mismatch does too (differences of
+    # alternating sign, e.g. a texture's corners, cancel in every window)
+    near = box_mean(bad[:, :, None].astype(np.float64), 1)[:, :, 0] * 9.0
+    return bad | (near >= 5.0 - 1e-9)
 
-    def __init__(self, fn, *args):
-        self.progress = 0.0
-        self.result = None
-        self.error = None
-        self.done = False
-        self._cancel = threading.Event()
-        self._args = args
-        self._fn = fn
-        self._thread = threading.Thread(target=self._run, daemon=True)
 
-    def start(self):
-        self._thread.start()
-        return self
+def denoise_frame(passes, settings, frame, history=None, progress=None, ew=None):
+    """Denoise one view layer of one frame (arrays with rows top first, see
+    denoise_arrays). With a TemporalHistory, the frame is first accumulated
+    with its predecessors along passes["vector"]. Returns (rgba, what ran)."""
+    ew = ew or load_edgewise(settings.library_path)
+    if history is None or passes.get("vector") is None:
+        return denoise_arrays(passes, settings, progress, ew)
+    half = (lambda f: progress(0.5 * f)) if progress else None
+    rest = (lambda f: progress(0.5 + 0.5 * f)) if progress else None
+    single, ran = denoise_arrays(passes, settings, half, ew)
+    color = passes["color"]
+    acc = history.accumulate(frame, color[:, :, :3], passes.get("normal"), _depth(passes.get("depth")),
+                             passes["vector"], **TEMPORAL_PARAMS)
+    acc_passes = dict(passes, color=acc)
+    den, _ = denoise_arrays(acc_passes, settings, rest, ew)
+    import numpy as np
+    bad = history_mismatch(color[:, :, :3], acc, single[:, :, :3])
+    out = single.copy()
+    out[:, :, :3] = np.where(bad[:, :, None], single[:, :, :3], den[:, :, :3])
+    return out, ran + " + temporal"
 
-    def _set_progress(self, f):
-        self.progress = f
 
-    def _run(self):
-        try:
-            self.result = self._fn(*self._args, progress=self._set_progress, cancel=self._cancel)
-        except BaseException as e:  # reported on the UI thread
-            self.error = e
-        finally:
-            self.done = True
-
-    def cancel(self):
-        self._cancel.set()
-
-    @property
-    def cancelled(self):
-        return self._cancel.is_set()
-
-    def wait(self, timeout=None):
-        self._thread.join(timeout)
-        return self.done
+def _depth(d):
+    if d is None:
+        return None
+    return d[:, :, :1] if d.ndim == 3 else d
 
 
 def error_text(err):
     """The library's message for the report area."""
     name = getattr(err, "code_name", None)
-    return "Edgewise: %s%s" % (err, " (%s)" % name if name else "")
+    text = str(err)
+    if not text.startswith("Edgewise"):
+        text = "Edgewise: " + text
+    return "%s%s" % (text, " (%s)" % name if name else "")

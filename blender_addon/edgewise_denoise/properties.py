@@ -1,15 +1,19 @@
 """Scene settings. The method list and each method's parameters are
-generated from the library's denoise-node descriptors at register time
-(one property per method parameter, named <method>__<param>)."""
+generated from the library's denoise-node descriptors (one property per
+method parameter, named <method>__<param>), with the descriptors' labels and
+choice names. The settings class is rebuilt when the library changes (the
+Library setting, Reload Library), so a library set after install brings its
+methods at once."""
 import bpy
 
 from . import core
 
 _generated = {}  # method -> [param dicts] the properties were made from
+_registered = {"cls": None}
 
 
 def _param_property(p):
-    label = p.get("label") or p["name"]
+    label = p.get("label") or core.readable(p["name"])
     desc = p.get("hint") or ""
     t = p["type"]
     if t == "bool":
@@ -20,39 +24,49 @@ def _param_property(p):
     if t == "float":
         return bpy.props.FloatProperty(name=label, description=desc, default=float(p["default"]),
                                        min=float(p["min"]), max=float(p["max"]))
-    if t == "enum":
-        return bpy.props.EnumProperty(name=label, description=desc, items=[(c, c, "") for c in p["choices"]],
-                                      default=p["default"] or p["choices"][0])
+    if t == "enum" and p.get("choices"):
+        return bpy.props.EnumProperty(name=label, description=desc, items=core.enum_items(p),
+                                      default=p["default"] if p.get("default") in p["choices"] else p["choices"][0])
     return None
 
 
-def build_settings_class():
+def _library_changed(self, context):
+    # Honour the new setting at once: forget the loaded library and rebuild
+    # the settings (methods, parameters) from the new one, outside this callback.
+    core.reset()
+    bpy.app.timers.register(rebuild, first_interval=0.0)
+
+
+def library_path_of(s):
+    return bpy.path.abspath(s.library_path) if s.library_path else ""
+
+
+def build_settings_class(library_path=""):
     try:
-        ew = core.load_edgewise()
+        ew = core.load_edgewise(library_path)
     except core.AddonLibraryError:
         ew = None
-    methods = core.method_names(ew) if ew else core.FALLBACK_METHODS
+    items = core.method_items(ew) if ew else [(m, core.readable(m), "") for m in core.FALLBACK_METHODS]
     ann = {
         "enabled": bpy.props.BoolProperty(
             name="Denoise Renders", default=False,
-            description="Denoise every still render (Edgewise Denoised image) and every animation frame "
-                        "(<frame>_denoised.exr next to it)"),
+            description="Denoise every Cycles render (F12 and each animation frame) before the compositor, the "
+                        "render window and the output file see it, as Cycles' own Denoise does"),
         "method": bpy.props.EnumProperty(
-            name="Method", items=[(m, m, "Edgewise denoiser '%s'" % m) for m in methods], default=methods[0],
-            description="The library's denoiser"),
+            name="Method", items=items, default=items[0][0], description="The library's denoiser"),
         "use_temporal": bpy.props.BoolProperty(
             name="Temporal (Animations)", default=False,
-            description="After an animation render, accumulate each frame with its predecessors along the "
-                        "Vector pass before denoising (needs the Vector pass and motion blur off)"),
+            description="In animation renders, accumulate each frame with its predecessors along the Vector pass "
+                        "(needs the Vector pass and motion blur off); never far from the per-frame result"),
         "threads": bpy.props.IntProperty(name="Threads", default=0, min=0, max=1024,
                                          description="CPU threads for the library (0: one per core)"),
         "library_path": bpy.props.StringProperty(
-            name="Library", subtype="FILE_PATH", default="",
-            description="Directory holding libedgewise.so (or its path); empty: bundled copy, "
-                        "$EDGEWISE_LIB, or the repository's build/lib"),
+            name="Library", subtype="DIR_PATH", default="", update=_library_changed,
+            description="Folder holding libedgewise.so; empty: $EDGEWISE_LIB, the bundled copy, or the "
+                        "repository's build/lib. A folder set here is the only one used"),
     }
     _generated.clear()
-    for m in methods:
+    for m, _, _ in items:
         try:
             params = core.method_params(m, ew) if ew else []
         except Exception:
@@ -69,14 +83,40 @@ def build_settings_class():
     return type("EdgewiseSettings", (bpy.types.PropertyGroup,), {"__annotations__": ann})
 
 
+def register(library_path=""):
+    cls = build_settings_class(library_path)
+    bpy.utils.register_class(cls)
+    bpy.types.Scene.edgewise = bpy.props.PointerProperty(type=cls)
+    _registered["cls"] = cls
+
+
+def unregister():
+    if _registered["cls"] is not None:
+        del bpy.types.Scene.edgewise
+        bpy.utils.unregister_class(_registered["cls"])
+        _registered["cls"] = None
+
+
+def rebuild():
+    """Re-generate the settings from the library the current setting names
+    (values persist: they are stored on the scene by name)."""
+    scene = bpy.context.scene if bpy.context else None
+    path = ""
+    if scene is not None and hasattr(scene, "edgewise"):
+        path = library_path_of(scene.edgewise)
+    unregister()
+    register(path)
+    return None
+
+
 def method_params(method):
     return _generated.get(method, [])
 
 
 def settings_of(scene):
-    """core.Settings from the scene's properties (call on the main thread)."""
+    """core.Settings from the scene's properties."""
     s = scene.edgewise
     params = dict((p["name"], getattr(s, "%s__%s" % (s.method, p["name"]))) for p in method_params(s.method))
     return core.Settings(method=s.method, params=params, threads=s.threads,
                          samples=scene.cycles.samples if hasattr(scene, "cycles") else 0,
-                         library_path=bpy.path.abspath(s.library_path) if s.library_path else "")
+                         library_path=library_path_of(s), temporal=s.use_temporal)

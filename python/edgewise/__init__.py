@@ -12,11 +12,11 @@ the repository's build/lib (see _lib.py). Errors raise EdgewiseError with
 the library's message.
 """
 from ._lib import LibraryNotFoundError, library_dir
-from .graph import CancelledError, Device, EdgewiseError, Graph, Node, Port, default_device, image_view, run_node
+from .graph import CancelledError, Device, EdgewiseError, Filter, Graph, Node, Port, default_device, image_view, run_node
 from .node_types import color_config, node_type, type_names
 
 __all__ = [
-    "CancelledError", "Device", "EdgewiseError", "Graph", "LibraryNotFoundError", "Node", "Port",
+    "CancelledError", "Device", "EdgewiseError", "Filter", "Graph", "LibraryNotFoundError", "Node", "Port",
     "color_config", "default_device", "image_view", "library_dir", "node_type", "run_node", "type_names",
     "version",
 ]

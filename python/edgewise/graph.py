@@ -407,3 +407,64 @@ def run_node(type_name, outputs=None, device=None, progress=None, **kwargs):
     if outputs is None or isinstance(outputs, str):
         return result[names[0]]
     return result
+
+
+class Filter(object):
+    """One libedgewise filter used directly, outside a graph, for state that
+    must live across calls: the "temporal" filter keeps its history between
+    run()s (a graph's temporal node starts over with every run). Parameters
+    are set by name (types from the descriptors); run() takes numpy arrays."""
+
+    def __init__(self, method, device=None):
+        core, _ = _lib.libs()
+        self._core = core
+        self._device = device or default_device()
+        self._params = dict((p["name"], p["type"]) for p in node_type("filter", method)["params"])
+        handle = ctypes.c_void_p()
+        r = core.ew_filter_create(self._device.handle, _e(method), ctypes.byref(handle))
+        self._handle = handle if r == 0 else None
+        self._check(r)
+        self._kept = []
+
+    def _check(self, r):
+        if r != 0:
+            msg = self._core.ew_device_last_error(self._device.handle)
+            msg = msg.decode("utf-8", "replace") if msg else ""
+            raise EdgewiseError(r, msg or self._core.ew_result_string(r).decode())
+
+    def set(self, name, value):
+        t = self._params.get(name)
+        if t is None:
+            raise KeyError("filter has no parameter %r (it has %s)" % (name, ", ".join(sorted(self._params))))
+        if t == "float":
+            self._check(self._core.ew_filter_set_float(self._handle, _e(name), float(value)))
+        else:
+            self._check(self._core.ew_filter_set_int(self._handle, _e(name), int(value)))
+
+    def run(self, **images):
+        """Set the images (None unsets one), commit and execute. An output
+        array must be float32 with contiguous channels (it is written in place)."""
+        kept = []
+        for name, a in images.items():
+            if a is None:
+                self._check(self._core.ew_filter_set_image(self._handle, _e(name), None))
+                continue
+            view, arr = image_view(a)
+            if arr is not a and isinstance(a, np.ndarray) and name == "output":
+                raise ValueError("output array must be float32 with contiguous channels")
+            kept.append((view, arr))
+            self._check(self._core.ew_filter_set_image(self._handle, _e(name), ctypes.byref(view)))
+        self._kept = kept
+        self._check(self._core.ew_filter_commit(self._handle))
+        self._check(self._core.ew_filter_execute(self._handle))
+
+    def close(self):
+        if self._handle:
+            self._core.ew_filter_destroy(self._handle)
+            self._handle = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
