@@ -70,7 +70,7 @@ typedef struct ew_bf_model {
 
 /* ---- fast, accurate exp / log2 ----------------------------------------- */
 /* Bit casts. __CUDA_ARCH__, not __CUDACC__: the intrinsics exist only in
- * nvcc's device pass; its host pass compiles these functions too (issue 8).
+ * nvcc's device pass; its host pass compiles these functions too.
  * Elsewhere a union (defined in C; GCC and nvcc's host compilers support it
  * in C++ too). */
 #ifdef __CUDA_ARCH__

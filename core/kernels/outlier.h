@@ -47,7 +47,7 @@ EW_HD void ew_outlier_clamp_px(int x, int y, int width, int height, int radius, 
 }
 
 /*
- * Feature-aware outlier suppression (filter "outlier", issue 9). The same
+ * Feature-aware outlier suppression (filter "outlier"). The same
  * test as above, but the neighbourhood statistics only count neighbours
  * that look like the same surface: albedo within albedo_tol (every channel,
  * absolute) and normal within normal_cos (cosine) of the pixel's own. A

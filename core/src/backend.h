@@ -12,14 +12,14 @@
 #include "kernels/denoise_px.h"
 #include "kernels/outlier.h"
 #include "kernels/temporal.h"
-/* edge-aware filters (issue 4) */
+/* edge-aware filters */
 #include "kernels/atrous.h"
 #include "kernels/dof.h"
 #include "kernels/pyramid.h"
-/* neural bilateral grid (issue 3) */
+/* neural bilateral grid */
 #include "kernels/conv.h"
 #include "kernels/guidenet.h"
-/* device memory and the CUDA module (issue 8) */
+/* device memory and the CUDA module */
 #include <stddef.h>
 #include "edgewise/edgewise.h"
 #include "kernels/reduce.h"
@@ -34,7 +34,7 @@ typedef struct ew_backend {
      * (kernels/pyramid.h); 0: they ignore them, and ew_pyr_run_planes calls
      * them on every row before the first pass and after the last. */
     int pyr_row_hooks;
-    const char *name; /* every member after this is a function pointer (issue 8: ew_backend_first_missing) */
+    const char *name; /* every member after this is a function pointer (ew_backend_first_missing) */
     void (*bgrid_splat)(ew_device *dev, const ew_bgrid_params *p, const float *image,
                         const float *guide, float *grid);
     void (*bgrid_slice)(ew_device *dev, const ew_bgrid_params *p, const float *grid,
@@ -52,7 +52,7 @@ typedef struct ew_backend {
     /* temporal accumulation of one frame into b->out_* */
     void (*temporal)(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b);
 
-    /* ---- edge-aware filters (issue 4): core/backends/cpu/cpu_filters.c ---- */
+    /* ---- edge-aware filters: core/backends/cpu/cpu_filters.c ---- */
     /* brute-force joint bilateral filter (Eq. 1) of every pixel */
     void (*bf_brute)(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b);
     /* one 1-D pass (axis 0: x, 1: y) of the separable bilateral filter */
@@ -65,7 +65,7 @@ typedef struct ew_backend {
     /* depth of field: CoC and (D, C) attributes from depth */
     void (*dof_attributes)(ew_device *dev, const ew_dof_args *a);
 
-    /* ---- neural bilateral grid (issue 3): core/algorithms/guidenet_cpu.c, nbg.c ---- */
+    /* ---- neural bilateral grid: core/algorithms/guidenet_cpu.c, nbg.c ---- */
     /* one 5x5 GuideNet convolution (kernels/conv.h) */
     void (*conv5)(ew_device *dev, const ew_conv_args *a);
     /* GuideNet input features of a band of rows (kernels/guidenet.h) */
@@ -75,7 +75,7 @@ typedef struct ew_backend {
     /* blend one sliced grid into the running sum */
     void (*nbg_blend)(ew_device *dev, const ew_nbg_blend_args *a);
 
-    /* ---- device memory (issue 8): CPU in core/backends/cpu/cpu_memory.c,
+    /* ---- device memory: CPU in core/backends/cpu/cpu_memory.c,
      * CUDA in core/backends/cuda/. Keep this block last. Every buffer an
      * algorithm hands to the entries above comes from mem_alloc (allocated at
      * commit, reused across frames); only inputs and outputs cross between
@@ -115,13 +115,13 @@ void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a);
 void ew_cpu_atrous_pass(ew_device *dev, const ew_atrous_args *a);
 void ew_cpu_dof_attributes(ew_device *dev, const ew_dof_args *a);
 
-/* CPU implementations of the neural bilateral grid entries (issue 3) */
+/* CPU implementations of the neural bilateral grid entries */
 void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a);
 void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a);
 void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs);
 void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a);
 
-/* ---- device memory (issue 8) ---------------------------------------------
+/* ---- device memory ---------------------------------------------
  * CPU implementations of the memory entries (cpu_memory.c). */
 void *ew_cpu_mem_alloc(ew_device *dev, size_t bytes);
 void ew_cpu_mem_free(ew_device *dev, void *ptr);

@@ -67,7 +67,7 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
 
 void ew_device_destroy(ew_device *dev) {
     if (!dev) return;
-    if (dev->backend->device_release) dev->backend->device_release(dev); /* issue 8 */
+    if (dev->backend->device_release) dev->backend->device_release(dev);
     ew_pool_destroy(dev->pool);
     free(dev);
 }

@@ -18,7 +18,7 @@ struct ew_device {
     ew_thread_pool *pool;
     const struct ew_backend *backend;
     char last_error[EW_ERROR_MAX];
-    /* issue 8: backends with memory of their own (docs/backends.md) */
+    /* backends with memory of their own (docs/backends.md) */
     int device_memory;  /* 1: backend buffers are not host-addressable (CUDA) */
     int device_images;  /* 1: ew_image data pointers are device pointers (ew_device_desc) */
     void *backend_ctx;  /* backend-private state (CUDA: ordinal, stream, first error) */
