@@ -282,7 +282,27 @@ _worker = {"device": None, "threads": None}
 _worker_lock = threading.Lock()  # one device per process, one graph on it at a time
 
 
+def _keep_freed_memory():
+    """Dask starts worker processes with MALLOC_TRIM_THRESHOLD_=65536, which
+    also turns off glibc's adaptive mmap threshold: every image-sized scratch
+    buffer the library allocates and frees per frame becomes an mmap/munmap
+    pair with fresh page faults, measured at 2-4x the CPU time of a frame at
+    256x256. Give the allocator the limits the adaptive rule would reach
+    (mmap above 32 MiB, trim above 64 MiB). glibc only; a no-op elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(-3, 32 << 20)  # M_MMAP_THRESHOLD
+        libc.mallopt(-1, 64 << 20)  # M_TRIM_THRESHOLD
+    except (OSError, AttributeError):
+        pass
+
+
 def _worker_device(threads):
+    if _worker["device"] is None:
+        _keep_freed_memory()
     if _worker["device"] is None or _worker["threads"] != threads:
         if _worker["device"] is not None:
             _worker["device"].close()
@@ -327,7 +347,11 @@ def _run_chunk(job):
     where, host, pid = worker.address if worker is not None else "local", socket.gethostname(), os.getpid()
     # frames done go to the client as worker events (batched, no round trip): the progress bar only
     topic = job.get("topic") if worker is not None else None
-    device = _worker_device(job["threads"])
+    threads = job["threads"]
+    if threads is None:  # the host's cores shared among the worker processes on it
+        here = worker.ip if worker is not None else None
+        threads = max(1, _default_workers() // max(1, job.get("workers_per_host", {}).get(here, 1)))
+    device = _worker_device(threads)
     writers = job["writers"]
     write = set(job["write"])
     tag = "%s%s-c%d-%s" % (SCRATCH_PREFIX, job["run_id"], job["chunk"], uuid.uuid4().hex[:8])
@@ -377,7 +401,7 @@ def _run_chunk(job):
                     st = os.stat(dst)
                     outputs[dst] = {"size": st.st_size, "mtime_ns": st.st_mtime_ns, "sha256": digest}
                 records.append({"frame": f, "status": "written", "where": where, "host": host, "pid": pid,
-                                "chunk": job["chunk"], "run": [first, last], "warmup_frames": warm,
+                                "chunk": job["chunk"], "run": [first, last], "warmup_frames": warm, "threads": threads,
                                 "methods": fr.get("methods", {}), "metrics": fr.get("metrics", {}),
                                 "seconds": fr.get("seconds"), "run_seconds": wall, "written": sorted(outputs),
                                 "outputs": outputs})
@@ -462,8 +486,8 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
       least 8 * warmup frames so warm-up adds at most 1/8 to the work).
     warmup: frames each chunk runs before its first written one (default:
       DEFAULT_TEMPORAL_WARMUP when the graph has a temporal node, else 0).
-    threads: device threads per worker process (default: cores / workers on
-      a LocalCluster, all of the machine's cores on a cluster).
+    threads: device threads per worker process (default: the cores of its
+      machine shared among the worker processes Dask has there).
     sets: "NODE.PARAM=VALUE" assignments, as --set.
     manifest: the sidecar manifest's path (default: .edgewise-manifest.json
       beside the first write node's files). verify: check SHA-256, not only
@@ -520,16 +544,16 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
             pass  # nothing to do: no cluster to start
         elif client is None:
             nw = int(workers) if workers else _default_workers()
-            if threads is None:
-                threads = max(1, _default_workers() // nw)
             own_cluster = distributed.LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
                                                    dashboard_address=None)
             client = own_client = distributed.Client(own_cluster)
         elif isinstance(client, str):
             client = own_client = distributed.Client(client)
-        if threads is None:
-            threads = 0
-        nworkers = max(1, len(client.scheduler_info().get("workers", {}))) if client is not None else 0
+        info = client.scheduler_info().get("workers", {}) if client is not None else {}
+        nworkers = max(1, len(info)) if client is not None else 0
+        per_host = {}
+        for w in info.values():
+            per_host[w.get("host")] = per_host.get(w.get("host"), 0) + 1
         if chunk is None:  # about four tasks per worker; warm-up at most 1/8 of a chunk's frames
             chunk = max(1, int(math.ceil(len(all_frames) / (4.0 * max(1, nworkers)))), 8 * warmup)
         chunk = max(1, int(chunk))
@@ -550,7 +574,8 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
                         if i < len(todo):
                             a = todo[i]
             jobs.append({"spec": spec, "run_id": run_id, "chunk": k, "chunk_frames": [s, e], "runs": runs,
-                         "write": todo, "writers": writers, "threads": int(threads), "topic": topic,
+                         "write": todo, "writers": writers, "threads": None if threads is None else int(threads),
+                         "workers_per_host": per_host, "topic": topic,
                          "fault": _fault})
         records = {}
         errors = []
@@ -635,7 +660,7 @@ def run_frames(graph, frames=None, client=None, chunk=None, warmup=None, workers
     rep = {"frames": out_frames, "frames_written": n_written, "frames_skipped": len(done),
            "frames_failed": len(out_frames) - n_written - len(done), "first": first, "last": last,
            "chunk": chunk, "warmup": warmup, "temporal_nodes": temporal, "chunks_run": len(jobs),
-           "workers": nworkers, "threads_per_worker": threads, "manifest": man.path, "seconds": seconds,
+           "workers": nworkers, "threads_per_worker": threads if threads is not None else "auto", "manifest": man.path, "seconds": seconds,
            "ok": not errors}
     if errors:
         rep["errors"] = errors
@@ -677,8 +702,8 @@ def main(argv=None):
     where.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://head:8786")
     where.add_argument("--workers", type=int, metavar="N", help="a LocalCluster of N worker processes (default: "
                        "one per core)")
-    p.add_argument("--threads", type=int, metavar="N", help="device threads per worker process (default: cores / "
-                   "workers here, all cores on a cluster)")
+    p.add_argument("--threads", type=int, metavar="N", help="device threads per worker process (default: its "
+                   "machine's cores / the worker processes there)")
     p.add_argument("--chunk", type=int, metavar="N", help="frames per task")
     p.add_argument("--warmup", type=int, metavar="N", help="frames run before each chunk for temporal filters")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="set a parameter")
@@ -695,7 +720,11 @@ def main(argv=None):
         if v is not None and v < (1 if name == "chunk" else 0):
             p.error("--%s: %d is out of range" % (name, v))
     import logging
+    import warnings
+    # Dask's own chatter (a busy default HTTP port, a worker restarted after a crash) is not the
+    # user's business here; failures still reach the report and the exit status.
     logging.getLogger("distributed").setLevel(logging.ERROR)
+    warnings.filterwarnings("ignore", module="distributed")
     try:
         rep = run_frames(a.file, a.frames, client=a.scheduler, chunk=a.chunk, warmup=a.warmup, workers=a.workers,
                          threads=a.threads, sets=a.set, manifest=a.manifest, verify=a.verify, report=a.report,

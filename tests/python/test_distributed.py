@@ -94,6 +94,7 @@ class TestChunks(DaskTest):
         self.assertTrue(rep["ok"])
         self.assertEqual((rep["frames_written"], rep["frames_skipped"], rep["chunks_run"]), (8, 0, 3))
         self.assertEqual(rep["warmup"], 0)  # nothing temporal in this graph
+        self.assertEqual(set(r["threads"] for r in rep["frames"]), {max(1, ewd._default_workers() // 2)})
         self.expect_identical(self.path("one/dn_####.exr"), out)
         # the report: where each frame ran, what auto chose (the describe text), how long
         workers = set(self.client.scheduler_info()["workers"])
