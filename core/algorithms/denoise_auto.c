@@ -14,6 +14,11 @@
  *   2 (9-32)      bgrid fine grid                fine grid   (2, 8, 4; 0.9)
  *   3 (33-)       bgrid finest grid              finest grid (2, 4, 4; 0.9)
  *
+ * The "quality" parameter says how far up the ladder it may climb: fast is
+ * the table above; balanced (the default) runs the kernel-predicting
+ * network kpcn at level 2, where it measured better; high also at level 1,
+ * where it tied (levels below).
+ *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
  * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
  * the learned guides win by 1.6 dB over the best grid at 1 spp and 1.0 dB
@@ -35,6 +40,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "algorithms/kpcn.h"
 #include "algorithms/nbg.h"
 #include "algorithms/noise.h"
 #include "src/backend.h"
@@ -50,23 +56,42 @@ static const ew_image_desc images[] = {
 
 static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 1e7f, "samples per pixel of the render (0: unknown, estimate the noise)"},
+    {"quality", EW_PARAM_INT, 1.0f, 0.0f, 2.0f,
+     "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn where it "
+     "measured better, 9-32 spp), high (kpcn also where it ties, 3-32 spp); kpcn needs albedo, normal and depth"},
 };
+
+static const char *const quality_names[] = {"fast", "balanced", "high", NULL};
+#define QUALITY_FAST 0
+#define QUALITY_BALANCED 1
+#define QUALITY_HIGH 2
 
 #define NBG_1SPP 3 /* nbg's built-in models (algorithms/nbg.h) */
 #define NBG_ALL_SPP 0
 
 /* One row per level of the table above. */
 typedef struct {
+    int kpcn_balanced; /* kpcn's built-in model at quality balanced with all features, or -1: the row below */
+    int kpcn_high;     /* the same at quality high */
     int nbg_model;    /* nbg's built-in model with all features, or -1 for the grid */
     const char *grid; /* the bgrid settings otherwise */
     float spatial, range, prepass, color_weight;
 } level_choice;
 
+#define KPCN_LARGE 0 /* kpcn's built-in model (algorithms/kpcn.h) */
+
+/* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md):
+ * on the held-out validation scenes kpcn beat the fast rungs at 9-32 spp
+ * (16 spp: 33.07 dB against the fine grid's 32.84) and tied nbg at 4 spp
+ * (29.31 against 29.32); at 1-2 spp nbg-1spp (25.54 against 24.48) and at
+ * 33+ spp the finest grid (36.05 against 34.87) stay better, so no quality
+ * climbs there. kpcn-small did not beat the fast rungs at any level, so no
+ * row uses it yet. */
 static const level_choice levels[] = {
-    {NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
-    {NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
-    {-1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
-    {-1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
+    {-1, -1, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
+    {-1, KPCN_LARGE, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
+    {KPCN_LARGE, KPCN_LARGE, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
+    {-1, -1, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
 };
 
 /* Noise-estimate thresholds between the levels: the geometric means of the
@@ -156,6 +181,21 @@ static ew_result commit(ew_op *op) {
         snprintf(why, sizeof why, "noise estimate %.4f", (double)noise);
 
     const int features = ew_op_image(op, "albedo") && ew_op_image(op, "normal") && ew_op_image(op, "depth");
+    const int quality = (int)ew_op_param(op, "quality");
+    const int kmodel = !features ? -1 : quality == QUALITY_HIGH ? lv->kpcn_high
+                                      : quality == QUALITY_BALANCED ? lv->kpcn_balanced : -1;
+    if (kmodel >= 0) {
+        ew_result r = bind(op, s, "kpcn");
+        if (r == EW_OK) r = ew_op_set_param(s->inner, "model", (float)kmodel, 1);
+        if (r == EW_OK) r = ew_op_commit(s->inner);
+        if (r == EW_OK) {
+            snprintf(s->choice, sizeof s->choice, "kpcn %s (%s, quality %s)", ew_kpcn_model_name(kmodel), why,
+                     quality == QUALITY_HIGH ? "high" : "balanced");
+            return EW_OK;
+        }
+        if (r != EW_ERR_UNSUPPORTED) return r;
+        /* this build has no weights for that model: the rungs below */
+    }
     const int model = features ? lv->nbg_model : -1;
     if (model >= 0) {
         ew_result r = bind(op, s, "nbg");
@@ -205,5 +245,6 @@ const ew_op_type ew_denoise_auto = {
      * and reads the views only through the device (frame_noise) */
     .device_memory = 1,
     .inplace_inputs = (const char *const[]){"color", NULL},
+    .choices = (const ew_param_choices[]){{"quality", quality_names}, {NULL, NULL}},
     .flags = EW_METHOD_HOST,
 };

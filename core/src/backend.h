@@ -19,6 +19,8 @@
 /* neural bilateral grid */
 #include "kernels/conv.h"
 #include "kernels/guidenet.h"
+/* kernel-predicting denoiser */
+#include "kernels/kpcn.h"
 /* device memory and the CUDA module */
 #include <stddef.h>
 #include "edgewise/edgewise.h"
@@ -75,6 +77,16 @@ typedef struct ew_backend {
     /* blend one sliced grid into the running sum */
     void (*nbg_blend)(ew_device *dev, const ew_nbg_blend_args *a);
 
+    /* ---- kernel-predicting denoiser: core/algorithms/kpcn.c (kernels/kpcn.h) ---- */
+    /* input features of every pixel */
+    void (*kpcn_input)(ew_device *dev, const ew_kpcn_input_args *a);
+    /* 2x2 average pooling of planes (one thread per coarse pixel) */
+    void (*kpcn_pool)(ew_device *dev, const ew_kpcn_pool_args *a);
+    /* 2x bilinear upsampling of planes (one thread per fine pixel) */
+    void (*kpcn_up)(ew_device *dev, const ew_kpcn_up_args *a);
+    /* one scale's predicted-kernel filter and blend with the coarser scale */
+    void (*kpcn_filter)(ew_device *dev, const ew_kpcn_filter_args *a);
+
     /* ---- device memory: CPU in core/backends/cpu/cpu_memory.c,
      * CUDA in core/backends/cuda/. Keep this block last. Every buffer an
      * algorithm hands to the entries above comes from mem_alloc (allocated at
@@ -120,6 +132,12 @@ void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a);
 void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a);
 void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs);
 void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a);
+
+/* CPU implementations of the kernel-predicting denoiser's entries (kpcn.c) */
+void ew_cpu_kpcn_input(ew_device *dev, const ew_kpcn_input_args *a);
+void ew_cpu_kpcn_pool(ew_device *dev, const ew_kpcn_pool_args *a);
+void ew_cpu_kpcn_up(ew_device *dev, const ew_kpcn_up_args *a);
+void ew_cpu_kpcn_filter(ew_device *dev, const ew_kpcn_filter_args *a);
 
 /* ---- device memory ---------------------------------------------
  * CPU implementations of the memory entries (cpu_memory.c). */

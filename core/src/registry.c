@@ -8,6 +8,7 @@
 
 extern const ew_op_type ew_denoise_bgrid, ew_denoise_auto;
 extern const ew_op_type ew_denoise_nbg;
+extern const ew_op_type ew_denoise_kpcn;
 extern const ew_op_type ew_filter_temporal, ew_filter_outlier;
 extern const ew_op_type ew_filter_pyramid, ew_filter_bilateral, ew_filter_separable, ew_filter_atrous, ew_filter_dof;
 
@@ -22,6 +23,7 @@ EW_REGISTRY_LINKAGE const ew_op_type *const ew_op_types[] = {
     &ew_denoise_auto,
     &ew_denoise_bgrid,
     &ew_denoise_nbg,
+    &ew_denoise_kpcn,
     &ew_filter_pyramid,
     &ew_filter_bilateral,
     &ew_filter_separable,

@@ -111,8 +111,17 @@ static void build_specs(void) {
             param(s, "model", (float)models[k].model);
         }
     }
+    if (has_method("denoiser", "kpcn")) {
+        add("kpcn", "denoiser", "kpcn", 0); /* built-in model 0: the large one */
+        s = add("kpcn-small", "denoiser", "kpcn", 0);
+        param(s, "model", 1.0f);
+    }
     if (has_method("denoiser", "auto")) {
         add("auto", "denoiser", "auto", 0); /* the sample count from the file's Cycles metadata */
+        s = add("auto-fast", "denoiser", "auto", 0); /* quality fast: grids and nbg only */
+        param(s, "quality", 0.0f);
+        s = add("auto-high", "denoiser", "auto", 0); /* quality high: up to the large kpcn */
+        param(s, "quality", 2.0f);
         s = add("auto-noise", "denoiser", "auto", 0); /* as if the count were unknown: the noise estimate */
         param(s, "samples", 0.0f);
     }

@@ -327,6 +327,39 @@ static void lg_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) {
     const ew_nbg_blend_args av = *a;
     WALK(ew_kl_nbg_px(av.n), ew_kb_nbg_blend(&t, &av));
 }
+static void lg_kpcn_input(ew_device *dev, const ew_kpcn_input_args *a) {
+    (void)dev;
+    DEV(a->radiance);
+    DEV(a->albedo);
+    DEV(a->normal);
+    DEV(a->depth);
+    DEV(a->dst);
+    const ew_kpcn_input_args av = *a;
+    WALK(ew_kl_kpcn_input(&av), ew_kb_kpcn_input(&t, &av));
+}
+static void lg_kpcn_pool(ew_device *dev, const ew_kpcn_pool_args *a) {
+    (void)dev;
+    DEV(a->src.data);
+    DEV(a->dst.data);
+    const ew_kpcn_pool_args av = *a;
+    WALK(ew_kl_kpcn_pool(&av), ew_kb_kpcn_pool(&t, &av));
+}
+static void lg_kpcn_up(ew_device *dev, const ew_kpcn_up_args *a) {
+    (void)dev;
+    DEV(a->src.data);
+    DEV(a->dst.data);
+    const ew_kpcn_up_args av = *a;
+    WALK(ew_kl_kpcn_up(&av), ew_kb_kpcn_up(&t, &av));
+}
+static void lg_kpcn_filter(ew_device *dev, const ew_kpcn_filter_args *a) {
+    (void)dev;
+    DEV(a->logits.data);
+    DEV(a->radiance.data);
+    DEV(a->coarse.data);
+    DEV(a->out.data);
+    const ew_kpcn_filter_args av = *a;
+    WALK(ew_kl_kpcn_filter(&av), ew_kb_kpcn_filter(&t, &av));
+}
 static void lg_reduce_rows(ew_device *dev, int op, int width, int height, const float *src, double *out) {
     (void)dev;
     DEV(src);
@@ -368,6 +401,10 @@ const ew_backend lg_backend = {
     .gn_input = lg_gn_input,
     .nbg_guides = lg_nbg_guides,
     .nbg_blend = lg_nbg_blend,
+    .kpcn_input = lg_kpcn_input,
+    .kpcn_pool = lg_kpcn_pool,
+    .kpcn_up = lg_kpcn_up,
+    .kpcn_filter = lg_kpcn_filter,
     .mem_alloc = lg_mem_alloc,
     .mem_free = lg_mem_free,
     .mem_upload = lg_mem_upload,

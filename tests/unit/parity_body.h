@@ -721,6 +721,89 @@ TEST(guidenet_input_guides_blend) {
     CHECK_NO_MISUSE();
 }
 
+TEST(kpcn_input_pool_up_filter) {
+    OPEN_PAIR(p, 0);
+    const int cw = ew_kpcn_half(W), ch = ew_kpcn_half(H);
+    const size_t NC = (size_t)cw * ch;
+    ew_kpcn_input_args h;
+    h.width = W;
+    h.height = H;
+    h.radiance = hrand(N * 3, 0.0f, 4.0f, 23);
+    h.albedo = hrand(N * 3, 0.0f, 1.0f, 79);
+    h.normal = hrand(N * 3, -1.0f, 1.0f, 0);
+    h.depth = hrand(N, 0.0f, 10.0f, 0);
+    h.depth_scale = 0.1f;
+    h.dst = hnan(N * EW_KPCN_INPUTS);
+    h.rs = W;
+    h.ps = (long)N;
+    ew_kpcn_input_args d = h;
+    d.radiance = dup_to(p.dut, h.radiance, N * 3);
+    d.albedo = dup_to(p.dut, h.albedo, N * 3);
+    d.normal = dup_to(p.dut, h.normal, N * 3);
+    d.depth = dup_to(p.dut, h.depth, N);
+    d.dst = dnan(p.dut, N * EW_KPCN_INPUTS);
+    ew_cpu_backend.kpcn_input(p.cpu, &h);
+    p.dut->backend->kpcn_input(p.dut, &d);
+    int ok = match(back(p.dut, d.dst, N * EW_KPCN_INPUTS), h.dst, N * EW_KPCN_INPUTS, "kpcn inputs");
+
+    /* pooling packed RGB (odd sizes: partial blocks) into planes */
+    float *rad = hrand(N * 3, 0.0f, 3.0f, 0), *drad = dup_to(p.dut, rad, N * 3);
+    float *pooled = hnan(NC * 3), *dpooled = dnan(p.dut, NC * 3);
+    ew_kpcn_pool_args hp = {W, H, cw, ch, 3, {rad, 3, 3L * W, 1}, {pooled, 1, cw, (long)NC}};
+    ew_kpcn_pool_args dp = {W, H, cw, ch, 3, {drad, 3, 3L * W, 1}, {dpooled, 1, cw, (long)NC}};
+    ew_cpu_backend.kpcn_pool(p.cpu, &hp);
+    p.dut->backend->kpcn_pool(p.dut, &dp);
+    ok = ok && match(back(p.dut, dpooled, NC * 3), pooled, NC * 3, "kpcn pool");
+
+    float *upd = hnan(N * 3), *dupd = dnan(p.dut, N * 3);
+    ew_kpcn_up_args hu = {W, H, cw, ch, 3, {pooled, 1, cw, (long)NC}, {upd, 1, W, (long)N}};
+    ew_kpcn_up_args du = {W, H, cw, ch, 3, {dpooled, 1, cw, (long)NC}, {dupd, 1, W, (long)N}};
+    ew_cpu_backend.kpcn_up(p.cpu, &hu);
+    p.dut->backend->kpcn_up(p.dut, &du);
+    ok = ok && match(back(p.dut, dupd, N * 3), upd, N * 3, "kpcn up");
+
+    /* the filter with and without a coarser scale, into packed RGB */
+    for (int with_coarse = 0; with_coarse <= 1 && ok; with_coarse++) {
+        float *logits = hrand(N * EW_KPCN_HEAD, -3.0f, 3.0f, 0), *dlogits = dup_to(p.dut, logits, N * EW_KPCN_HEAD);
+        float *out = hnan(N * 3), *dout = dnan(p.dut, N * 3);
+        ew_kpcn_filter_args hf, df;
+        memset(&hf, 0, sizeof hf);
+        hf.width = W;
+        hf.height = H;
+        hf.logits.data = logits;
+        hf.logits.xs = 1;
+        hf.logits.rs = W;
+        hf.logits.cs = (long)N;
+        hf.radiance.data = rad;
+        hf.radiance.xs = 3;
+        hf.radiance.rs = 3L * W;
+        hf.radiance.cs = 1;
+        if (with_coarse) {
+            hf.coarse.data = pooled;
+            hf.coarse.xs = 1;
+            hf.coarse.rs = cw;
+            hf.coarse.cs = (long)NC;
+            hf.cw = cw;
+            hf.ch = ch;
+        }
+        hf.out.data = out;
+        hf.out.xs = 3;
+        hf.out.rs = 3L * W;
+        hf.out.cs = 1;
+        df = hf;
+        df.logits.data = dlogits;
+        df.radiance.data = drad;
+        df.coarse.data = with_coarse ? dpooled : NULL;
+        df.out.data = dout;
+        ew_cpu_backend.kpcn_filter(p.cpu, &hf);
+        p.dut->backend->kpcn_filter(p.dut, &df);
+        ok = match(back(p.dut, dout, N * 3), out, N * 3, "kpcn filter");
+    }
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
 TEST(reduce_rows_both_kinds) {
     OPEN_PAIR(p, 0);
     float *rgb = hrand(N * 3, -0.5f, 3.0f, 13), *depth = hrand(N, 0.0f, 50.0f, 17);

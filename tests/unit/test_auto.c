@@ -67,9 +67,10 @@ static ew_result run(ew_device *dev, const char *method, frame *f, int features,
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "normal", &n);
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "depth", &z);
     if (r == EW_OK && samples >= 0) r = ew_denoiser_set_int(d, "samples", samples);
-    for (; r == EW_OK && ps && ps->name; ps++) /* "model" is nbg's one integer parameter */
-        r = strcmp(ps->name, "model") ? ew_denoiser_set_float(d, ps->name, ps->value)
-                                      : ew_denoiser_set_int(d, ps->name, (int32_t)ps->value);
+    for (; r == EW_OK && ps && ps->name; ps++) /* "model" and "quality" are the integer parameters */
+        r = strcmp(ps->name, "model") && strcmp(ps->name, "quality")
+                ? ew_denoiser_set_float(d, ps->name, ps->value)
+                : ew_denoiser_set_int(d, ps->name, (int32_t)ps->value);
     if (r == EW_OK) r = ew_denoiser_commit(d);
     if (r == EW_OK && what) snprintf(what, len, "%s", ew_denoiser_describe(d));
     if (r == EW_OK) r = ew_denoiser_execute(d);
@@ -96,8 +97,23 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 0}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
 
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
+    /* quality fast stays on the grids and nbg; the default (balanced) and
+     * high climb to kpcn at 16 spp, high also at 4 spp; the output is
+     * kpcn's own */
+    static const param fast[] = {{"quality", 0}, {NULL, 0}}, high[] = {{"quality", 2}, {NULL, 0}};
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn (16 spp, quality balanced)");
+    CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, NULL, f.out2, NULL, 0), EW_OK);
+    CHECK(same(f.out, f.out2));
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, high, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn (4 spp, quality high)");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, high, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
+    /* without the features kpcn cannot run: the grid, whatever the quality */
+    CHECK_EQ_INT(run(dev, "auto", &f, 0, 16, high, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid fine grid");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid finest grid 2/4");
     /* the finest grid is bgrid with those rates */

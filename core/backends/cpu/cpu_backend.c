@@ -130,6 +130,11 @@ const ew_backend ew_cpu_backend = {
     .gn_input = ew_cpu_gn_input,
     .nbg_guides = ew_cpu_nbg_guides,
     .nbg_blend = ew_cpu_nbg_blend,
+    /* kernel-predicting denoiser (core/algorithms/kpcn.c) */
+    .kpcn_input = ew_cpu_kpcn_input,
+    .kpcn_pool = ew_cpu_kpcn_pool,
+    .kpcn_up = ew_cpu_kpcn_up,
+    .kpcn_filter = ew_cpu_kpcn_filter,
     /* device memory (cpu_memory.c) */
     .mem_alloc = ew_cpu_mem_alloc,
     .mem_free = ew_cpu_mem_free,

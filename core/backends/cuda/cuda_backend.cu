@@ -161,6 +161,22 @@ EW_KERNEL k_nbg_blend(ew_nbg_blend_args a) {
     const ew_thread t = ew_thread_self();
     ew_kb_nbg_blend(&t, &a);
 }
+EW_KERNEL k_kpcn_input(ew_kpcn_input_args a) {
+    const ew_thread t = ew_thread_self();
+    ew_kb_kpcn_input(&t, &a);
+}
+EW_KERNEL k_kpcn_pool(ew_kpcn_pool_args a) {
+    const ew_thread t = ew_thread_self();
+    ew_kb_kpcn_pool(&t, &a);
+}
+EW_KERNEL k_kpcn_up(ew_kpcn_up_args a) {
+    const ew_thread t = ew_thread_self();
+    ew_kb_kpcn_up(&t, &a);
+}
+EW_KERNEL k_kpcn_filter(ew_kpcn_filter_args a) {
+    const ew_thread t = ew_thread_self();
+    ew_kb_kpcn_filter(&t, &a);
+}
 EW_KERNEL k_reduce_rows(int op, int width, int height, const float *__restrict__ src, double *__restrict__ out) {
     const ew_thread t = ew_thread_self();
     ew_kb_reduce_rows(&t, op, width, height, src, out);
@@ -224,6 +240,12 @@ void cu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs) {
     EW_LAUNCH(dev, ew_kl_nbg_px(n), k_nbg_guides, n, ngrids, outputs);
 }
 void cu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) { EW_LAUNCH(dev, ew_kl_nbg_px(a->n), k_nbg_blend, *a); }
+void cu_kpcn_input(ew_device *dev, const ew_kpcn_input_args *a) { EW_LAUNCH(dev, ew_kl_kpcn_input(a), k_kpcn_input, *a); }
+void cu_kpcn_pool(ew_device *dev, const ew_kpcn_pool_args *a) { EW_LAUNCH(dev, ew_kl_kpcn_pool(a), k_kpcn_pool, *a); }
+void cu_kpcn_up(ew_device *dev, const ew_kpcn_up_args *a) { EW_LAUNCH(dev, ew_kl_kpcn_up(a), k_kpcn_up, *a); }
+void cu_kpcn_filter(ew_device *dev, const ew_kpcn_filter_args *a) {
+    EW_LAUNCH(dev, ew_kl_kpcn_filter(a), k_kpcn_filter, *a);
+}
 void cu_reduce_rows(ew_device *dev, int op, int width, int height, const float *src, double *out) {
     EW_LAUNCH(dev, ew_kl_reduce_rows(height), k_reduce_rows, op, width, height, src, out);
 }
@@ -320,6 +342,10 @@ ew_backend make_table() {
     b.gn_input = cu_gn_input;
     b.nbg_guides = cu_nbg_guides;
     b.nbg_blend = cu_nbg_blend;
+    b.kpcn_input = cu_kpcn_input;
+    b.kpcn_pool = cu_kpcn_pool;
+    b.kpcn_up = cu_kpcn_up;
+    b.kpcn_filter = cu_kpcn_filter;
     b.mem_alloc = cu_mem_alloc;
     b.mem_free = cu_mem_free;
     b.mem_upload = cu_mem_upload;

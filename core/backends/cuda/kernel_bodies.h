@@ -27,6 +27,7 @@
 #include "kernels/denoise_px.h"
 #include "kernels/dof.h"
 #include "kernels/guidenet.h"
+#include "kernels/kpcn.h"
 #include "kernels/outlier.h"
 #include "kernels/pyramid.h"
 #include "kernels/reduce.h"
@@ -201,6 +202,32 @@ EW_HD void ew_kb_nbg_blend(const ew_thread *t, const ew_nbg_blend_args *a) {
     const long j = ew_t1(t);
     if (j >= a->n) return;
     ew_nbg_blend_px(j, a->s, a->ngrids, a->outputs, a->n, a->sliced, a->acc);
+}
+
+/* ---- kernel-predicting denoiser: one thread per pixel of the output ------- */
+EW_HD ew_launch ew_kl_kpcn_input(const ew_kpcn_input_args *a) { return ew_launch_2d(a->width, a->height); }
+EW_HD void ew_kb_kpcn_input(const ew_thread *t, const ew_kpcn_input_args *a) {
+    const int x = ew_tx(t), y = ew_ty(t);
+    if (x >= a->width || y >= a->height) return;
+    ew_kpcn_input_px(x, y, a);
+}
+EW_HD ew_launch ew_kl_kpcn_pool(const ew_kpcn_pool_args *a) { return ew_launch_2d(a->cw, a->ch); }
+EW_HD void ew_kb_kpcn_pool(const ew_thread *t, const ew_kpcn_pool_args *a) {
+    const int x = ew_tx(t), y = ew_ty(t);
+    if (x >= a->cw || y >= a->ch) return;
+    ew_kpcn_pool_px(x, y, a);
+}
+EW_HD ew_launch ew_kl_kpcn_up(const ew_kpcn_up_args *a) { return ew_launch_2d(a->fw, a->fh); }
+EW_HD void ew_kb_kpcn_up(const ew_thread *t, const ew_kpcn_up_args *a) {
+    const int x = ew_tx(t), y = ew_ty(t);
+    if (x >= a->fw || y >= a->fh) return;
+    ew_kpcn_up_px(x, y, a);
+}
+EW_HD ew_launch ew_kl_kpcn_filter(const ew_kpcn_filter_args *a) { return ew_launch_2d(a->width, a->height); }
+EW_HD void ew_kb_kpcn_filter(const ew_thread *t, const ew_kpcn_filter_args *a) {
+    const int x = ew_tx(t), y = ew_ty(t);
+    if (x >= a->width || y >= a->height) return;
+    ew_kpcn_filter_px(x, y, a);
 }
 
 /* ---- memory helpers ------------------------------------------------------ */

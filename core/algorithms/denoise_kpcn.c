@@ -1,0 +1,329 @@
+/*
+ * denoise_kpcn.c — denoiser "kpcn": a kernel-predicting network
+ * (algorithms/kpcn.h). A three-scale U-Net of 5x5 convolutions predicts
+ * per-pixel 5x5 softmax kernels at full, half and quarter resolution that
+ * filter the albedo-demodulated, firefly-clamped radiance, and blends the
+ * scales coarse to fine; the albedo is multiplied back. Demodulation,
+ * firefly clamp and remodulation are the "bgrid" method's own steps
+ * (kernels/denoise_px.h, outlier.h), so the output cannot hold more energy
+ * than the radiance around each pixel.
+ *
+ * Weights: "model" picks a model built into the library (0 = kpcn, the
+ * large one; 1 = kpcn-small); ew_denoiser_set_data(d, "weights", ...) loads
+ * a weights file written by train_kpcn instead.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "algorithms/kpcn.h"
+#include "src/backend.h"
+#include "src/op.h"
+#include "src/weights.h"
+
+static const ew_image_desc images[] = {
+    {"color", 3, 1, "noisy colour (RGB, linear)"},
+    {"albedo", 3, 1, "albedo (Cycles: Denoising Albedo): demodulation and a network input"},
+    {"normal", 3, 1, "normal in [-1, 1] (Cycles: Denoising Normal): a network input"},
+    {"depth", 1, 1, "depth (Cycles: Denoising Depth or Depth): a network input"},
+    {"output", 3, 1, "denoised colour; may be the colour view itself"},
+};
+
+static const ew_param_desc params[] = {
+    {"model", EW_PARAM_INT, 0.0f, 0.0f, (float)(EW_KPCN_NUM_MODELS - 1),
+     "built-in model: kpcn (16 channels, the best; the default), kpcn-small (8 channels, 2.7x fewer "
+     "multiply-adds); ignored while weights are set with set_data"},
+    {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
+     "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off (the "
+     "shipped models were trained with 3)"},
+};
+
+typedef struct {
+    ew_kpcn_net net;
+    float *params;
+} model;
+
+static void model_free(model *m) {
+    if (m) free(m->params);
+    free(m);
+}
+
+static ew_result model_parse(ew_device *dev, const void *bytes, size_t size, const char *what, model **out) {
+    *out = NULL;
+    ew_weights w;
+    char err[256];
+    if (ew_weights_parse(bytes, size, &w, err, sizeof err) != 0)
+        return ew__fail(dev, EW_ERR_INVALID_DATA, "%s: %s", what, err);
+    model *m = (model *)calloc(1, sizeof *m);
+    if (!m) {
+        ew_weights_free(&w);
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory loading %s", what);
+    }
+    int bad = ew_kpcn_from_weights(&m->net, &w, &m->params, err, sizeof err);
+    ew_weights_free(&w);
+    if (bad) {
+        model_free(m);
+        return ew__fail(dev, EW_ERR_INVALID_DATA, "%s: %s", what, err);
+    }
+    *out = m;
+    return EW_OK;
+}
+
+static ew_result set_data(ew_op *op, const char *name, const void *data, size_t size) {
+    if (strcmp(name, "weights") != 0)
+        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "denoiser 'kpcn' takes data 'weights', not '%s'", name);
+    model *m = NULL;
+    if (data) {
+        ew_result r = model_parse(op->dev, data, size, "weights", &m);
+        if (r != EW_OK) return r;
+    }
+    model_free((model *)op->data_state);
+    op->data_state = m;
+    return EW_OK;
+}
+
+static void release_data(ew_op *op) {
+    model_free((model *)op->data_state);
+    op->data_state = NULL;
+}
+
+typedef struct {
+    model *builtin;
+    const model *m;
+    ew_denoise_buffers buf;
+    float *params, *clamped;
+    ew_gn_planes sb[EW_KPCN_SCALES];
+    float *rad[EW_KPCN_SCALES], *out[EW_KPCN_SCALES]; /* scales 1, 2: 3 planes each */
+    int sw[EW_KPCN_SCALES], sh[EW_KPCN_SCALES];
+    double *row_out;
+    void *dmem;
+    double *rows;
+    float *stage;
+    char choice[96];
+    double host[];
+} state;
+
+static void release(ew_op *op) {
+    state *s = (state *)op->state;
+    if (s) {
+        ew_dev_free(op->dev, s->dmem);
+        model_free(s->builtin);
+    }
+    free(s);
+    op->state = NULL;
+}
+
+static ew_result commit(ew_op *op) {
+    ew_device *dev = op->dev;
+    const ew_image *color = ew_op_image(op, "color");
+    const int w = color->width, h = color->height;
+    if (op->state) release(op);
+    model *builtin = NULL;
+    const model *m = (const model *)op->data_state;
+    if (!m) {
+        const int which = (int)ew_op_param(op, "model");
+        const unsigned char *bytes;
+        size_t size;
+        ew_kpcn_builtin_weights(which, &bytes, &size);
+        if (size == 0)
+            return ew__fail(dev, EW_ERR_UNSUPPORTED,
+                            "this build has no built-in weights for kpcn model %d (%s): load a weights file with "
+                            "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
+                            which, ew_kpcn_model_name(which));
+        char what[64];
+        snprintf(what, sizeof what, "built-in kpcn model '%s'", ew_kpcn_model_name(which));
+        ew_result r = model_parse(dev, bytes, size, what, &builtin);
+        if (r != EW_OK) return r;
+        m = builtin;
+    }
+    const ew_kpcn_net *net = &m->net;
+    const size_t n = (size_t)w * (size_t)h;
+    /* device: row sums (doubles first), parameters, packed colour, albedo,
+     * normal, depth, radiance, clamped radiance, the filtered radiance
+     * (sliced), the output, the hand-made guide denoise_prepare writes, then
+     * the scale buffers and the scales' radiance and outputs */
+    const size_t need = (net->nparams + 15) / 16 * 16 + n * 3 * 7 + n * 2 + ew_kpcn_device_floats(net, w, h) + 64;
+    const size_t row_bytes = (size_t)h * 2 * sizeof(double);
+    const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
+    state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
+    op->state = s;
+    if (s) s->dmem = ew_dev_alloc(dev, row_bytes + need * sizeof(float));
+    if (!s || !s->dmem) {
+        model_free(builtin);
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: kpcn on %dx%d needs %.1f MiB",
+                        s ? dev->backend->name : "host", w, h, (double)(need * sizeof(float) + row_bytes) / 1048576.0);
+    }
+    s->builtin = builtin;
+    s->m = m;
+    if (builtin)
+        snprintf(s->choice, sizeof s->choice, "kpcn %s", ew_kpcn_model_name((int)ew_op_param(op, "model")));
+    else
+        snprintf(s->choice, sizeof s->choice, "kpcn weights %s", net->arch);
+    s->rows = s->host;
+    s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
+    s->row_out = (double *)s->dmem;
+    float *p = (float *)(void *)((char *)s->dmem + row_bytes);
+    s->params = p; p += (net->nparams + 15) / 16 * 16;
+    ew_denoise_buffers *b = &s->buf;
+    memset(b, 0, sizeof *b);
+    b->width = w;
+    b->height = h;
+    b->color = p; p += n * 3;
+    b->albedo = p; p += n * 3;
+    b->normal = p; p += n * 3;
+    b->depth = p; p += n;
+    b->radiance = p; p += n * 3;
+    s->clamped = p; p += n * 3;
+    b->sliced = p; p += n * 3;
+    b->out = p; p += n * 3;
+    b->guide = p; p += n;
+    ew_kpcn_scale_sizes(w, h, s->sw, s->sh);
+    float *scale_mem = p;
+    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], net->nplanes[k]);
+        p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
+    }
+    /* the zero padding of every plane is written once: the entries only
+     * write inside the planes */
+    ew_result r = dev->backend->mem_zero(dev, scale_mem, (size_t)(p - scale_mem) * sizeof(float));
+    for (int k = 1; k < EW_KPCN_SCALES; k++) {
+        s->rad[k] = p; p += 3 * (size_t)s->sw[k] * s->sh[k];
+        s->out[k] = p; p += 3 * (size_t)s->sw[k] * s->sh[k];
+    }
+    if (r == EW_OK) r = dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
+    return r;
+}
+
+static ew_kpcn_tensor planes_t(const ew_gn_planes *b, int plane) {
+    ew_kpcn_tensor t = {ew_gn_plane_row(b, plane, 0), 1, b->rs, b->ps};
+    return t;
+}
+
+static ew_kpcn_tensor flat_t(float *p, int w, int h) {
+    ew_kpcn_tensor t = {p, 1, w, (long)w * h};
+    return t;
+}
+
+static void conv(ew_device *dev, const state *s, int l) {
+    ew_conv_args a;
+    ew_kpcn_layer_args(&s->m->net, l, s->params, s->sb, &a);
+    dev->backend->conv5(dev, &a);
+}
+
+static void pool(ew_device *dev, const ew_gn_planes *f, int fp, const ew_gn_planes *c, int cp, int nplanes) {
+    ew_kpcn_pool_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(f, fp), planes_t(c, cp)};
+    dev->backend->kpcn_pool(dev, &a);
+}
+
+static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes *f, int fp, int nplanes) {
+    ew_kpcn_up_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(c, cp), planes_t(f, fp)};
+    dev->backend->kpcn_up(dev, &a);
+}
+
+static ew_result execute(ew_op *op) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    ew_denoise_buffers *b = &s->buf;
+    const ew_kpcn_net *net = &s->m->net;
+    const int w = b->width, h = b->height, C = net->ch;
+    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
+    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
+    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
+    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "depth"), 1, (float *)b->depth, s->stage);
+    if (r != EW_OK) return r;
+    dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, h, b->depth, s->row_out);
+    r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)h * 2 * sizeof(double));
+    if (r != EW_OK) return r;
+    double mx = 0.0;
+    for (int y = 0; y < h; y++)
+        if (s->rows[2 * y] > mx) mx = s->rows[2 * y];
+    b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
+    dev->backend->denoise_prepare(dev, b); /* radiance = colour / (albedo + eps) */
+    const float k = ew_op_param(op, "firefly_k");
+    float *radiance = b->radiance;
+    if (k > 0.0f) {
+        dev->backend->outlier_clamp(dev, w, h, 2, k, b->radiance, s->clamped);
+        radiance = s->clamped;
+    }
+    ew_kpcn_input_args ia = {w, h, radiance, b->albedo, b->normal, b->depth, b->depth_scale,
+                             ew_gn_plane_row(&s->sb[0], 0, 0), s->sb[0].rs, s->sb[0].ps};
+    dev->backend->kpcn_input(dev, &ia);
+    if (!ew_op_report(op, 0.05)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    /* the network (algorithms/kpcn.h's layer list) */
+    conv(dev, s, 0);
+    pool(dev, &s->sb[0], net->h0, &s->sb[1], net->p1, C);
+    conv(dev, s, 1);
+    pool(dev, &s->sb[1], net->h1, &s->sb[2], net->p2, C);
+    conv(dev, s, 2);
+    conv(dev, s, 3);
+    conv(dev, s, 4);
+    up(dev, &s->sb[2], net->h2b, &s->sb[1], net->u1, C);
+    conv(dev, s, 5);
+    conv(dev, s, 6);
+    if (!ew_op_report(op, 0.3)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    up(dev, &s->sb[1], net->d1, &s->sb[0], net->u0, C);
+    conv(dev, s, 7);
+    if (!ew_op_report(op, 0.6)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    conv(dev, s, 8);
+    if (!ew_op_report(op, 0.85)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    /* the radiance pyramid, then the filters coarse to fine */
+    const ew_kpcn_tensor rad0 = {radiance, 3, 3L * w, 1};
+    ew_kpcn_tensor prev = rad0;
+    for (int sc = 1; sc < EW_KPCN_SCALES; sc++) {
+        ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
+                                flat_t(s->rad[sc], s->sw[sc], s->sh[sc])};
+        dev->backend->kpcn_pool(dev, &pa);
+        prev = pa.dst;
+    }
+    for (int sc = EW_KPCN_SCALES - 1; sc >= 0; sc--) {
+        ew_kpcn_filter_args fa;
+        memset(&fa, 0, sizeof fa);
+        fa.width = s->sw[sc];
+        fa.height = s->sh[sc];
+        fa.logits = planes_t(&s->sb[sc], sc == 0 ? net->k0 : sc == 1 ? net->k1 : net->k2);
+        fa.radiance = sc == 0 ? rad0 : flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
+        if (sc + 1 < EW_KPCN_SCALES) {
+            fa.coarse = flat_t(s->out[sc + 1], s->sw[sc + 1], s->sh[sc + 1]);
+            fa.cw = s->sw[sc + 1];
+            fa.ch = s->sh[sc + 1];
+        }
+        if (sc == 0) {
+            ew_kpcn_tensor o = {b->sliced, 3, 3L * w, 1};
+            fa.out = o;
+        } else {
+            fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
+        }
+        dev->backend->kpcn_filter(dev, &fa);
+    }
+    dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
+    return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+}
+
+static const char *describe(const ew_op *op) {
+    const state *s = (const state *)op->state;
+    return s ? s->choice : NULL;
+}
+
+/* device_memory: every buffer comes from ew_dev_alloc and only the views
+ * cross between host and device, so it runs on a CUDA device too. */
+const ew_op_type ew_denoise_kpcn = {
+    .kind = "denoiser",
+    .name = "kpcn",
+    .summary = "kernel-predicting network: a three-scale U-Net predicts per-pixel 5x5 softmax kernels that filter "
+               "the albedo-demodulated radiance at full, half and quarter resolution, blended coarse to fine",
+    .images = images,
+    .num_images = (int)(sizeof images / sizeof images[0]),
+    .params = params,
+    .num_params = (int)(sizeof params / sizeof params[0]),
+    .commit = commit,
+    .execute = execute,
+    .release = release,
+    .set_data = set_data,
+    .release_data = release_data,
+    .device_memory = 1,
+    .describe = describe,
+    .choices = (const ew_param_choices[]){{"model", ew_kpcn_model_names}, {NULL, NULL}},
+    .inplace_inputs = (const char *const[]){"color", NULL},
+    .data_params = (const char *const[]){"model", "weights", NULL},
+    .flags = EW_METHOD_HOST,
+};

@@ -1,0 +1,146 @@
+/*
+ * kpcn.h — the kernel-predicting denoiser "kpcn": a small three-scale U-Net
+ * of 5x5 convolutions predicts, at full, half and quarter resolution, a 5x5
+ * softmax kernel per pixel that filters the albedo-demodulated radiance of
+ * that scale, and per pixel of the two finer scales a weight blending in the
+ * coarser scale's (bilinearly upsampled) result (kernels/kpcn.h). The albedo
+ * is multiplied back at the end. The quarter scale's 5x5 kernel spans 20x20
+ * full-resolution pixels, and the network sees ~±50 pixels, at a cost
+ * dominated by the full-resolution layers.
+ *
+ * Layers (all 5x5 SAME convolutions with biases; C = the width):
+ *   0 enc0  scale 0  inputs (10)     -> h0 (C)  LeakyReLU
+ *   1 enc1  scale 1  pool(h0) (C)    -> h1 (C)  LeakyReLU
+ *   2 enc2a scale 2  pool(h1) (C)    -> h2a (C) LeakyReLU
+ *   3 enc2b scale 2  h2a             -> h2b (C) LeakyReLU
+ *   4 head2 scale 2  h2b             -> 25 kernel logits
+ *   5 dec1  scale 1  [h1, up(h2b)]   -> d1 (C)  LeakyReLU
+ *   6 head1 scale 1  d1              -> 25 kernel logits + 1 blend logit
+ *   7 dec0  scale 0  [h0, up(d1)]    -> d0 (C)  LeakyReLU
+ *   8 head0 scale 0  d0              -> 25 + 1
+ *
+ * Weights file (src/weights.h): arch "kpcn-c<C>", tensors conv<l>.weight
+ * [cout, cin, 5, 5] and conv<l>.bias [cout], l = 0..8.
+ *
+ * Per scale, one zero-padded plane buffer (algorithms/guidenet.h's
+ * ew_gn_planes) holds every plane of that scale, laid out so that each
+ * convolution's input is one contiguous run of planes (the decoders' skip
+ * concatenation costs nothing):
+ *   scale 0: inputs (10) | h0 | up(d1) | d0 | head0 (26)
+ *   scale 1: pool(h0) | h1 | up(h2b) | d1 | head1 (26)
+ *   scale 2: pool(h1) | h2a | h2b | head2 (25)
+ */
+#ifndef EW_ALGORITHMS_KPCN_H
+#define EW_ALGORITHMS_KPCN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "algorithms/guidenet.h"
+#include "edgewise/edgewise.h"
+#include "kernels/kpcn.h"
+#include "src/weights.h"
+
+#define EW_KPCN_NLAYERS 9
+#define EW_KPCN_SCALES 3
+#define EW_KPCN_MIN_CH 4
+#define EW_KPCN_MAX_CH 16 /* dec layers: 2C x C channel pairs <= the CPU entry's 512 */
+
+typedef struct ew_kpcn_layer {
+    int scale, in_plane, cin, out_plane, cout, act;
+    size_t w_off, b_off;
+} ew_kpcn_layer;
+
+typedef struct ew_kpcn_net {
+    char arch[32]; /* "kpcn-c<C>" */
+    int ch;
+    int nplanes[EW_KPCN_SCALES];
+    /* plane indices */
+    int h0, u0, d0, k0, p1, h1, u1, d1, k1, p2, h2a, h2b, k2;
+    ew_kpcn_layer layers[EW_KPCN_NLAYERS];
+    size_t nparams;
+} ew_kpcn_net;
+
+/* "kpcn-c<C>" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH]. 0 or non-zero + message. */
+int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen);
+/* Kaiming-uniform for the LeakyReLU layers, heads 10x smaller (kernels start
+ * near a box filter, blends near one half), zero biases; a pure function of
+ * the seed. */
+void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params);
+int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, char *err, size_t errlen);
+int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t *size);
+/* Multiply-adds of the convolutions per full-resolution pixel. */
+double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net);
+/* The convolution of layer l on the scale buffers buf[scale]. */
+void ew_kpcn_layer_args(const ew_kpcn_net *net, int l, const float *params, const ew_gn_planes *buf,
+                        ew_conv_args *a);
+/* Sizes of the three scales of a w x h frame. */
+void ew_kpcn_scale_sizes(int w, int h, int *sw, int *sh);
+
+/* ---- built-in models ------------------------------------------------- */
+#define EW_KPCN_NUM_MODELS 2
+/* 0 = "kpcn" (the large model, the default), 1 = "kpcn-small" */
+const char *ew_kpcn_model_name(int which);
+extern const char *const ew_kpcn_model_names[EW_KPCN_NUM_MODELS + 1]; /* NULL-terminated (enum choices) */
+void ew_kpcn_builtin_weights(int which, const unsigned char **bytes, size_t *size);
+
+/* ---- inference on a device -------------------------------------------- */
+/* Device floats the op needs for a w x h frame beyond its packed inputs:
+ * the three scale buffers, radiance pyramid and outputs of scales 1-2. */
+size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
+
+/* ---- training (host) ---------------------------------------------------- */
+#define EW_KPCN_LOSS_TM 0  /* L1 of the metrics' tone curve (kernels/guidenet.h ew_nbg_tm) */
+#define EW_KPCN_LOSS_LOG 1 /* L1 of log(1 + x) */
+
+/* One frame, preprocessed as the op preprocesses it. */
+typedef struct ew_kpcn_frame {
+    int width, height;
+    float *input;    /* EW_KPCN_INPUTS planes of width*height */
+    float *radiance; /* 3 a pixel: demodulated, firefly-clamped */
+    float *albedo_f; /* 3 a pixel: albedo + eps */
+    float *ref;      /* 3 a pixel: the reference colour (linear) */
+} ew_kpcn_frame;
+
+int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *color, const float *albedo,
+                       const float *normal, const float *depth, const float *reference, float firefly_k);
+void ew_kpcn_frame_free(ew_kpcn_frame *f);
+
+typedef struct ew_kpcn_scratch ew_kpcn_scratch;
+ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size);
+void ew_kpcn_scratch_destroy(ew_kpcn_scratch *s);
+
+/* The parameters and their SIMD re-layouts, shared by a step's patches. */
+typedef struct ew_kpcn_model {
+    const ew_kpcn_net *net;
+    const float *params;
+    float *wt, *fwt, *flip;
+} ew_kpcn_model;
+int ew_kpcn_model_init(ew_kpcn_model *m, const ew_kpcn_net *net);
+void ew_kpcn_model_free(ew_kpcn_model *m);
+void ew_kpcn_model_prepare(ew_kpcn_model *m, const float *params);
+
+/* Patch from a frame: square of side size at (x0, y0), symmetry aug (bit 0
+ * flip x, bit 1 flip y, bit 2 transpose; as algorithms/train.h). */
+typedef struct ew_kpcn_patch {
+    int frame, x0, y0, aug;
+} ew_kpcn_patch;
+
+/*
+ * Forward and backward of one patch (size a multiple of 4): returns the
+ * mean L1 loss over pixels and channels and adds the gradient to grad
+ * (NULL: forward only). out_rgb (size^2 * 3, may be NULL): the denoised
+ * colour. ref_override (size^2 * 3 linear colour, may be NULL) replaces the
+ * reference (tests).
+ */
+double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, const ew_kpcn_patch *p, int size,
+                           int loss, ew_kpcn_scratch *s, float *grad, float *out_rgb, const float *ref_override);
+
+typedef struct ew_kpcn_trainer ew_kpcn_trainer;
+ew_kpcn_trainer *ew_kpcn_trainer_create(ew_device *dev, const ew_kpcn_net *net, int batch, int size, int loss);
+void ew_kpcn_trainer_destroy(ew_kpcn_trainer *t);
+/* Mean gradient of a batch (grad: nparams); returns the mean loss. */
+double ew_kpcn_trainer_gradient(ew_kpcn_trainer *t, const float *params, const ew_kpcn_frame *frames,
+                                const ew_kpcn_patch *patches, float *grad);
+
+#endif

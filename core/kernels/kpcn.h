@@ -1,0 +1,262 @@
+/*
+ * kpcn.h — the per-pixel steps of the kernel-predicting denoiser "kpcn"
+ * (Bako et al. 2017; multi-scale as Vogels et al. 2018) around its 5x5
+ * convolutions (kernels/conv.h): the network's input features, 2x2 average
+ * pooling, 2x bilinear upsampling, and the filter that applies a predicted
+ * per-pixel 5x5 softmax kernel to the albedo-demodulated radiance and blends
+ * the result with the coarser scale's output. With the backward pass of each
+ * (used by the trainer on the host; scatters, one thread per patch). Plain C
+ * that nvcc also compiles.
+ *
+ * Every tensor is addressed through strides in floats: value (c, y, x) at
+ * data[c * cs + y * rs + x * xs], so the same functions read the
+ * convolutions' zero-padded planes (xs = 1) and packed RGB (xs = 3, cs = 1).
+ *
+ * Why the output cannot invent energy: a softmax kernel is a convex
+ * combination of the radiance around the pixel, the blend with the coarser
+ * scale is convex too ((1 - a) f + a up(o), a = sigmoid), pooling and
+ * bilinear upsampling are averages; so each output channel lies between
+ * the smallest and largest demodulated radiance of the pixels it can see,
+ * and the albedo is multiplied back afterwards.
+ */
+#ifndef EW_KERNELS_KPCN_H
+#define EW_KERNELS_KPCN_H
+
+#include "kernels/conv.h"
+#include "kernels/denoise_px.h"
+
+#define EW_KPCN_INPUTS 10 /* network input planes */
+#define EW_KPCN_KR 2      /* predicted kernel radius: 5x5 */
+#define EW_KPCN_TAPS 25
+#define EW_KPCN_HEAD 26   /* head outputs: 25 kernel logits + the blend logit (unused at the coarsest scale) */
+
+typedef struct ew_kpcn_tensor {
+    float *data;
+    long xs, rs, cs;
+} ew_kpcn_tensor;
+
+EW_HD float *ew_kpcn_at(const ew_kpcn_tensor *t, int c, int y, int x) {
+    return t->data + (long)c * t->cs + (long)y * t->rs + (long)x * t->xs;
+}
+
+/*
+ * Input features of pixel (x, y): log(1 + r) of the demodulated, firefly-
+ * clamped radiance r (3; the kernels are applied to r, so the network sees
+ * it, compressed), albedo clamped to [0, 1] (3), normal mapped by (n + 1)/2
+ * (3), depth times depth_scale clamped to [0, 1] (1). A non-finite value
+ * reads as 0.
+ */
+typedef struct ew_kpcn_input_args {
+    int width, height;
+    const float *radiance, *albedo, *normal, *depth; /* packed, whole image (3, 3, 3, 1 floats a pixel) */
+    float depth_scale;
+    float *dst; /* plane 0, row 0, x = 0 */
+    long rs, ps;
+} ew_kpcn_input_args;
+
+EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
+    const long j = (long)y * a->width + x;
+    float *d = a->dst + (long)y * a->rs + x;
+    for (int k = 0; k < 3; k++) {
+        float r = ew_feature_or_zero(a->radiance[j * 3 + k]);
+        d[k * a->ps] = logf(1.0f + ew_maxf(r, 0.0f));
+        d[(3 + k) * a->ps] = ew_clampf(ew_feature_or_zero(a->albedo[j * 3 + k]), 0.0f, 1.0f);
+        d[(6 + k) * a->ps] = ew_clampf(0.5f * (ew_feature_or_zero(a->normal[j * 3 + k]) + 1.0f), 0.0f, 1.0f);
+    }
+    d[9 * a->ps] = ew_clampf(ew_feature_or_zero(a->depth[j]) * a->depth_scale, 0.0f, 1.0f);
+}
+
+/* ---- 2x2 average pooling ------------------------------------------------
+ * Coarse (x, y) is the mean of the fine pixels (2x + i, 2y + j), i, j in
+ * {0, 1}, that exist: a fine size w gives a coarse size (w + 1) / 2. */
+typedef struct ew_kpcn_pool_args {
+    int fw, fh, cw, ch, nplanes;
+    ew_kpcn_tensor src, dst; /* fine, coarse */
+} ew_kpcn_pool_args;
+
+EW_HD int ew_kpcn_half(int n) { return (n + 1) / 2; }
+
+EW_HD void ew_kpcn_pool_px(int x, int y, const ew_kpcn_pool_args *a) {
+    const int x1 = ew_mini(2 * x + 1, a->fw - 1), y1 = ew_mini(2 * y + 1, a->fh - 1);
+    const float inv = 1.0f / (float)((x1 - 2 * x + 1) * (y1 - 2 * y + 1));
+    for (int c = 0; c < a->nplanes; c++) {
+        float s = 0.0f;
+        for (int yy = 2 * y; yy <= y1; yy++)
+            for (int xx = 2 * x; xx <= x1; xx++) s += *ew_kpcn_at(&a->src, c, yy, xx);
+        *ew_kpcn_at(&a->dst, c, y, x) = s * inv;
+    }
+}
+
+/* dL/d fine += dL/d coarse / count, for coarse pixel (x, y) (a gather-free
+ * scatter into its own 2x2 block: blocks do not overlap). */
+EW_HD void ew_kpcn_pool_backward_px(int x, int y, const ew_kpcn_pool_args *a, const ew_kpcn_tensor *dcoarse,
+                                    const ew_kpcn_tensor *dfine) {
+    const int x1 = ew_mini(2 * x + 1, a->fw - 1), y1 = ew_mini(2 * y + 1, a->fh - 1);
+    const float inv = 1.0f / (float)((x1 - 2 * x + 1) * (y1 - 2 * y + 1));
+    for (int c = 0; c < a->nplanes; c++) {
+        const float g = *ew_kpcn_at(dcoarse, c, y, x) * inv;
+        for (int yy = 2 * y; yy <= y1; yy++)
+            for (int xx = 2 * x; xx <= x1; xx++) *ew_kpcn_at(dfine, c, yy, xx) += g;
+    }
+}
+
+/* ---- 2x bilinear upsampling ---------------------------------------------
+ * Pixel centres: fine x sits at coarse coordinate x / 2 - 1/4, so each fine
+ * pixel blends its two nearest coarse pixels 3:1 per axis; indices clamp at
+ * the border (the weights of a clamped pair land on the same pixel). */
+EW_HD void ew_kpcn_up_taps(int x, int cw, int *i0, int *i1, float *w0, float *w1) {
+    const int i = (x - 1) >> 1; /* floor(x/2 - 1/4) */
+    const float t = (x & 1) ? 0.25f : 0.75f;
+    *i0 = ew_maxi(i, 0);
+    *i1 = ew_mini(i + 1, cw - 1);
+    *w0 = 1.0f - t;
+    *w1 = t;
+}
+
+typedef struct ew_kpcn_up_args {
+    int fw, fh, cw, ch, nplanes;
+    ew_kpcn_tensor src, dst; /* coarse, fine */
+} ew_kpcn_up_args;
+
+EW_HD float ew_kpcn_bilerp(const ew_kpcn_tensor *t, int c, int x0, int x1, int y0, int y1, float wx0, float wx1,
+                           float wy0, float wy1) {
+    return wy0 * (wx0 * *ew_kpcn_at(t, c, y0, x0) + wx1 * *ew_kpcn_at(t, c, y0, x1)) +
+           wy1 * (wx0 * *ew_kpcn_at(t, c, y1, x0) + wx1 * *ew_kpcn_at(t, c, y1, x1));
+}
+
+EW_HD void ew_kpcn_up_px(int x, int y, const ew_kpcn_up_args *a) {
+    int x0, x1, y0, y1;
+    float wx0, wx1, wy0, wy1;
+    ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
+    ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+    for (int c = 0; c < a->nplanes; c++)
+        *ew_kpcn_at(&a->dst, c, y, x) = ew_kpcn_bilerp(&a->src, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
+}
+
+/* Scatter dL/d fine (x, y) into dL/d coarse (add). */
+EW_HD void ew_kpcn_up_backward_px(int x, int y, const ew_kpcn_up_args *a, const ew_kpcn_tensor *dfine,
+                                  const ew_kpcn_tensor *dcoarse) {
+    int x0, x1, y0, y1;
+    float wx0, wx1, wy0, wy1;
+    ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
+    ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+    for (int c = 0; c < a->nplanes; c++) {
+        const float g = *ew_kpcn_at(dfine, c, y, x);
+        *ew_kpcn_at(dcoarse, c, y0, x0) += wy0 * wx0 * g;
+        *ew_kpcn_at(dcoarse, c, y0, x1) += wy0 * wx1 * g;
+        *ew_kpcn_at(dcoarse, c, y1, x0) += wy1 * wx0 * g;
+        *ew_kpcn_at(dcoarse, c, y1, x1) += wy1 * wx1 * g;
+    }
+}
+
+/* ---- the kernel filter of one scale --------------------------------------
+ *   w_k = softmax(logits)_k over the 25 taps (offsets (k % 5 - 2, k / 5 - 2),
+ *         image borders clamped),
+ *   f   = sum_k w_k r(p + d_k),
+ *   out = (1 - a) f + a up(coarse)(p),  a = sigmoid(logit 25)
+ * or out = f at the coarsest scale (coarse.data == NULL). */
+typedef struct ew_kpcn_filter_args {
+    int width, height;
+    ew_kpcn_tensor logits;    /* 25 or 26 planes */
+    ew_kpcn_tensor radiance;  /* 3 channels at this scale */
+    ew_kpcn_tensor coarse;    /* 3 channels at half this scale, or data NULL */
+    int cw, ch;               /* the coarse size */
+    ew_kpcn_tensor out;       /* 3 channels */
+} ew_kpcn_filter_args;
+
+/* softmax of the 25 logits at (x, y) into w; returns nothing, w sums to 1 */
+EW_HD void ew_kpcn_softmax_px(int x, int y, const ew_kpcn_filter_args *a, float *w) {
+    float mx = *ew_kpcn_at(&a->logits, 0, y, x);
+    for (int k = 1; k < EW_KPCN_TAPS; k++) mx = ew_maxf(mx, *ew_kpcn_at(&a->logits, k, y, x));
+    float s = 0.0f;
+    for (int k = 0; k < EW_KPCN_TAPS; k++) {
+        w[k] = expf(*ew_kpcn_at(&a->logits, k, y, x) - mx);
+        s += w[k];
+    }
+    const float inv = 1.0f / s;
+    for (int k = 0; k < EW_KPCN_TAPS; k++) w[k] *= inv;
+}
+
+EW_HD void ew_kpcn_tap_xy(int k, int x, int y, int width, int height, int *tx, int *ty) {
+    *tx = ew_mini(ew_maxi(x + k % 5 - EW_KPCN_KR, 0), width - 1);
+    *ty = ew_mini(ew_maxi(y + k / 5 - EW_KPCN_KR, 0), height - 1);
+}
+
+EW_HD void ew_kpcn_filtered_px(int x, int y, const ew_kpcn_filter_args *a, const float *w, float *f) {
+    f[0] = f[1] = f[2] = 0.0f;
+    for (int k = 0; k < EW_KPCN_TAPS; k++) {
+        int tx, ty;
+        ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
+        for (int c = 0; c < 3; c++) f[c] += w[k] * *ew_kpcn_at(&a->radiance, c, ty, tx);
+    }
+}
+
+EW_HD void ew_kpcn_filter_px(int x, int y, const ew_kpcn_filter_args *a) {
+    float w[EW_KPCN_TAPS], f[3];
+    ew_kpcn_softmax_px(x, y, a, w);
+    ew_kpcn_filtered_px(x, y, a, w, f);
+    if (a->coarse.data) {
+        const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y, x));
+        int x0, x1, y0, y1;
+        float wx0, wx1, wy0, wy1;
+        ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
+        ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+        for (int c = 0; c < 3; c++) {
+            const float u = ew_kpcn_bilerp(&a->coarse, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
+            f[c] = (1.0f - al) * f[c] + al * u;
+        }
+    }
+    for (int c = 0; c < 3; c++) *ew_kpcn_at(&a->out, c, y, x) = f[c];
+}
+
+/*
+ * Backward of the filter at (x, y) given g = dL/d out (3): writes dL/d
+ * logits at (x, y) into dlogits (25 or 26 planes) and adds dL/d radiance
+ * and dL/d coarse to the pixels they came from (scatters):
+ *   dL/df = (1 - a) g,  dL/da = g . (up - f),  dL/d logit_a = dL/da a (1 - a),
+ *   dL/dw_k = dL/df . r_k,  dL/d logit_k = w_k (dL/dw_k - sum_j w_j dL/dw_j),
+ *   dL/d r_k += w_k dL/df,  dL/d coarse += a g x (its bilinear weight).
+ */
+EW_HD void ew_kpcn_filter_backward_px(int x, int y, const ew_kpcn_filter_args *a, const float *g,
+                                      const ew_kpcn_tensor *dlogits, const ew_kpcn_tensor *dradiance,
+                                      const ew_kpcn_tensor *dcoarse) {
+    float w[EW_KPCN_TAPS], f[3], df[3] = {g[0], g[1], g[2]};
+    ew_kpcn_softmax_px(x, y, a, w);
+    ew_kpcn_filtered_px(x, y, a, w, f);
+    if (a->coarse.data) {
+        const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y, x));
+        int x0, x1, y0, y1;
+        float wx0, wx1, wy0, wy1;
+        ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
+        ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+        float dal = 0.0f;
+        for (int c = 0; c < 3; c++) {
+            const float u = ew_kpcn_bilerp(&a->coarse, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
+            dal += g[c] * (u - f[c]);
+            df[c] = (1.0f - al) * g[c];
+            const float ga = al * g[c];
+            if (dcoarse && dcoarse->data) {
+                *ew_kpcn_at(dcoarse, c, y0, x0) += wy0 * wx0 * ga;
+                *ew_kpcn_at(dcoarse, c, y0, x1) += wy0 * wx1 * ga;
+                *ew_kpcn_at(dcoarse, c, y1, x0) += wy1 * wx0 * ga;
+                *ew_kpcn_at(dcoarse, c, y1, x1) += wy1 * wx1 * ga;
+            }
+        }
+        *ew_kpcn_at(dlogits, EW_KPCN_TAPS, y, x) = dal * al * (1.0f - al);
+    }
+    float dw[EW_KPCN_TAPS], dot = 0.0f;
+    for (int k = 0; k < EW_KPCN_TAPS; k++) {
+        int tx, ty;
+        ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
+        float s = 0.0f;
+        for (int c = 0; c < 3; c++) {
+            s += df[c] * *ew_kpcn_at(&a->radiance, c, ty, tx);
+            if (dradiance && dradiance->data) *ew_kpcn_at(dradiance, c, ty, tx) += w[k] * df[c];
+        }
+        dw[k] = s;
+        dot += w[k] * s;
+    }
+    for (int k = 0; k < EW_KPCN_TAPS; k++) *ew_kpcn_at(dlogits, k, y, x) = w[k] * (dw[k] - dot);
+}
+
+#endif

@@ -1,0 +1,414 @@
+/* kpcn: every new op's backward pass against central finite differences
+ * (the kernel filter w.r.t. its logits, blend logit and coarse input;
+ * pooling and bilinear upsampling as adjoints), the whole patch pipeline's
+ * gradient w.r.t. weights of every layer, the energy bound, and the trainer's
+ * forward pass against the library's "kpcn" op. */
+#include "ew_test.h"
+
+#include <stdlib.h>
+
+#include "algorithms/kpcn.h"
+#include "src/internal.h"
+
+static float urand(unsigned *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (float)((*s >> 8) & 0xffffff) / 16777216.0f;
+}
+
+static ew_device *make_device(int threads) {
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = threads;
+    ew_device *dev = NULL;
+    return ew_device_create(&desc, &dev) == EW_OK ? dev : NULL;
+}
+
+static ew_kpcn_tensor flat(float *p, int w, int h) {
+    ew_kpcn_tensor t = {p, 1, w, (long)w * h};
+    return t;
+}
+
+/* L = sum_c,p G[c,p] * out[c,p] for fixed random G: dL/d out = G. */
+static double filter_loss(const ew_kpcn_filter_args *a, const float *G) {
+    const long n = (long)a->width * a->height;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) ew_kpcn_filter_px(x, y, a);
+    double L = 0;
+    for (long i = 0; i < 3 * n; i++) L += (double)G[i] * a->out.data[i];
+    return L;
+}
+
+static void filter_case(int with_coarse) {
+    const int W = 7, H = 6, CW = 4, CH = 3;
+    const long n = (long)W * H;
+    unsigned s = 11u + (unsigned)with_coarse;
+    float *logits = malloc(sizeof(float) * 26 * n), *rad = malloc(sizeof(float) * 3 * n);
+    float *coarse = malloc(sizeof(float) * 3 * CW * CH), *out = malloc(sizeof(float) * 3 * n);
+    float *G = malloc(sizeof(float) * 3 * n), *dl = calloc(26 * (size_t)n, sizeof(float));
+    float *dc = calloc(3 * (size_t)CW * CH, sizeof(float)), *dr = calloc(3 * (size_t)n, sizeof(float));
+    for (long i = 0; i < 26 * n; i++) logits[i] = 2.0f * urand(&s) - 1.0f;
+    for (long i = 0; i < 3 * n; i++) rad[i] = urand(&s) * 2.0f, G[i] = urand(&s) - 0.5f;
+    for (int i = 0; i < 3 * CW * CH; i++) coarse[i] = urand(&s);
+    ew_kpcn_filter_args a;
+    memset(&a, 0, sizeof a);
+    a.width = W;
+    a.height = H;
+    a.logits = flat(logits, W, H);
+    a.radiance = flat(rad, W, H);
+    if (with_coarse) {
+        a.coarse = flat(coarse, CW, CH);
+        a.cw = CW;
+        a.ch = CH;
+    }
+    a.out = flat(out, W, H);
+    ew_kpcn_tensor tdl = flat(dl, W, H), tdc = flat(dc, CW, CH), tdr = flat(dr, W, H);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const long q = (long)y * W + x;
+            float g[3] = {G[q], G[n + q], G[2 * n + q]};
+            ew_kpcn_filter_backward_px(x, y, &a, g, &tdl, &tdr, &tdc);
+        }
+    double worst = 0;
+    const float h = 1e-2f;
+    const int nl = with_coarse ? 26 : 25;
+    /* logits (every plane at a few pixels), radiance and coarse values */
+    for (int k = 0; k < nl; k++)
+        for (int q = 0; q < n; q += 5) {
+            float *v = &logits[k * n + q], keep = *v;
+            *v = keep + h;
+            double lp = filter_loss(&a, G);
+            *v = keep - h;
+            double lm = filter_loss(&a, G);
+            *v = keep;
+            double fd = (lp - lm) / (2 * h), an = dl[k * n + q];
+            double e = fabs(fd - an) / (fabs(fd) + fabs(an) + 1e-3);
+            if (e > worst) worst = e;
+        }
+    for (long i = 0; i < 3 * n; i += 3) {
+        float keep = rad[i];
+        rad[i] = keep + h;
+        double lp = filter_loss(&a, G);
+        rad[i] = keep - h;
+        double lm = filter_loss(&a, G);
+        rad[i] = keep;
+        double fd = (lp - lm) / (2 * h), e = fabs(fd - dr[i]) / (fabs(fd) + fabs(dr[i]) + 1e-3);
+        if (e > worst) worst = e;
+    }
+    if (with_coarse)
+        for (int i = 0; i < 3 * CW * CH; i++) {
+            float keep = coarse[i];
+            coarse[i] = keep + h;
+            double lp = filter_loss(&a, G);
+            coarse[i] = keep - h;
+            double lm = filter_loss(&a, G);
+            coarse[i] = keep;
+            double fd = (lp - lm) / (2 * h), e = fabs(fd - dc[i]) / (fabs(fd) + fabs(dc[i]) + 1e-3);
+            if (e > worst) worst = e;
+        }
+    fprintf(stderr, "  filter (coarse %d): worst relative error %.2e\n", with_coarse, worst);
+    free(logits); free(rad); free(coarse); free(out); free(G); free(dl); free(dc); free(dr);
+    /* float outputs differenced at h = 1e-2: agreement to ~1e-3 is rounding, a wrong term is O(1) */
+    CHECK(worst < 1e-2);
+}
+
+TEST(filter_backward_matches_finite_differences) {
+    filter_case(0);
+    filter_case(1);
+}
+
+/* Pooling and upsampling are linear: their backward passes must be the
+ * adjoints, <A x, y> = <x, A^T y>, for odd and even sizes. */
+TEST(pool_and_up_backward_are_adjoints) {
+    unsigned s = 5;
+    for (int fw = 6; fw <= 9; fw++) {
+        const int fh = fw - 1, cw = ew_kpcn_half(fw), ch = ew_kpcn_half(fh), C = 2;
+        float *f = malloc(sizeof(float) * C * fw * fh), *c = malloc(sizeof(float) * C * cw * ch);
+        float *Af = malloc(sizeof(float) * C * cw * ch), *ATc = calloc((size_t)C * fw * fh, sizeof(float));
+        float *Uc = malloc(sizeof(float) * C * fw * fh), *UTf = calloc((size_t)C * cw * ch, sizeof(float));
+        for (int i = 0; i < C * fw * fh; i++) f[i] = urand(&s) - 0.5f;
+        for (int i = 0; i < C * cw * ch; i++) c[i] = urand(&s) - 0.5f;
+        ew_kpcn_pool_args pa = {fw, fh, cw, ch, C, flat(f, fw, fh), flat(Af, cw, ch)};
+        ew_kpcn_tensor tc = flat(c, cw, ch), tATc = flat(ATc, fw, fh), tf = flat(f, fw, fh), tUTf = flat(UTf, cw, ch);
+        for (int y = 0; y < ch; y++)
+            for (int x = 0; x < cw; x++) {
+                ew_kpcn_pool_px(x, y, &pa);
+                ew_kpcn_pool_backward_px(x, y, &pa, &tc, &tATc);
+            }
+        ew_kpcn_up_args ua = {fw, fh, cw, ch, C, flat(c, cw, ch), flat(Uc, fw, fh)};
+        for (int y = 0; y < fh; y++)
+            for (int x = 0; x < fw; x++) {
+                ew_kpcn_up_px(x, y, &ua);
+                ew_kpcn_up_backward_px(x, y, &ua, &tf, &tUTf);
+            }
+        double l1 = 0, r1 = 0, l2 = 0, r2 = 0;
+        for (int i = 0; i < C * cw * ch; i++) l1 += (double)Af[i] * c[i], r2 += (double)c[i] * UTf[i];
+        for (int i = 0; i < C * fw * fh; i++) r1 += (double)f[i] * ATc[i], l2 += (double)Uc[i] * f[i];
+        free(f); free(c); free(Af); free(ATc); free(Uc); free(UTf);
+        CHECK_NEAR(l1, r1, 1e-5);
+        CHECK_NEAR(l2, r2, 1e-5);
+    }
+}
+
+/* Upsampling a constant gives the constant; pooling averages. */
+TEST(up_and_pool_preserve_constants) {
+    float c[12], f[42];
+    for (int i = 0; i < 12; i++) c[i] = 0.7f;
+    ew_kpcn_up_args ua = {7, 6, 4, 3, 1, flat(c, 4, 3), flat(f, 7, 6)};
+    for (int y = 0; y < 6; y++)
+        for (int x = 0; x < 7; x++) ew_kpcn_up_px(x, y, &ua);
+    for (int i = 0; i < 42; i++) CHECK_NEAR(f[i], 0.7, 1e-6);
+    ew_kpcn_pool_args pa = {7, 6, 4, 3, 1, flat(f, 7, 6), flat(c, 4, 3)};
+    for (int y = 0; y < 3; y++)
+        for (int x = 0; x < 4; x++) ew_kpcn_pool_px(x, y, &pa);
+    for (int i = 0; i < 12; i++) CHECK_NEAR(c[i], 0.7, 1e-6);
+}
+
+/* ---- the whole pipeline ---------------------------------------------------- */
+typedef struct {
+    int w, h;
+    float *color, *albedo, *normal, *depth, *ref;
+} scene;
+
+static void scene_make(scene *s, int w, int h, unsigned seed) {
+    const long n = (long)w * h;
+    s->w = w;
+    s->h = h;
+    s->color = malloc(sizeof(float) * n * 3);
+    s->albedo = malloc(sizeof(float) * n * 3);
+    s->normal = malloc(sizeof(float) * n * 3);
+    s->depth = malloc(sizeof(float) * n);
+    s->ref = malloc(sizeof(float) * n * 3);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const long j = (long)y * w + x;
+            const int right = x > w / 2;
+            for (int k = 0; k < 3; k++) {
+                const float alb = right ? 0.2f + 0.2f * k : 0.8f - 0.1f * k;
+                const float light = 0.3f + 0.7f * (float)y / (float)h;
+                s->albedo[j * 3 + k] = alb;
+                s->ref[j * 3 + k] = alb * light;
+                s->color[j * 3 + k] = alb * light * (0.2f + 1.6f * urand(&seed));
+            }
+            s->normal[j * 3 + 0] = right ? 1.0f : 0.0f;
+            s->normal[j * 3 + 1] = 0.0f;
+            s->normal[j * 3 + 2] = right ? 0.0f : 1.0f;
+            s->depth[j] = 2.0f + (right ? 1.0f : 0.0f);
+        }
+}
+
+static void scene_free(scene *s) {
+    free(s->color); free(s->albedo); free(s->normal); free(s->depth); free(s->ref);
+}
+
+TEST(patch_gradient_matches_finite_differences) {
+    ew_kpcn_net net;
+    char err[128];
+    CHECK(ew_kpcn_init(&net, "kpcn-c4", err, sizeof err) == 0);
+    scene sc;
+    scene_make(&sc, 24, 20, 3);
+    ew_kpcn_frame f;
+    CHECK(ew_kpcn_frame_init(&f, sc.w, sc.h, sc.color, sc.albedo, sc.normal, sc.depth, sc.ref, 3.0f) == 0);
+    const int P = 16;
+    float *params = malloc(sizeof(float) * net.nparams), *grad = calloc(net.nparams, sizeof(float));
+    ew_kpcn_random(&net, 9, params);
+    /* larger head weights than the initialisation, so kernels and blends
+     * are far from uniform and every path carries gradient */
+    for (int l = 0; l < EW_KPCN_NLAYERS; l++)
+        if (net.layers[l].act == EW_ACT_NONE)
+            for (size_t i = 0; i < (size_t)net.layers[l].cin * net.layers[l].cout * 25; i++)
+                params[net.layers[l].w_off + i] *= 10.0f;
+    /* a reference far above every output keeps the L1 away from its kink */
+    float *ref = malloc(sizeof(float) * P * P * 3);
+    for (int i = 0; i < P * P * 3; i++) ref[i] = 20.0f;
+    ew_kpcn_model m;
+    CHECK(ew_kpcn_model_init(&m, &net) == 0);
+    ew_kpcn_scratch *s = ew_kpcn_scratch_create(&net, P);
+    CHECK(s != NULL);
+    const ew_kpcn_patch p = {0, 5, 3, 5};
+    ew_kpcn_model_prepare(&m, params);
+    ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, grad, NULL, ref);
+    double errs[4 * EW_KPCN_NLAYERS];
+    int checked = 0, layers_ok = 0;
+    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+        int good = 0;
+        const ew_kpcn_layer *L = &net.layers[l];
+        const size_t nw = (size_t)L->cin * L->cout * 25;
+        /* a few weights and a bias of every layer */
+        size_t idx[4] = {L->w_off + 3, L->w_off + nw / 2 + 1, L->w_off + nw - 7, L->b_off};
+        for (int t = 0; t < 4; t++) {
+            const size_t i = idx[t];
+            const float keep = params[i], h = 2e-3f * (fabsf(keep) > 0.1f ? fabsf(keep) * 10.0f : 1.0f);
+            params[i] = keep + h;
+            ew_kpcn_model_prepare(&m, params);
+            double lp = ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, NULL, NULL, ref);
+            params[i] = keep - h;
+            ew_kpcn_model_prepare(&m, params);
+            double lm = ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, NULL, NULL, ref);
+            params[i] = keep;
+            const double fd = (lp - lm) / (2.0 * h), an = grad[i];
+            const double e = fabs(fd - an) / (fabs(fd) + fabs(an) + 1e-6);
+            fprintf(stderr, "  layer %d param %zu: analytic %+.4e  finite %+.4e  rel %.1e\n", l, i, an, fd, e);
+            errs[checked++] = e;
+            good += e < 0.1;
+        }
+        layers_ok += good >= 3;
+    }
+    ew_kpcn_scratch_destroy(s);
+    ew_kpcn_model_free(&m);
+    ew_kpcn_frame_free(&f);
+    scene_free(&sc);
+    free(params);
+    free(grad);
+    free(ref);
+    /* Float differences of a net with LeakyReLU kinks: a step of h moves
+     * some pre-activations across zero, so a tiny gradient can be off by
+     * tens of percent. A wrong derivative in a layer spoils all its checks,
+     * hence: at least 3 of every layer's 4 within 10 %, and the median of
+     * all within 1 %. */
+    for (int i = 0; i < checked; i++)
+        for (int j = i + 1; j < checked; j++)
+            if (errs[j] < errs[i]) {
+                double t = errs[i];
+                errs[i] = errs[j];
+                errs[j] = t;
+            }
+    fprintf(stderr, "  median relative error %.1e, layers with >= 3 of 4 within 10%%: %d of %d\n", errs[checked / 2],
+            layers_ok, EW_KPCN_NLAYERS);
+    CHECK_EQ_INT(layers_ok, EW_KPCN_NLAYERS);
+    CHECK(errs[checked / 2] < 0.01);
+}
+
+/* The output stays within [min, max] of the demodulated radiance times the
+ * albedo factor: kernels and blends are convex. */
+TEST(output_cannot_invent_energy) {
+    ew_kpcn_net net;
+    char err[128];
+    CHECK(ew_kpcn_init(&net, "kpcn-c4", err, sizeof err) == 0);
+    scene sc;
+    scene_make(&sc, 32, 32, 8);
+    ew_kpcn_frame f;
+    CHECK(ew_kpcn_frame_init(&f, sc.w, sc.h, sc.color, sc.albedo, sc.normal, sc.depth, sc.ref, 3.0f) == 0);
+    float *params = malloc(sizeof(float) * net.nparams);
+    ew_kpcn_random(&net, 4, params);
+    for (size_t i = 0; i < net.nparams; i++) params[i] *= 30.0f; /* wild kernels */
+    ew_kpcn_model m;
+    CHECK(ew_kpcn_model_init(&m, &net) == 0);
+    ew_kpcn_model_prepare(&m, params);
+    ew_kpcn_scratch *s = ew_kpcn_scratch_create(&net, 32);
+    float *out = malloc(sizeof(float) * 32 * 32 * 3);
+    const ew_kpcn_patch p = {0, 0, 0, 0};
+    ew_kpcn_train_patch(&m, &f, &p, 32, EW_KPCN_LOSS_TM, s, NULL, out, NULL);
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (int j = 0; j < 32 * 32; j++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], f.radiance[j * 3 + k]);
+            hi[k] = fmaxf(hi[k], f.radiance[j * 3 + k]);
+        }
+    int bad = 0;
+    for (int j = 0; j < 32 * 32; j++)
+        for (int k = 0; k < 3; k++) {
+            const float r = out[j * 3 + k] / f.albedo_f[j * 3 + k];
+            if (!(r >= lo[k] - 1e-4f * (1 + fabsf(lo[k])) && r <= hi[k] + 1e-4f * (1 + hi[k]))) bad++;
+        }
+    ew_kpcn_scratch_destroy(s);
+    ew_kpcn_model_free(&m);
+    ew_kpcn_frame_free(&f);
+    scene_free(&sc);
+    free(params);
+    free(out);
+    CHECK_EQ_INT(bad, 0);
+}
+
+/* The trainer's forward pass (kernels run on the host) and the library's
+ * "kpcn" op with the same weights give the same image: the model trained
+ * is the model that runs. Also refusal without features. */
+TEST(op_matches_training_forward) {
+    ew_kpcn_net net;
+    char err[128];
+    CHECK(ew_kpcn_init(&net, "kpcn-c8", err, sizeof err) == 0);
+    const int P = 32;
+    scene sc;
+    scene_make(&sc, P, P, 21);
+    ew_kpcn_frame f;
+    CHECK(ew_kpcn_frame_init(&f, sc.w, sc.h, sc.color, sc.albedo, sc.normal, sc.depth, sc.ref, 3.0f) == 0);
+    float *params = malloc(sizeof(float) * net.nparams);
+    ew_kpcn_random(&net, 17, params);
+    for (size_t i = 0; i < net.nparams; i++) params[i] *= 5.0f;
+    ew_kpcn_model m;
+    CHECK(ew_kpcn_model_init(&m, &net) == 0);
+    ew_kpcn_model_prepare(&m, params);
+    ew_kpcn_scratch *s = ew_kpcn_scratch_create(&net, P);
+    float *ref_out = malloc(sizeof(float) * P * P * 3), *op_out = malloc(sizeof(float) * P * P * 3);
+    const ew_kpcn_patch p = {0, 0, 0, 0};
+    ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, NULL, ref_out, NULL);
+    void *bytes;
+    size_t size;
+    CHECK(ew_kpcn_save(&net, params, &bytes, &size) == 0);
+    ew_device *dev = make_device(2);
+    CHECK(dev != NULL);
+    ew_denoiser *d = NULL;
+    CHECK(ew_denoiser_create(dev, "kpcn", &d) == EW_OK);
+    ew_image c = ew_image_packed(sc.color, P, P, 3), a = ew_image_packed(sc.albedo, P, P, 3);
+    ew_image n = ew_image_packed(sc.normal, P, P, 3), z = ew_image_packed(sc.depth, P, P, 1);
+    ew_image o = ew_image_packed(op_out, P, P, 3);
+    CHECK(ew_denoiser_set_data(d, "weights", bytes, size) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+    /* features missing: a clear refusal, never a colour-only guess */
+    CHECK(ew_denoiser_commit(d) != EW_OK);
+    CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "normal", &n) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
+    CHECK(ew_denoiser_commit(d) == EW_OK);
+    CHECK(ew_denoiser_execute(d) == EW_OK);
+    CHECK_STR_CONTAINS(ew_denoiser_describe(d), "kpcn");
+    double worst = 0;
+    for (int i = 0; i < P * P * 3; i++) worst = fmax(worst, fabs((double)op_out[i] - ref_out[i]) / (1e-3 + fabs(ref_out[i])));
+    ew_denoiser_destroy(d);
+    ew_device_destroy(dev);
+    free(bytes);
+    ew_kpcn_scratch_destroy(s);
+    ew_kpcn_model_free(&m);
+    ew_kpcn_frame_free(&f);
+    scene_free(&sc);
+    free(params);
+    free(ref_out);
+    free(op_out);
+    fprintf(stderr, "  op vs trainer: worst relative difference %.2e\n", worst);
+    CHECK(worst < 1e-5);
+}
+
+/* The weights compiled into the library are the files in models/kpcn. */
+TEST(builtin_weights_match_model_files) {
+    static const char *const files[EW_KPCN_NUM_MODELS] = {"kpcn.ewm", "kpcn-small.ewm"};
+    for (int k = 0; k < EW_KPCN_NUM_MODELS; k++) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/kpcn/%s", EW_MODELS_DIR, files[k]);
+        FILE *f = fopen(path, "rb");
+        const unsigned char *bytes;
+        size_t size;
+        ew_kpcn_builtin_weights(k, &bytes, &size);
+        if (!f) {
+            CHECK_EQ_INT(size, 0); /* no file, no built-in model */
+            continue;
+        }
+        fseek(f, 0, SEEK_END);
+        long n = ftell(f);
+        fseek(f, 0, SEEK_SET);
+        unsigned char *b = malloc((size_t)n);
+        CHECK(fread(b, 1, (size_t)n, f) == (size_t)n);
+        fclose(f);
+        const int same = (size_t)n == size && memcmp(b, bytes, size) == 0;
+        free(b);
+        if (!same) fprintf(stderr, "  %s differs from the built-in model %d: run train_kpcn --emit-c\n", path, k);
+        CHECK(same);
+        ew_weights w;
+        char err[128];
+        CHECK(ew_weights_parse(bytes, size, &w, err, sizeof err) == 0);
+        ew_kpcn_net net;
+        float *p = NULL;
+        CHECK(ew_kpcn_from_weights(&net, &w, &p, err, sizeof err) == 0);
+        CHECK_EQ_INT(net.ch, k == 0 ? 16 : 8);
+        free(p);
+        ew_weights_free(&w);
+    }
+}

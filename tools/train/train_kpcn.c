@@ -1,0 +1,897 @@
+/*
+ * train_kpcn — train and evaluate the kernel-predicting denoiser "kpcn"
+ * (core/algorithms/kpcn.h, docs/kpcn.md).
+ *
+ *   train_kpcn --arch kpcn-c16 --out MODEL.ewm --train DIR [--train DIR ...] --val DIR [options]
+ *
+ * --train DIR: every complete scene folder in DIR trains (folders of
+ * tools/blender/render_cache.sh; "<scene>.partial" folders are being
+ * rendered and are skipped). --shared DIR: the shared cycles-train set,
+ * split per family by seed (last: test, the one before in families of four
+ * or more: validation, the rest: training); only its training scenes are
+ * read, and a scene on the list of BENCHMARKS.md's test scenes is refused
+ * whatever folder it is in. --val DIR: every scene in DIR validates.
+ * With --rescan, the training and validation folders are read again at
+ * every validation and new complete scenes join (the cache grows while a
+ * run trains).
+ *
+ * Each step: --batch patches of --patch^2 pixels, each from a training scene
+ * chosen uniformly, one of its frames (spp levels) uniformly, a uniform
+ * position and one of the 8 symmetries of the square, a pure function of
+ * (seed, step, index); Adam on the mean gradient, a cosine learning rate
+ * from --lr to --lr-final over --steps, gradients clipped to global norm
+ * --clip. Every --val-every steps: PSNR of the model on the validation
+ * scenes at 1/4/16/64 spp through the library's "kpcn" op with these
+ * weights (the model that ships is the model measured; nbg and the input
+ * alongside), a line on stdout and a row in MODEL.csv; MODEL.ewm is
+ * rewritten then, and the checkpoint (weights, Adam moments, step) every
+ * --checkpoint-minutes; --resume continues from it.
+ */
+#include <dirent.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "algorithms/guidenet_cpu.h"
+#include "algorithms/kpcn.h"
+#include "algorithms/train.h"
+#include "cycles_passes.h"
+#include "edgewise/edgewise.h"
+#include "ewio.h"
+#include "src/backend.h"
+#include "src/internal.h"
+#include "src/weights.h"
+
+#define MAX_SCENES 1024
+#define MAX_DIRS 8
+
+/* BENCHMARKS.md's held-out test scenes: never read for training or validation */
+static const char *const test_scenes[] = {"a_cornell_119_", "a_cornell_122_", "b_glossy_112_", "b_glossy_118_",
+                                          "c_glass_113_",   "c_glass_120_",   "h_hdri_114_",   "h_hdri_121_",
+                                          "e_dof_116_",     "d_firefly_115_", "f_motionblur_117_", "g_anim_123_"};
+
+static int holdout; /* --holdout K */
+static int only_val; /* --eval: read validation scenes only */
+static int auto_quality; /* the "auto" row of --eval */
+
+static int is_test_scene(const char *name) {
+    for (size_t i = 0; i < sizeof test_scenes / sizeof test_scenes[0]; i++)
+        if (!strncmp(name, test_scenes[i], strlen(test_scenes[i]))) return 1;
+    return 0;
+}
+
+static const char usage[] =
+    "usage: train_kpcn --arch kpcn-c<C> --out MODEL.ewm --train DIR [--shared DIR] --val DIR [options]\n"
+    "       train_kpcn --eval MODEL.ewm --val DIR [--holdout K --train DIR]\n"
+    "       train_kpcn --emit-c MODELDIR > core/algorithms/kpcn_weights_data.c\n"
+    "       train_kpcn --bench W H THREADS   (time the built-in models)\n"
+    "  --seed N              initialisation and patch sampling (default 1)\n"
+    "  --steps N             Adam steps, the schedule's length (default 6000)\n"
+    "  --batch N             patches per step (default 8)\n"
+    "  --patch N             patch side, a multiple of 4 (default 64)\n"
+    "  --lr X, --lr-final X  cosine learning rate (default 1e-3 -> 5e-5)\n"
+    "  --clip X              global gradient norm clip (default 1; 0 off)\n"
+    "  --loss tm|log         L1 on the metrics' tone curve (default) or on log(1 + x)\n"
+    "  --threads N           worker threads (default 0: all cores)\n"
+    "  --val-every N         validate every N steps (default 250)\n"
+    "  --val-max N           validate on at most N scenes (default 12)\n"
+    "  --rescan              look for new scenes at every validation\n"
+    "  --holdout K           also validate on the --train scenes of render_cache.sh whose scene index i\n"
+    "                        and family index k (seed = base + 16 i + k) have (i + k) %% K == 0\n"
+    "  --checkpoint PATH     default MODEL.ckpt; --checkpoint-minutes M (default 3)\n"
+    "  --resume              continue from the checkpoint if it exists\n"
+    "  --time-limit MIN      checkpoint and stop after MIN minutes\n";
+
+typedef struct {
+    const char *arch, *out, *eval, *shared, *loss_name;
+    const char *train[MAX_DIRS], *val[MAX_DIRS];
+    int ntrain_dirs, nval_dirs;
+    char checkpoint[1024], csv[1024];
+    unsigned long seed;
+    long steps, val_every;
+    int batch, patch, threads, resume, rescan, val_max, loss;
+    double lr, lr_final, clip, ckpt_minutes, time_limit;
+} options;
+
+static int parse(int argc, char **argv, options *o) {
+    memset(o, 0, sizeof *o);
+    o->seed = 1;
+    o->steps = 6000;
+    o->batch = 8;
+    o->patch = 64;
+    o->lr = 1e-3;
+    o->lr_final = 5e-5;
+    o->clip = 1.0;
+    o->val_every = 250;
+    o->val_max = 12;
+    o->ckpt_minutes = 3;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+#define VAL() do { if (!v) { fprintf(stderr, "train_kpcn: %s needs a value\n", a); return 0; } i++; } while (0)
+        if (!strcmp(a, "--arch")) { VAL(); o->arch = v; }
+        else if (!strcmp(a, "--out")) { VAL(); o->out = v; }
+        else if (!strcmp(a, "--eval")) { VAL(); o->eval = v; }
+        else if (!strcmp(a, "--train")) { VAL(); if (o->ntrain_dirs < MAX_DIRS) o->train[o->ntrain_dirs++] = v; }
+        else if (!strcmp(a, "--val")) { VAL(); if (o->nval_dirs < MAX_DIRS) o->val[o->nval_dirs++] = v; }
+        else if (!strcmp(a, "--shared")) { VAL(); o->shared = v; }
+        else if (!strcmp(a, "--loss")) { VAL(); o->loss_name = v; }
+        else if (!strcmp(a, "--seed")) { VAL(); o->seed = strtoul(v, NULL, 10); }
+        else if (!strcmp(a, "--steps")) { VAL(); o->steps = atol(v); }
+        else if (!strcmp(a, "--batch")) { VAL(); o->batch = atoi(v); }
+        else if (!strcmp(a, "--patch")) { VAL(); o->patch = atoi(v); }
+        else if (!strcmp(a, "--lr")) { VAL(); o->lr = atof(v); }
+        else if (!strcmp(a, "--lr-final")) { VAL(); o->lr_final = atof(v); }
+        else if (!strcmp(a, "--clip")) { VAL(); o->clip = atof(v); }
+        else if (!strcmp(a, "--threads")) { VAL(); o->threads = atoi(v); }
+        else if (!strcmp(a, "--val-every")) { VAL(); o->val_every = atol(v); }
+        else if (!strcmp(a, "--val-max")) { VAL(); o->val_max = atoi(v); }
+        else if (!strcmp(a, "--checkpoint")) { VAL(); snprintf(o->checkpoint, sizeof o->checkpoint, "%s", v); }
+        else if (!strcmp(a, "--checkpoint-minutes")) { VAL(); o->ckpt_minutes = atof(v); }
+        else if (!strcmp(a, "--time-limit")) { VAL(); o->time_limit = atof(v); }
+        else if (!strcmp(a, "--resume")) o->resume = 1;
+        else if (!strcmp(a, "--rescan")) o->rescan = 1;
+        else if (!strcmp(a, "--holdout")) { VAL(); holdout = atoi(v); }
+        else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(usage, stdout); exit(0); }
+        else { fprintf(stderr, "train_kpcn: unknown option '%s'\n%s", a, usage); return 0; }
+#undef VAL
+    }
+    o->loss = EW_KPCN_LOSS_TM;
+    if (o->loss_name && !strcmp(o->loss_name, "log")) o->loss = EW_KPCN_LOSS_LOG;
+    else if (o->loss_name && strcmp(o->loss_name, "tm") != 0) {
+        fprintf(stderr, "train_kpcn: --loss tm or log\n");
+        return 0;
+    }
+    if (o->eval) return o->nval_dirs > 0 || o->ntrain_dirs > 0;
+    if (!o->arch || !o->out || (!o->ntrain_dirs && !o->shared)) {
+        fputs(usage, stderr);
+        return 0;
+    }
+    if (o->patch < 16 || o->patch % 4 || o->batch < 1 || o->steps < 1) {
+        fprintf(stderr, "train_kpcn: --patch a multiple of 4 >= 16, --batch >= 1, --steps >= 1\n");
+        return 0;
+    }
+    if (!o->checkpoint[0]) snprintf(o->checkpoint, sizeof o->checkpoint, "%s.ckpt", o->out);
+    snprintf(o->csv, sizeof o->csv, "%s.csv", o->out);
+    return 1;
+}
+
+static double now_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static void *read_file(const char *path, size_t *size) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    void *buf = n > 0 ? malloc((size_t)n) : NULL;
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    *size = buf ? (size_t)n : 0;
+    return buf;
+}
+
+static int write_file_atomic(const char *path, const void *data, size_t size) {
+    char tmp[1100];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return 1;
+    int bad = fwrite(data, 1, size, f) != size;
+    bad |= fflush(f) != 0;
+    bad |= fsync(fileno(f)) != 0;
+    bad |= fclose(f) != 0;
+    if (bad || rename(tmp, path) != 0) {
+        remove(tmp);
+        return 1;
+    }
+    return 0;
+}
+
+/* ---- data ------------------------------------------------------------------ */
+typedef struct {
+    int spp, w, h;
+    float *color, *albedo, *normal, *depth, *ref; /* validation frames keep these for the op */
+    ew_kpcn_frame f;                               /* training frames */
+} frame_t;
+
+typedef struct {
+    char name[256], dir[1024];
+    int val, nframes;
+    frame_t *frames;
+} scene_t;
+
+static scene_t scenes[MAX_SCENES];
+static int nscenes;
+
+static int read_render(const char *path, int want_features, int *w, int *h, float **color, float **albedo,
+                       float **normal, float **depth) {
+    char err[1024];
+    ewio_file *f = NULL;
+    if (ewio_read(path, &f, err, sizeof err) != 0) {
+        fprintf(stderr, "train_kpcn: %s\n", err);
+        return 1;
+    }
+    ew_layer_passes lp;
+    int found = 0;
+    for (int i = 0; i < ewio_num_layers(f) && !found; i++)
+        found = ew_find_layer_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0;
+    if (!found) {
+        fprintf(stderr, "train_kpcn: '%s' has no colour pass\n", path);
+        ewio_free(f);
+        return 1;
+    }
+    *w = ewio_width(f);
+    *h = ewio_height(f);
+    const size_t n = (size_t)*w * *h;
+    *color = (float *)malloc(n * 3 * sizeof(float));
+    int bad = !*color || ewio_get_pass(f, lp.layer, lp.color, "RGB", *color, err, sizeof err) != 0;
+    if (!bad && want_features) {
+        if (!lp.albedo || !lp.normal || !lp.depth) {
+            snprintf(err, sizeof err, "'%s' lacks albedo, normal or depth passes", path);
+            bad = 1;
+        } else {
+            *albedo = (float *)malloc(n * 3 * sizeof(float));
+            *normal = (float *)malloc(n * 3 * sizeof(float));
+            *depth = (float *)malloc(n * sizeof(float));
+            bad = !*albedo || !*normal || !*depth ||
+                  ewio_get_pass(f, lp.layer, lp.albedo, "RGB", *albedo, err, sizeof err) != 0 ||
+                  ewio_get_pass(f, lp.layer, lp.normal, "XYZ", *normal, err, sizeof err) != 0 ||
+                  ewio_get_pass(f, lp.layer, lp.depth, "Z", *depth, err, sizeof err) != 0;
+        }
+    }
+    ewio_free(f);
+    if (bad) fprintf(stderr, "train_kpcn: %s\n", err);
+    return bad;
+}
+
+static int cmp_name(const void *a, const void *b) { return strcmp((const char *)a, (const char *)b); }
+
+/* Load one scene folder: frame 1's noisy renders (validation: 1/4/16/64 spp
+ * only) against its reference (fNNNN_ref*.exr). */
+static int load_scene(scene_t *s) {
+    char sdir[1400];
+    snprintf(sdir, sizeof sdir, "%.1023s/%.255s", s->dir, s->name);
+    DIR *d = opendir(sdir);
+    if (!d) return 1;
+    static char names[128][256];
+    int nn = 0;
+    char ref[256] = "";
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (!strncmp(e->d_name, "f0001_spp", 9) && strstr(e->d_name, ".exr") && nn < 128)
+            snprintf(names[nn++], 256, "%.255s", e->d_name);
+        else if (!strncmp(e->d_name, "f0001_ref", 9) && strstr(e->d_name, ".exr"))
+            snprintf(ref, sizeof ref, "%.255s", e->d_name);
+    closedir(d);
+    if (!ref[0] || nn == 0) return 1;
+    qsort(names, (size_t)nn, 256, cmp_name);
+    char path[1800];
+    snprintf(path, sizeof path, "%.1300s/%.255s", sdir, ref);
+    float *r = NULL, *ua = NULL, *un = NULL, *ud = NULL;
+    int rw, rh;
+    if (read_render(path, 0, &rw, &rh, &r, &ua, &un, &ud)) return 1;
+    s->frames = (frame_t *)calloc((size_t)nn, sizeof(frame_t));
+    s->nframes = 0;
+    for (int k = 0; k < nn; k++) {
+        int fno, spp;
+        if (sscanf(names[k], "f%d_spp%d.exr", &fno, &spp) != 2) continue;
+        if (s->val && spp != 1 && spp != 4 && spp != 16 && spp != 64) continue;
+        frame_t *f = &s->frames[s->nframes];
+        snprintf(path, sizeof path, "%.1300s/%.255s", sdir, names[k]);
+        if (read_render(path, 1, &f->w, &f->h, &f->color, &f->albedo, &f->normal, &f->depth)) continue;
+        if (f->w != rw || f->h != rh) continue;
+        f->spp = spp;
+        if (s->val) {
+            f->ref = (float *)malloc(sizeof(float) * 3 * (size_t)rw * rh);
+            memcpy(f->ref, r, sizeof(float) * 3 * (size_t)rw * rh);
+            if (ew_kpcn_frame_init(&f->f, f->w, f->h, f->color, f->albedo, f->normal, f->depth, r, 3.0f)) return 1;
+        } else {
+            if (ew_kpcn_frame_init(&f->f, f->w, f->h, f->color, f->albedo, f->normal, f->depth, r, 3.0f)) return 1;
+            free(f->color);
+            free(f->albedo);
+            free(f->normal);
+            free(f->depth);
+            f->color = f->albedo = f->normal = f->depth = NULL;
+        }
+        s->nframes++;
+    }
+    free(r);
+    return s->nframes ? 0 : 1;
+}
+
+static int known(const char *dir, const char *name) {
+    for (int i = 0; i < nscenes; i++)
+        if (!strcmp(scenes[i].name, name) && !strcmp(scenes[i].dir, dir)) return 1;
+    return 0;
+}
+
+/* Add the complete scenes of dir not loaded yet. shared: the cycles-train
+ * split rule, training scenes only. Returns the number added. */
+static int scan_dir(const char *dir, int val, int shared, int val_max) {
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    static char found[MAX_SCENES][256];
+    int nf = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) && nf < MAX_SCENES) {
+        if (e->d_name[0] == '.' || strchr(e->d_name, '.')) continue; /* ".partial": still rendering */
+        if (!strchr(e->d_name, '_')) continue;
+        snprintf(found[nf++], 256, "%.255s", e->d_name);
+    }
+    closedir(d);
+    qsort(found, (size_t)nf, 256, cmp_name);
+    int added = 0, nval = 0;
+    for (int i = 0; i < nscenes; i++) nval += scenes[i].val;
+    for (int i = 0; i < nf; i++) {
+        if (is_test_scene(found[i])) continue;
+        if (shared) {
+            /* family = up to the second '_'; last of a family is test, in
+             * families of four or more the one before is validation */
+            const char *u2 = strchr(strchr(found[i], '_') + 1, '_');
+            size_t fl = u2 ? (size_t)(u2 - found[i]) : 0;
+            int j = i;
+            while (j < nf && !strncmp(found[j], found[i], fl) && found[j][fl] == '_') j++;
+            int count = 0, pos = 0;
+            for (int k = 0; k < nf; k++)
+                if (!strncmp(found[k], found[i], fl) && found[k][fl] == '_') {
+                    if (k < i) pos++;
+                    count++;
+                }
+            (void)j;
+            if (count >= 2 && pos == count - 1) continue;
+            if (count >= 4 && pos == count - 2) continue;
+        }
+        int as_val = val;
+        if (!shared && !val && holdout > 1) {
+            /* render_cache.sh names scene i of family k with seed base + 16 i + k: hold out the
+             * scenes with (i + k) % holdout == 0 — whole scenes, a fixed set as the cache grows,
+             * spread over the families */
+            const char *u1 = strchr(found[i], '_'), *u2 = u1 ? strchr(u1 + 1, '_') : NULL;
+            long seed = u2 ? strtol(u2 + 1, NULL, 10) : 0, off = seed % 50000; /* base 150000 or 250000 */
+            if ((off / 16 + off % 16) % holdout == 0) as_val = 1;
+        }
+        if (known(dir, found[i]) || nscenes >= MAX_SCENES) continue;
+        if (as_val && nval >= val_max) continue;
+        if (only_val && !as_val) continue;
+        scene_t *s = &scenes[nscenes];
+        memset(s, 0, sizeof *s);
+        snprintf(s->name, sizeof s->name, "%.255s", found[i]);
+        snprintf(s->dir, sizeof s->dir, "%.1023s", dir);
+        s->val = as_val;
+        if (load_scene(s) != 0) {
+            fprintf(stderr, "train_kpcn: skipped scene %s/%s (unreadable or incomplete)\n", dir, found[i]);
+            continue;
+        }
+        printf("  %s %s/%s (%d frames)\n", as_val ? "val  " : "train", dir, found[i], s->nframes);
+        nscenes++;
+        added++;
+        nval += as_val;
+    }
+    return added;
+}
+
+static void scan_all(const options *o) {
+    for (int i = 0; i < o->ntrain_dirs; i++) scan_dir(o->train[i], 0, 0, o->val_max);
+    if (o->shared) scan_dir(o->shared, 0, 1, 0);
+    for (int i = 0; i < o->nval_dirs; i++) scan_dir(o->val[i], 1, 0, o->val_max);
+    fflush(stdout);
+}
+
+/* flat list of training frames for patches */
+static ew_kpcn_frame *tframes;
+static int ntframes, *scene_first, *scene_count, ntscenes;
+
+static void build_index(void) {
+    free(tframes);
+    free(scene_first);
+    free(scene_count);
+    int n = 0, ns = 0;
+    for (int i = 0; i < nscenes; i++)
+        if (!scenes[i].val) {
+            n += scenes[i].nframes;
+            ns++;
+        }
+    tframes = (ew_kpcn_frame *)malloc(sizeof *tframes * (size_t)(n ? n : 1));
+    scene_first = (int *)malloc(sizeof(int) * (size_t)(ns ? ns : 1));
+    scene_count = (int *)malloc(sizeof(int) * (size_t)(ns ? ns : 1));
+    ntframes = 0;
+    ntscenes = 0;
+    for (int i = 0; i < nscenes; i++) {
+        if (scenes[i].val) continue;
+        scene_first[ntscenes] = ntframes;
+        scene_count[ntscenes] = scenes[i].nframes;
+        for (int k = 0; k < scenes[i].nframes; k++) tframes[ntframes++] = scenes[i].frames[k].f; /* shallow */
+        ntscenes++;
+    }
+}
+
+static uint64_t mix64(uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static ew_kpcn_patch pick(uint64_t seed, uint64_t step, int index, int size) {
+    uint64_t h = mix64(seed * 0x9E3779B97F4A7C15ull + mix64(step * 0xD1B54A32D192ED03ull + (uint64_t)index + 1));
+    uint64_t h2 = mix64(h + 1), h3 = mix64(h + 2), h4 = mix64(h + 3), h5 = mix64(h + 4);
+    ew_kpcn_patch p;
+    const int sc = (int)(h % (uint64_t)ntscenes);
+    p.frame = scene_first[sc] + (int)(h5 % (uint64_t)scene_count[sc]);
+    const ew_kpcn_frame *f = &tframes[p.frame];
+    p.x0 = (int)(h2 % (uint64_t)(f->width - size + 1));
+    p.y0 = (int)(h3 % (uint64_t)(f->height - size + 1));
+    p.aug = (int)(h4 & 7u);
+    return p;
+}
+
+/* ---- evaluation ------------------------------------------------------------ */
+static int run_op(ew_device *dev, const frame_t *f, const char *method, const void *weights, size_t wsize,
+                  float *out, double *psnr) {
+    ew_image c = ew_image_packed(f->color, f->w, f->h, 3), r = ew_image_packed(f->ref, f->w, f->h, 3);
+    ew_image o = ew_image_packed(out, f->w, f->h, 3);
+    if (method) {
+        ew_image a = ew_image_packed(f->albedo, f->w, f->h, 3), n = ew_image_packed(f->normal, f->w, f->h, 3);
+        ew_image d = ew_image_packed(f->depth, f->w, f->h, 1);
+        ew_denoiser *dn = NULL;
+        ew_result res = ew_denoiser_create(dev, method, &dn);
+        if (res == EW_OK && weights) res = ew_denoiser_set_data(dn, "weights", weights, wsize);
+        if (res == EW_OK && !strcmp(method, "auto")) res = ew_denoiser_set_int(dn, "samples", f->spp);
+        if (res == EW_OK && !strcmp(method, "auto")) res = ew_denoiser_set_int(dn, "quality", auto_quality);
+        if (res == EW_OK) res = ew_denoiser_set_image(dn, "color", &c);
+        if (res == EW_OK) res = ew_denoiser_set_image(dn, "albedo", &a);
+        if (res == EW_OK) res = ew_denoiser_set_image(dn, "normal", &n);
+        if (res == EW_OK) res = ew_denoiser_set_image(dn, "depth", &d);
+        if (res == EW_OK) res = ew_denoiser_set_image(dn, "output", &o);
+        if (res == EW_OK) res = ew_denoiser_commit(dn);
+        if (res == EW_OK) res = ew_denoiser_execute(dn);
+        ew_denoiser_destroy(dn);
+        if (res != EW_OK) {
+            fprintf(stderr, "train_kpcn: %s failed: %s\n", method, ew_device_last_error(dev));
+            return 1;
+        }
+    } else {
+        memcpy(out, f->color, sizeof(float) * 3 * (size_t)f->w * f->h);
+    }
+    return ew_image_psnr(dev, &o, &r, psnr) != EW_OK;
+}
+
+static int spp_index(int spp) { return spp == 1 ? 0 : spp == 4 ? 1 : spp == 16 ? 2 : 3; }
+
+/* Mean PSNR per spp level (1/4/16/64) and over all, of a method on the
+ * validation scenes. */
+static int validate(ew_device *dev, const char *method, const void *weights, size_t wsize, double *per, double *all,
+                    int *nval_scenes) {
+    double sum[4] = {0, 0, 0, 0};
+    int cnt[4] = {0, 0, 0, 0}, ns = 0;
+    static float out[4096 * 4096 * 3 / 16];
+    for (int i = 0; i < nscenes; i++) {
+        if (!scenes[i].val) continue;
+        ns++;
+        for (int k = 0; k < scenes[i].nframes; k++) {
+            const frame_t *f = &scenes[i].frames[k];
+            if ((size_t)f->w * f->h * 3 > sizeof out / sizeof out[0]) continue;
+            double p;
+            if (run_op(dev, f, method, weights, wsize, out, &p)) return 1;
+            sum[spp_index(f->spp)] += p;
+            cnt[spp_index(f->spp)]++;
+        }
+    }
+    double a = 0;
+    int na = 0;
+    for (int k = 0; k < 4; k++) {
+        per[k] = cnt[k] ? sum[k] / cnt[k] : 0.0;
+        a += sum[k];
+        na += cnt[k];
+    }
+    *all = na ? a / na : 0.0;
+    *nval_scenes = ns;
+    return 0;
+}
+
+/* The trainer's own forward pass on whole square validation frames (the
+ * op's kernels, run on the host); the library's op gives the same numbers
+ * (tests/unit/test_kpcn.c compares them). */
+static int validate_host(ew_device *dev, const ew_kpcn_net *net, const float *params, double *per, double *all) {
+    double sum[4] = {0, 0, 0, 0};
+    int cnt[4] = {0, 0, 0, 0};
+    static ew_kpcn_scratch *scr;
+    static int scr_size;
+    static ew_kpcn_model model;
+    static int model_ok;
+    if (!model_ok) {
+        if (ew_kpcn_model_init(&model, net)) return 1;
+        model_ok = 1;
+    }
+    ew_kpcn_model_prepare(&model, params);
+    for (int i = 0; i < nscenes; i++) {
+        if (!scenes[i].val) continue;
+        for (int k = 0; k < scenes[i].nframes; k++) {
+            frame_t *f = &scenes[i].frames[k];
+            if (f->w != f->h || f->w % 4) continue;
+            if (scr_size != f->w) {
+                ew_kpcn_scratch_destroy(scr);
+                scr = ew_kpcn_scratch_create(net, f->w);
+                scr_size = f->w;
+                if (!scr) return 1;
+            }
+            float *out = (float *)malloc(sizeof(float) * 3 * (size_t)f->w * f->h);
+            ew_kpcn_patch p = {0, 0, 0, 0};
+            ew_kpcn_train_patch(&model, &f->f, &p, f->w, EW_KPCN_LOSS_TM, scr, NULL, out, NULL);
+            ew_image o = ew_image_packed(out, f->w, f->h, 3), r = ew_image_packed(f->ref, f->w, f->h, 3);
+            double q = 0;
+            ew_image_psnr(dev, &o, &r, &q);
+            free(out);
+            sum[spp_index(f->spp)] += q;
+            cnt[spp_index(f->spp)]++;
+        }
+    }
+    double a = 0;
+    int na = 0;
+    for (int k = 0; k < 4; k++) {
+        per[k] = cnt[k] ? sum[k] / cnt[k] : 0.0;
+        a += sum[k];
+        na += cnt[k];
+    }
+    *all = na ? a / na : 0.0;
+    return 0;
+}
+
+/* ---- checkpoints -------------------------------------------------------------- */
+static int save_checkpoint(const char *path, const ew_kpcn_net *net, const float *params, const ew_adam *adam,
+                           long step) {
+    void *bytes;
+    size_t size;
+    if (ew_kpcn_save(net, params, &bytes, &size) != 0) return 1;
+    ew_weights w;
+    char err[256];
+    if (ew_weights_parse(bytes, size, &w, err, sizeof err) != 0) {
+        free(bytes);
+        return 1;
+    }
+    free(bytes);
+    ew_tensor *t = (ew_tensor *)realloc(w.tensors, sizeof(ew_tensor) * (w.num_tensors + 3));
+    if (!t) {
+        ew_weights_free(&w);
+        return 1;
+    }
+    w.tensors = t;
+    float stepf[2] = {(float)(step / 65536), (float)(step % 65536)};
+    ew_tensor extra[3];
+    memset(extra, 0, sizeof extra);
+    snprintf(extra[0].name, sizeof extra[0].name, "adam.m");
+    snprintf(extra[1].name, sizeof extra[1].name, "adam.v");
+    snprintf(extra[2].name, sizeof extra[2].name, "train.step");
+    extra[0].rank = extra[1].rank = extra[2].rank = 1;
+    extra[0].dims[0] = extra[1].dims[0] = (uint32_t)net->nparams;
+    extra[0].count = extra[1].count = net->nparams;
+    extra[2].dims[0] = 2;
+    extra[2].count = 2;
+    extra[0].data = adam->m;
+    extra[1].data = adam->v;
+    extra[2].data = stepf;
+    for (int k = 0; k < 3; k++) w.tensors[w.num_tensors + (uint32_t)k] = extra[k];
+    w.num_tensors += 3;
+    int bad = ew_weights_serialize(&w, &bytes, &size) != 0;
+    w.num_tensors -= 3;
+    ew_weights_free(&w);
+    if (bad) return 1;
+    bad = write_file_atomic(path, bytes, size);
+    free(bytes);
+    return bad;
+}
+
+static int load_checkpoint(const char *path, const ew_kpcn_net *net, float *params, ew_adam *adam, long *step) {
+    size_t size;
+    void *bytes = read_file(path, &size);
+    if (!bytes) return 1;
+    ew_weights w;
+    char err[256];
+    int bad = ew_weights_parse(bytes, size, &w, err, sizeof err);
+    free(bytes);
+    if (bad) {
+        fprintf(stderr, "train_kpcn: checkpoint '%s': %s\n", path, err);
+        return 2;
+    }
+    ew_kpcn_net back;
+    float *p = NULL;
+    bad = ew_kpcn_from_weights(&back, &w, &p, err, sizeof err) || strcmp(back.arch, net->arch) != 0;
+    uint32_t nd[1] = {(uint32_t)net->nparams}, sd[1] = {2};
+    const ew_tensor *m = bad ? NULL : ew_weights_find(&w, "adam.m", 1, nd, err, sizeof err);
+    const ew_tensor *v = m ? ew_weights_find(&w, "adam.v", 1, nd, err, sizeof err) : NULL;
+    const ew_tensor *s = v ? ew_weights_find(&w, "train.step", 1, sd, err, sizeof err) : NULL;
+    if (!s) {
+        fprintf(stderr, "train_kpcn: checkpoint '%s' does not match --arch %s\n", path, net->arch);
+        free(p);
+        ew_weights_free(&w);
+        return 2;
+    }
+    memcpy(params, p, sizeof(float) * net->nparams);
+    memcpy(adam->m, m->data, sizeof(float) * net->nparams);
+    memcpy(adam->v, v->data, sizeof(float) * net->nparams);
+    *step = (long)s->data[0] * 65536 + (long)s->data[1];
+    adam->step = (uint64_t)*step;
+    free(p);
+    ew_weights_free(&w);
+    return 0;
+}
+
+/* models/kpcn/{kpcn,kpcn-small}.ewm as C arrays (core/algorithms/kpcn_weights_data.c) */
+static int emit_c(const char *dir) {
+    static const char *const files[2] = {"kpcn", "kpcn-small"}, *const idents[2] = {"large", "small"};
+    printf("/* The kpcn models built into the library: byte-for-byte copies of\n"
+           " * models/kpcn/kpcn.ewm and kpcn-small.ewm, generated by\n"
+           " *   train_kpcn --emit-c models/kpcn > core/algorithms/kpcn_weights_data.c\n"
+           " * (tests/unit/test_kpcn.c checks they match the files). A size of 0 means\n"
+           " * this build has no weights for that model. */\n#include <stddef.h>\n\n"
+           "extern const unsigned char ew_kpcn_weights_large[], ew_kpcn_weights_small[];\n"
+           "extern const size_t ew_kpcn_weights_large_size, ew_kpcn_weights_small_size;\n");
+    for (int k = 0; k < 2; k++) {
+        char path[1200];
+        snprintf(path, sizeof path, "%.1100s/%s.ewm", dir, files[k]);
+        size_t size = 0;
+        unsigned char *b = (unsigned char *)read_file(path, &size);
+        printf("\nconst unsigned char ew_kpcn_weights_%s[] = {", idents[k]);
+        if (!b) printf("0");
+        for (size_t i = 0; b && i < size; i++) printf("%s%u%s", i % 24 == 0 ? "\n    " : "", b[i], i + 1 < size ? "," : "");
+        printf("%s};\nconst size_t ew_kpcn_weights_%s_size = %zu;\n", b ? "\n" : "", idents[k], size);
+        free(b);
+    }
+    return 0;
+}
+
+/* --bench W H THREADS: time the built-in models on a W x H frame (a smooth
+ * pattern with noise: convolution time does not depend on the content),
+ * the convolutions' GFLOP/s against the measured FMA peak, and the device
+ * memory at 3840x2160. */
+static int bench(int w, int h, int threads) {
+    ew_device_desc dd = EW_DEVICE_DESC_INIT;
+    dd.num_threads = threads;
+    ew_device *dev = NULL;
+    if (ew_device_create(&dd, &dev) != EW_OK) return 1;
+    const size_t n = (size_t)w * h;
+    float *c = malloc(n * 3 * sizeof(float)), *a = malloc(n * 3 * sizeof(float)), *nr = malloc(n * 3 * sizeof(float));
+    float *z = malloc(n * sizeof(float)), *o = malloc(n * 3 * sizeof(float));
+    uint64_t r = 1;
+    for (size_t j = 0; j < n; j++) {
+        const int x = (int)(j % (size_t)w), y = (int)(j / (size_t)w);
+        for (int k = 0; k < 3; k++) {
+            r = r * 6364136223846793005ull + 1442695040888963407ull;
+            a[j * 3 + k] = 0.2f + 0.6f * (float)((x / 37 + y / 23 + k) % 3) / 2.0f;
+            c[j * 3 + k] = a[j * 3 + k] * (0.5f + (float)(r >> 40) / 16777216.0f);
+            nr[j * 3 + k] = k == 2 ? 1.0f : 0.0f;
+        }
+        z[j] = 1.0f + (float)(x / 50);
+    }
+    double peak_s = 0, peak = ew_conv_cpu_fma_gflops(dev, &peak_s);
+    printf("kpcn at %dx%d, %d threads, %s convolutions; FMA peak %.1f GFLOP/s\n", w, h, ew_device_get_num_threads(dev),
+           ew_conv_cpu_simd_name(ew_conv_cpu_simd_level()), peak);
+    for (int m = 0; m < EW_KPCN_NUM_MODELS; m++) {
+        ew_denoiser *d = NULL;
+        ew_image ic = ew_image_packed(c, w, h, 3), ia = ew_image_packed(a, w, h, 3), in = ew_image_packed(nr, w, h, 3);
+        ew_image iz = ew_image_packed(z, w, h, 1), io = ew_image_packed(o, w, h, 3);
+        ew_result res = ew_denoiser_create(dev, "kpcn", &d);
+        if (res == EW_OK) res = ew_denoiser_set_int(d, "model", m);
+        if (res == EW_OK) res = ew_denoiser_set_image(d, "color", &ic);
+        if (res == EW_OK) res = ew_denoiser_set_image(d, "albedo", &ia);
+        if (res == EW_OK) res = ew_denoiser_set_image(d, "normal", &in);
+        if (res == EW_OK) res = ew_denoiser_set_image(d, "depth", &iz);
+        if (res == EW_OK) res = ew_denoiser_set_image(d, "output", &io);
+        if (res == EW_OK) res = ew_denoiser_commit(d);
+        if (res != EW_OK) {
+            fprintf(stderr, "train_kpcn: %s\n", ew_device_last_error(dev));
+            return 1;
+        }
+        double best = 1e30;
+        for (int rep = 0; rep < 3; rep++) {
+            const double t0 = now_s();
+            ew_denoiser_execute(d);
+            best = fmin(best, now_s() - t0);
+        }
+        /* the convolutions alone, on the op's own buffers */
+        const unsigned char *bytes;
+        size_t size;
+        ew_kpcn_builtin_weights(m, &bytes, &size);
+        ew_weights wt;
+        char err[128];
+        ew_kpcn_net net;
+        float *p = NULL;
+        if (ew_weights_parse(bytes, size, &wt, err, sizeof err) || ew_kpcn_from_weights(&net, &wt, &p, err, sizeof err))
+            return 1;
+        ew_weights_free(&wt);
+        int sw[EW_KPCN_SCALES], sh[EW_KPCN_SCALES];
+        ew_kpcn_scale_sizes(w, h, sw, sh);
+        ew_gn_planes sb[EW_KPCN_SCALES];
+        float *mem[EW_KPCN_SCALES];
+        for (int k = 0; k < EW_KPCN_SCALES; k++) {
+            mem[k] = calloc(ew_gn_planes_floats(sw[k], sh[k], net.nplanes[k]) + 16, sizeof(float));
+            ew_gn_planes_layout(&sb[k], mem[k], sw[k], sh[k], net.nplanes[k]);
+        }
+        double conv_best = 1e30;
+        for (int rep = 0; rep < 3; rep++) {
+            const double t0 = now_s();
+            for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+                ew_conv_args ca;
+                ew_kpcn_layer_args(&net, l, p, sb, &ca);
+                ew_cpu_conv5(dev, &ca);
+            }
+            conv_best = fmin(conv_best, now_s() - t0);
+        }
+        const double flops = 2.0 * ew_kpcn_macs_per_pixel(&net) * (double)n;
+        printf("  %-10s (%s): %7.1f ms a frame; convolutions %7.1f ms = %.1f GFLOP/s = %.0f %% of the FMA peak; "
+               "device memory at 3840x2160: %.0f MiB\n",
+               ew_kpcn_model_name(m), net.arch, best * 1e3, conv_best * 1e3, flops / conv_best * 1e-9,
+               100.0 * flops / conv_best * 1e-9 / peak,
+               (double)(ew_kpcn_device_floats(&net, 3840, 2160) + 23.0 * 3840 * 2160 + net.nparams) * 4.0 / 1048576.0);
+        for (int k = 0; k < EW_KPCN_SCALES; k++) free(mem[k]);
+        free(p);
+        ew_denoiser_destroy(d);
+    }
+    free(c); free(a); free(nr); free(z); free(o);
+    ew_device_destroy(dev);
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    static options o;
+    if (argc == 3 && !strcmp(argv[1], "--emit-c")) return emit_c(argv[2]);
+    if (argc == 5 && !strcmp(argv[1], "--bench")) return bench(atoi(argv[2]), atoi(argv[3]), atoi(argv[4]));
+    if (!parse(argc, argv, &o)) return 2;
+    ew_device_desc dd = EW_DEVICE_DESC_INIT;
+    dd.num_threads = o.threads;
+    ew_device *dev = NULL;
+    if (ew_device_create(&dd, &dev) != EW_OK) {
+        fprintf(stderr, "train_kpcn: cannot create the device\n");
+        return 1;
+    }
+    char err[256];
+    if (o.eval) {
+        only_val = 1;
+        for (int i = 0; i < o.nval_dirs; i++) scan_dir(o.val[i], 1, 0, o.val_max);
+        for (int i = 0; i < o.ntrain_dirs; i++) scan_dir(o.train[i], 0, 0, o.val_max);
+        size_t size;
+        void *b = read_file(o.eval, &size);
+        if (!b) {
+            fprintf(stderr, "train_kpcn: cannot read '%s'\n", o.eval);
+            return 1;
+        }
+        double per[4], all, pn[4], an, pi[4], ai, pa[4], aa;
+        int ns;
+        auto_quality = 0;
+        if (validate(dev, "kpcn", b, size, per, &all, &ns) || validate(dev, "nbg", NULL, 0, pn, &an, &ns) ||
+            validate(dev, NULL, NULL, 0, pi, &ai, &ns) || validate(dev, "auto", NULL, 0, pa, &aa, &ns))
+            return 1;
+        printf("%d scenes, PSNR at 1/4/16/64 spp and all:\n", ns);
+        printf("  input %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pi[0], pi[1], pi[2], pi[3], ai);
+        printf("  nbg   %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pn[0], pn[1], pn[2], pn[3], an);
+        printf("  auto (quality fast) %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pa[0], pa[1], pa[2], pa[3], aa);
+        printf("  kpcn  %6.2f %6.2f %6.2f %6.2f | %6.2f\n", per[0], per[1], per[2], per[3], all);
+        free(b);
+        ew_device_destroy(dev);
+        return 0;
+    }
+    ew_kpcn_net net;
+    if (ew_kpcn_init(&net, o.arch, err, sizeof err) != 0) {
+        fprintf(stderr, "train_kpcn: %s\n", err);
+        return 2;
+    }
+    float *params = (float *)malloc(sizeof(float) * net.nparams);
+    float *grad = (float *)malloc(sizeof(float) * net.nparams);
+    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, (float *)calloc(net.nparams, sizeof(float)),
+                    (float *)calloc(net.nparams, sizeof(float))};
+    ew_kpcn_random(&net, o.seed, params);
+    long step = 0;
+    if (o.resume) {
+        int r = load_checkpoint(o.checkpoint, &net, params, &adam, &step);
+        if (r == 2) return 1;
+        printf(r == 0 ? "resumed from %s at step %ld\n" : "no checkpoint at %s: from scratch (step %ld)\n",
+               o.checkpoint, step);
+    }
+    double t0 = now_s();
+    printf("scenes:\n");
+    scan_all(&o);
+    build_index();
+    printf("%d training scenes (%d frames), %d validation scenes; loaded in %.1f s\n", ntscenes, ntframes,
+           nscenes - ntscenes, now_s() - t0);
+    if (ntscenes == 0) {
+        fprintf(stderr, "train_kpcn: no training scenes\n");
+        return 1;
+    }
+    ew_kpcn_trainer *tr = ew_kpcn_trainer_create(dev, &net, o.batch, o.patch, o.loss);
+    if (!tr) {
+        fprintf(stderr, "train_kpcn: out of memory for the trainer\n");
+        return 1;
+    }
+    printf("arch %s: %zu parameters, %.0f multiply-adds a pixel; seed %lu, %ld steps of %d patches of %d^2, "
+           "lr %g -> %g, clip %g, loss %s, %d threads\n",
+           net.arch, net.nparams, ew_kpcn_macs_per_pixel(&net), o.seed, o.steps, o.batch, o.patch, o.lr, o.lr_final,
+           o.clip, o.loss == EW_KPCN_LOSS_LOG ? "log" : "tm", ew_device_get_num_threads(dev));
+    FILE *csv = fopen(o.csv, step > 0 ? "a" : "w");
+    if (!csv) return 1;
+    if (step == 0)
+        fprintf(csv, "step,seconds,lr,train_loss,grad_norm,train_scenes,val_scenes,val_psnr,val_1,val_4,val_16,val_64,"
+                     "nbg_psnr,nbg_1,nbg_4,nbg_16,nbg_64\n");
+    double nbg_per[4] = {0, 0, 0, 0}, nbg_all = 0;
+    int nbg_scenes = -1;
+    const double start = now_s();
+    const long step0 = step;
+    double last_ckpt = start, loss_acc = 0, gn_acc = 0;
+    int acc_n = 0;
+    for (;;) {
+        const int last = step >= o.steps || (o.time_limit > 0 && now_s() - start > o.time_limit * 60.0);
+        if (step % o.val_every == 0 || last) {
+            if (o.rescan && step > 0 && !last) {
+                scan_all(&o);
+                build_index();
+            }
+            void *bytes;
+            size_t size;
+            if (ew_kpcn_save(&net, params, &bytes, &size) == 0) {
+                write_file_atomic(o.out, bytes, size);
+                double per[4] = {0, 0, 0, 0}, all = 0;
+                int ns = 0;
+                ns = nscenes - ntscenes;
+                if (ns > 0) validate_host(dev, &net, params, per, &all);
+                if (ns > 0 && ns != nbg_scenes) {
+                    int k;
+                    validate(dev, "nbg", NULL, 0, nbg_per, &nbg_all, &k);
+                    nbg_scenes = ns;
+                }
+                free(bytes);
+                printf("step %6ld  %7.0f s  loss %.5f  |g| %.4f  train %d scenes  val %d scenes: kpcn %.2f dB "
+                       "(%.2f %.2f %.2f %.2f)  nbg %.2f (%.2f %.2f %.2f %.2f)\n",
+                       step, now_s() - start, acc_n ? loss_acc / acc_n : 0.0, acc_n ? gn_acc / acc_n : 0.0, ntscenes,
+                       ns, all, per[0], per[1], per[2], per[3], nbg_all, nbg_per[0], nbg_per[1], nbg_per[2],
+                       nbg_per[3]);
+                fprintf(csv, "%ld,%.0f,%g,%.6f,%.5f,%d,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", step,
+                        now_s() - start, adam.lr, acc_n ? loss_acc / acc_n : 0.0, acc_n ? gn_acc / acc_n : 0.0,
+                        ntscenes, ns, all, per[0], per[1], per[2], per[3], nbg_all, nbg_per[0], nbg_per[1],
+                        nbg_per[2], nbg_per[3]);
+                fflush(csv);
+                fflush(stdout);
+            }
+            loss_acc = gn_acc = 0;
+            acc_n = 0;
+        }
+        if (last || now_s() - last_ckpt > o.ckpt_minutes * 60.0) {
+            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
+                fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.checkpoint);
+            last_ckpt = now_s();
+        }
+        if (last) break;
+        static ew_kpcn_patch patches[1024];
+        for (int b = 0; b < o.batch && b < 1024; b++) patches[b] = pick(o.seed, (uint64_t)step, b, o.patch);
+        /* cosine over --steps, or over --time-limit when that ends first */
+        double t = (double)step / (double)o.steps;
+        if (o.time_limit > 0) t = fmax(t, (now_s() - start) / (o.time_limit * 60.0));
+        if (t > 1.0) t = 1.0;
+        adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979 * t));
+        const double loss = ew_kpcn_trainer_gradient(tr, params, tframes, patches, grad);
+        int clipped;
+        const double gn = ew_clip_global_norm(grad, net.nparams, o.clip, &clipped);
+        ew_adam_update(&adam, params, grad, net.nparams);
+        loss_acc += loss;
+        gn_acc += gn;
+        acc_n++;
+        step++;
+        if (step % 10 == 0) {
+            printf("  step %ld loss %.5f |g| %.4f%s  %.2f s/step\n", step, loss, gn, clipped ? " (clipped)" : "",
+                   (now_s() - start) / (double)(step - step0));
+            fflush(stdout);
+        }
+    }
+    fclose(csv);
+    ew_kpcn_trainer_destroy(tr);
+    ew_device_destroy(dev);
+    return 0;
+}
