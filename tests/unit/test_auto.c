@@ -97,13 +97,16 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 0}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
 
-    /* quality fast stays on the grids and nbg; the default (balanced) and
+    /* quality fast (the default) stays on the grids and nbg; balanced and
      * high climb to kpcn at 16 spp, high also at 4 spp; the output is
      * kpcn's own */
-    static const param fast[] = {{"quality", 0}, {NULL, 0}}, high[] = {{"quality", 2}, {NULL, 0}};
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out, what, sizeof what), EW_OK);
-    CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
+    static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
+                       high[] = {{"quality", 2}, {NULL, 0}};
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out2, what, sizeof what), EW_OK);
+    CHECK(same(f.out, f.out2));
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, balanced, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "kpcn kpcn (16 spp, quality balanced)");
     CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, NULL, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
