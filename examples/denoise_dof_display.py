@@ -4,14 +4,16 @@ Blender would. Writes denoise_dof_display_py.exr (float) and .png into the
 output directory and prints the quality against the reference.
 
     python3 examples/denoise_dof_display.py [OUTPUT_DIR]
+
+Needs the edgewise package installed (python/README.md: pip install ./python)
+or PYTHONPATH=python from the repository.
 """
 import os
 import sys
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "python"))
+import edgewise as ew
 
-import edgewise as ew  # noqa: E402
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def build(out_dir, samples=os.path.join(HERE, "..", "samples")):

@@ -1,31 +1,24 @@
 """Single nodes on numpy arrays: read the passes of the bundled render into
-arrays, denoise them with one call, measure the result against the
-reference. The arrays go into the library without a copy and the result
+arrays (edgewise.read), denoise them with one call, measure the result
+against the reference, write it back into a copy of the render
+(edgewise.write). The arrays go into the library without a copy and the result
 comes back as a view of the library's memory.
 
     python3 examples/denoise_numpy.py [OUTPUT_DIR]
+
+Needs the edgewise package installed (python/README.md: pip install ./python)
+or PYTHONPATH=python from the repository.
 """
 import os
 import sys
 
+import numpy as np
+
+import edgewise as ew
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "python"))
-
-import numpy as np  # noqa: E402
-
-import edgewise as ew  # noqa: E402
 
 SAMPLE = os.path.join(HERE, "..", "samples", "cornell")
-
-
-def read_passes(path, passes):
-    """Passes of a render as numpy arrays, through a small graph."""
-    g = ew.Graph()
-    r = g.add("read", path=path)
-    for name in passes:
-        g.add("output", id=name, image=r[name])
-    g.run()
-    return dict((name, g.output(name)) for name in passes)
 
 
 def psnr(test, reference):
@@ -36,11 +29,19 @@ def psnr(test, reference):
 
 def main():
     out_dir = sys.argv[1] if len(sys.argv) > 1 else "."
-    noisy = read_passes(os.path.join(SAMPLE, "f0001_spp0004.exr"), ("color", "albedo", "normal", "depth"))
-    reference = read_passes(os.path.join(SAMPLE, "f0001_ref1024.exr"), ("color",))["color"]
-    denoised = ew.run_node("denoise", method="bgrid", spatial_rate=8.0, **noisy)
-    print("input %s, denoised %s %s" % (noisy["color"].shape, denoised.shape, denoised.dtype))
-    print("PSNR noisy %.2f dB -> denoised %.2f dB" % (psnr(noisy["color"], reference), psnr(denoised, reference)))
+    render = os.path.join(SAMPLE, "f0001_spp0004.exr")
+    passes = ew.read(render)  # {pass name: (H, W, C) float32}, the first view layer
+    reference = ew.read(os.path.join(SAMPLE, "f0001_ref1024.exr"), passes=["Combined"])["Combined"]
+    noisy = passes["Combined"]  # RGBA: alpha goes through the denoiser
+    denoised = ew.run_node("denoise", method="bgrid", spatial_rate=8.0, color=noisy,
+                           albedo=passes["Denoising Albedo"], normal=passes["Denoising Normal"],
+                           depth=passes["Denoising Depth"])
+    print("input %s, denoised %s %s" % (noisy.shape, denoised.shape, denoised.dtype))
+    print("PSNR noisy %.2f dB -> denoised %.2f dB" % (psnr(noisy[:, :, :3], reference[:, :, :3]),
+                                                      psnr(denoised[:, :, :3], reference[:, :, :3])))
+    # every other pass, alpha and the header of the render stay; the noisy
+    # colour is kept as Blender keeps it
+    ew.write(os.path.join(out_dir, "denoised.exr"), {"Combined": denoised, "Noisy Image": noisy}, like=render)
     np.save(os.path.join(out_dir, "denoised.npy"), denoised)
 
 

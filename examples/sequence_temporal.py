@@ -4,16 +4,18 @@ pattern -> denoise -> temporal accumulation -> write pattern) with a
 progress callback. One frame is in memory at a time.
 
     python3 examples/sequence_temporal.py [OUTPUT_DIR]
+
+Needs the edgewise package installed (python/README.md: pip install ./python)
+or PYTHONPATH=python from the repository.
 """
 import os
 import sys
 
+import numpy as np
+
+import edgewise as ew
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "python"))
-
-import numpy as np  # noqa: E402
-
-import edgewise as ew  # noqa: E402
 
 
 def make_frames(out_dir, count=5, width=96, height=64):

@@ -126,6 +126,7 @@ typedef struct OfxRectD { double x1, y1, x2, y2; } OfxRectD;
 #define kOfxParamTypeBoolean "OfxParamTypeBoolean"
 #define kOfxParamDoubleTypePlain "OfxParamDoubleTypePlain"
 #define kOfxMessageError "OfxMessageError"
+#define kOfxMessageWarning "OfxMessageWarning"
 
 /* ---- general properties (ofxCore.h) ------------------------------------ */
 #define kOfxPropAPIVersion "OfxPropAPIVersion"
@@ -164,6 +165,7 @@ typedef struct OfxRectD { double x1, y1, x2, y2; } OfxRectD;
 #define kOfxImageClipPropOptional "OfxImageClipPropOptional"
 #define kOfxImageClipPropIsMask "OfxImageClipPropIsMask"
 #define kOfxImageClipPropConnected "OfxImageClipPropConnected"
+#define kOfxImageClipPropUnmappedComponents "OfxImageClipPropUnmappedComponents"
 #define kOfxImageEffectPropRenderScale "OfxImageEffectPropRenderScale"
 #define kOfxImagePropData "OfxImagePropData"
 #define kOfxImagePropBounds "OfxImagePropBounds"

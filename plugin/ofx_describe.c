@@ -101,7 +101,8 @@ static OfxStatus define_param(OfxParamSetHandle set, const ew_ofx_node *node, in
     char label[64];
     label_of(p->name, label, sizeof label);
     P->propSetString(props, kOfxPropLabel, 0, label);
-    P->propSetString(props, kOfxParamPropHint, 0, p->hint ? p->hint : "");
+    /* "samples": 0 also means "from the host", which only the plugin knows */
+    P->propSetString(props, kOfxParamPropHint, 0, !strcmp(p->name, "samples") ? EW_OFX_SAMPLES_HINT : p->hint ? p->hint : "");
     P->propSetString(props, kOfxParamPropScriptName, 0, p->name);
     P->propSetInt(props, kOfxParamPropAnimates, 0, 1);
 

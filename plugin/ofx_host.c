@@ -125,6 +125,11 @@ void ew_ofx_post_error(OfxImageEffectHandle effect, const char *fmt, ...) {
         ew_ofx.msg1->message(effect, kOfxMessageError, "", "%s", text);
 }
 
+void ew_ofx_post_warning(OfxImageEffectHandle effect, const char *text) {
+    if (ew_ofx.msg2 && ew_ofx.msg2->setPersistentMessage)
+        ew_ofx.msg2->setPersistentMessage(effect, kOfxMessageWarning, "", "%s", text);
+}
+
 void ew_ofx_clear_error(OfxImageEffectHandle effect) {
     if (ew_ofx.msg2 && ew_ofx.msg2->clearPersistentMessage) ew_ofx.msg2->clearPersistentMessage(effect);
 }

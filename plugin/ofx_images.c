@@ -59,6 +59,14 @@ OfxStatus ew_ofx_image_fetch(OfxImageClipHandle clip, OfxTime time, ew_ofx_image
     return kOfxStatOK;
 }
 
+int ew_ofx_clip_unmapped_components(OfxImageClipHandle clip) {
+    OfxPropertySetHandle props = NULL;
+    char *comps = NULL;
+    if (!clip || ew_ofx.effect->clipGetPropertySet(clip, &props) != kOfxStatOK || !props) return 0;
+    if (ew_ofx.prop->propGetString(props, kOfxImageClipPropUnmappedComponents, 0, &comps) != kOfxStatOK) return 0;
+    return components_of(comps);
+}
+
 void ew_ofx_image_release(ew_ofx_image *img) {
     if (img->handle) ew_ofx.effect->clipReleaseImage(img->handle);
     memset(img, 0, sizeof *img);

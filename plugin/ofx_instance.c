@@ -190,15 +190,20 @@ OfxStatus ew_ofx_clip_preferences(const ew_ofx_node *node, OfxImageEffectHandle 
     ew_ofx_instance *inst = ew_ofx_instance_get(node, effect, &st);
     if (!inst) return st;
     if (!out) return kOfxStatErrBadHandle;
-    /* Float RGBA through the effect. Feature clips keep their components
-     * (expanding a one-channel depth to RGBA would put it in alpha) and
-     * only ask for float. */
+    /* Float RGBA through the effect. Feature clips ask for the components
+     * their input really has: left to the host's default, a one-channel
+     * depth may be expanded to RGBA with the depth in alpha and zeros in
+     * R, G, B, where the plugin would read a flat zero. */
     if ((st = prefer(out, kOfxImageEffectOutputClipName, kOfxImageComponentRGBA)) != kOfxStatOK) return st;
     if (connected(inst->source) &&
         (st = prefer(out, kOfxImageEffectSimpleSourceClipName, kOfxImageComponentRGBA)) != kOfxStatOK)
         return st;
-    for (int i = 0; i < node->num_aux; i++)
-        if (connected(inst->aux[i])) prefer(out, node->aux[i].clip, NULL);
+    for (int i = 0; i < node->num_aux; i++) {
+        if (!connected(inst->aux[i])) continue;
+        const int c = ew_ofx_clip_unmapped_components(inst->aux[i]);
+        prefer(out, node->aux[i].clip,
+               c == 1 ? kOfxImageComponentAlpha : c == 3 ? kOfxImageComponentRGB : c == 4 ? kOfxImageComponentRGBA : NULL);
+    }
     return kOfxStatOK;
 }
 

@@ -21,6 +21,15 @@
 #define EW_OFX_MAX_AUX 6
 #define EW_OFX_MAX_IDENTITY 2
 #define EW_OFX_GROUPING "Edgewise"
+/* The render's samples per pixel (Cycles' EXR attribute
+ * "cycles.<layer>.samples"), an int a host may put on the Source clip or on
+ * its images. OpenFX has no standard property for it; a method's "samples"
+ * parameter left at 0 takes it from here, so "auto" chooses as the CLI and
+ * graphs do for the same file. */
+#define EW_OFX_PROP_RENDER_SAMPLES "org.edgewise.OfxImageClipPropRenderSamples"
+#define EW_OFX_SAMPLES_HINT                                                                                     \
+    "samples per pixel of the render. 0: the Source clip's sample count when the host gives it (property "     \
+    EW_OFX_PROP_RENDER_SAMPLES "), else estimated from the image's noise"
 
 /* ---- nodes: one OFX plugin per user-facing library method ------------- */
 
@@ -90,6 +99,12 @@ void ew_ofx_free(void *p);
  * clear it after a good render. */
 void ew_ofx_post_error(OfxImageEffectHandle effect, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 void ew_ofx_clear_error(OfxImageEffectHandle effect);
+/* A persistent warning (hosts with message suite V2 only): the render
+ * worked, but not as asked. */
+void ew_ofx_post_warning(OfxImageEffectHandle effect, const char *text);
+/* The components a clip's input really has (kOfxImageClipPropUnmappedComponents),
+ * 0 when the host does not say: 4 RGBA, 3 RGB, 1 Alpha. */
+int ew_ofx_clip_unmapped_components(OfxImageClipHandle clip);
 
 /* ---- actions ------------------------------------------------------------- */
 OfxStatus ew_ofx_describe(const ew_ofx_node *node, OfxImageEffectHandle effect);

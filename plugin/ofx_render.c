@@ -19,6 +19,7 @@
 #include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 typedef struct {
@@ -42,6 +43,9 @@ typedef struct {
     ew_device *dev;
     ew_op *op;
     atomic_int aborted;
+    /* a denoiser whose feature clips are missing runs this instead (the
+     * colour-guided grid), and the user is told */
+    const char *fallback;
 } render_job;
 
 static void cleanup(render_job *r) {
@@ -104,15 +108,27 @@ static OfxStatus library_status(render_job *r, ew_result e) {
 
 /* A feature image as a view over the source's domain: the host's pixels
  * when it covers exactly that, else a zero-padded copy. */
-static OfxStatus aux_view(render_job *r, const ew_ofx_aux *a, const ew_ofx_image *im, ew_image *v) {
+static OfxStatus aux_view(render_job *r, int i, const ew_ofx_aux *a, const ew_ofx_image *im, ew_image *v) {
     if (im->comps < a->channels && !(a->channels == 1 && im->comps >= 1)) {
-        ew_ofx_post_error(r->effect, "Edgewise %s: clip %s needs %d channels, it has %d", r->node->method, a->clip,
-                          a->channels, im->comps);
+        ew_ofx_post_error(r->effect, "Edgewise %s: clip %s needs %d channels (%s), it has %d", r->node->method,
+                          a->clip, a->channels, a->channels == 3 ? "RGB" : "RGBA", im->comps);
         return kOfxStatErrImageFormat;
+    }
+    /* A one-channel feature: its own channel, or alpha when the host
+     * expanded an Alpha input to RGBA (0, 0, 0, z) against our preference. */
+    int first = 0;
+    if (a->channels == 1 && im->comps > 1) {
+        const int unmapped = ew_ofx_clip_unmapped_components(r->inst->aux[i]);
+        if (unmapped == 1 && im->comps == 4) first = 3;
+        else if (unmapped == 1) {
+            ew_ofx_post_error(r->effect, "Edgewise %s: clip %s is one channel but arrives as %d channels without "
+                              "alpha: connect it as Alpha or RGB", r->node->method, a->clip, im->comps);
+            return kOfxStatErrImageFormat;
+        }
     }
     const OfxRectI *d = &r->dom, *b = &im->bounds;
     if (b->x1 == d->x1 && b->y1 == d->y1 && b->x2 == d->x2 && b->y2 == d->y2) {
-        *v = ew_ofx_image_view(im, 0, a->channels);
+        *v = ew_ofx_image_view(im, first, a->channels);
         return kOfxStatOK;
     }
     int w = d->x2 - d->x1, h = d->y2 - d->y1, c = a->channels;
@@ -123,7 +139,7 @@ static OfxStatus aux_view(render_job *r, const ew_ofx_aux *a, const ew_ofx_image
         for (int x = d->x1; x < d->x2; x++) {
             float *o = buf + ((size_t)row * (size_t)w + (size_t)(x - d->x1)) * (size_t)c;
             int inside = x >= b->x1 && x < b->x2 && y >= b->y1 && y < b->y2;
-            const float *p = inside ? ew_ofx_image_pixel(im, x, y) : NULL;
+            const float *p = inside ? ew_ofx_image_pixel(im, x, y) + first : NULL;
             for (int k = 0; k < c; k++) o[k] = p ? p[k] : 0.0f;
         }
     }
@@ -215,11 +231,33 @@ static OfxStatus fetch_features(render_job *r) {
             else if (st != kOfxStatOK) return st;
         }
         if (n->aux[i].required && !r->aux[i].handle) {
+            /* a denoiser still denoises without its features (the filter
+             * context cannot make them mandatory); a filter cannot */
+            if (!strcmp(n->kind, "denoiser")) {
+                r->fallback = "bgrid";
+                continue;
+            }
             ew_ofx_post_error(r->effect, "Edgewise %s: connect the %s clip", n->method, n->aux[i].clip);
             return kOfxStatFailed;
         }
     }
     return kOfxStatOK;
+}
+
+/* The render's sample count from the source image, else the Source clip
+ * (EW_OFX_PROP_RENDER_SAMPLES); 0 when the host gives none. Hosts without
+ * the property answer kOfxStatErrUnknown, which is just "not given". */
+static int host_samples(const render_job *r) {
+    int v = 0;
+    if (r->src.handle && ew_ofx.prop->propGetInt(r->src.handle, EW_OFX_PROP_RENDER_SAMPLES, 0, &v) == kOfxStatOK &&
+        v > 0)
+        return v;
+    OfxPropertySetHandle props = NULL;
+    v = 0;
+    if (ew_ofx.effect->clipGetPropertySet(r->inst->source, &props) == kOfxStatOK && props &&
+        ew_ofx.prop->propGetInt(props, EW_OFX_PROP_RENDER_SAMPLES, 0, &v) == kOfxStatOK && v > 0)
+        return v;
+    return 0;
 }
 
 static OfxStatus run_library(render_job *r) {
@@ -230,17 +268,17 @@ static OfxStatus run_library(render_job *r) {
     desc.num_threads = ew_ofx_thread_count();
     ew_result e = ew_device_create(&desc, &r->dev);
     if (e != EW_OK) return library_status(r, e);
-    e = ew_op_create(r->dev, n->method, &r->op);
+    e = ew_op_create(r->dev, r->fallback ? r->fallback : n->method, &r->op);
     if (e != EW_OK) return library_status(r, e);
     e = ew_op_set_progress(r->op, progress, r);
     if (e != EW_OK) return library_status(r, e);
 
     ew_image color = ew_ofx_image_view(&r->src, 0, r->channels);
     if ((e = op_image(r, "color", &color)) != EW_OK) return library_status(r, e);
-    for (int i = 0; i < n->num_aux; i++) {
+    for (int i = 0; i < n->num_aux && !r->fallback; i++) {
         if (!r->aux[i].handle) continue;
         ew_image v;
-        if ((st = aux_view(r, &n->aux[i], &r->aux[i], &v)) != kOfxStatOK) return st;
+        if ((st = aux_view(r, i, &n->aux[i], &r->aux[i], &v)) != kOfxStatOK) return st;
         if ((e = op_image(r, n->aux[i].image, &v)) != EW_OK) return library_status(r, e);
     }
     r->result = scratch(r, (size_t)w * (size_t)h * (size_t)r->channels * sizeof(float));
@@ -254,6 +292,8 @@ static OfxStatus run_library(render_job *r) {
             ew_ofx_post_error(r->effect, "Edgewise %s: cannot read parameter %s", n->method, n->params[i].name);
             return st;
         }
+        if (r->fallback) continue; /* read at the frame as always; the fallback runs with its defaults */
+        if (v == 0.0 && !strcmp(n->params[i].name, "samples")) v = host_samples(r);
         if ((e = op_param(r, &n->params[i], n->param_pixels[i], v)) != EW_OK) return library_status(r, e);
     }
     e = ew_op_commit(r->op);
@@ -301,5 +341,13 @@ OfxStatus ew_ofx_render(const ew_ofx_node *node, OfxImageEffectHandle effect, Of
     st = render(&r, in);
     cleanup(&r);
     if (st == kOfxStatOK) ew_ofx_clear_error(effect);
+    if (st == kOfxStatOK && r.fallback) {
+        char text[300];
+        snprintf(text, sizeof text,
+                 "Edgewise %s needs the Albedo, Normal and Depth clips; without them this frame was denoised by "
+                 "the bilateral grid guided by the colour alone",
+                 node->method);
+        ew_ofx_post_warning(effect, text);
+    }
     return st;
 }

@@ -58,38 +58,67 @@ def pareto(points):
     return front
 
 
-def chart(m, metric, ylabel, path):
-    methods = sorted({k[0] for k in m})
+# Colours told apart at a glance (tab10 without its grey, then darker and
+# brighter ones); past them a method gets a colour again with a hollow marker.
+COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
+           "#000000", "#ffd700", "#000080", "#00ff7f", "#800000"]
+SPP_MARKERS = "osD^v<>ph*"
+INPUT = "input"
+
+
+def chart_layout(m, metric):
+    """What chart() draws: one point per method and spp ((ms, value, method,
+    spp, colour, marker, hollow)) and the noisy input as a horizontal line per
+    spp ((value, spp, line style)): it has no time to place on a log axis.
+    Colour names the method (distinct while there are colours), the marker
+    the spp."""
+    methods = [x for x in sorted({k[0] for k in m}) if x != INPUT]
     spps = sorted({k[1] for k in m})
-    markers = "osD^v<>ph*"
-    # one colour per method (tab20 has 20; tab10 repeated colours past ten methods)
-    cmap = plt.get_cmap("tab20" if len(methods) > 10 else "tab10")
-    ncol = 20 if len(methods) > 10 else 10
-    fig, ax = plt.subplots(figsize=(10, 5.5))
+    style = {meth: (COLOURS[i % len(COLOURS)], i >= len(COLOURS)) for i, meth in enumerate(methods)}
+    points, lines = [], []
+    # thick light lines, each spp its own pattern (thin dark dashes are the fronts)
+    dashes = [(0, (1, 1)), (0, (4, 1, 1, 1)), (0, (8, 2)), "-", (0, (2, 2, 6, 2))]
     for si, spp in enumerate(spps):
-        pts = []
-        for mi, meth in enumerate(methods):
+        for meth in methods:
             v = m.get((meth, spp))
-            if not v:
-                continue
-            ms = max(v["ms"], 0.01)  # the noisy input costs nothing: draw it at the left edge
-            auto = meth.startswith("auto")  # the default: outlined so it can be found on the front
-            ax.scatter(ms, v[metric], color=cmap(mi % ncol), marker=markers[si % len(markers)], s=45, zorder=3,
-                       edgecolors="k" if auto else "none", linewidths=1.2, label=meth if si == 0 else None)
-            pts.append((ms, v[metric], meth))
-        front = pareto(pts)
+            if v:
+                colour, hollow = style[meth]
+                points.append((v["ms"], v[metric], meth, spp, colour, SPP_MARKERS[si % len(SPP_MARKERS)], hollow))
+        v = m.get((INPUT, spp))
+        if v:
+            lines.append((v[metric], spp, dashes[si % len(dashes)]))
+    return points, lines
+
+
+def chart(m, metric, ylabel, path):
+    points, lines = chart_layout(m, metric)
+    spps = sorted({k[1] for k in m})
+    fig, ax = plt.subplots(figsize=(10, 5.5))
+    for ms, val, meth, spp, colour, marker, hollow in points:
+        auto = meth.startswith("auto")  # the default: outlined so it can be found on the front
+        first = spp == spps[0] or not any(p[2] == meth and p[3] < spp for p in points)
+        ax.scatter(ms, val, marker=marker, s=45, zorder=3, linewidths=1.2,
+                   facecolors="none" if hollow else colour, edgecolors="k" if auto else colour,
+                   label=meth if first else None)
+    for spp in spps:
+        front = pareto([(p[0], p[1], p[2]) for p in points if p[3] == spp])
         ax.plot([p[0] for p in front], [p[1] for p in front], color="0.5", lw=1, ls="--", zorder=2)
         if front:
             ax.annotate(f"{spp} spp", (front[-1][0], front[-1][1]), textcoords="offset points", xytext=(6, 0),
                         fontsize=8, color="0.3")
+    for val, spp, dash in lines:
+        ax.axhline(val, color="0.65", lw=1.8, ls=dash, zorder=1)
+        ax.annotate(f"input {spp} spp", (0.005, val), xycoords=("axes fraction", "data"), textcoords="offset points",
+                    xytext=(0, 2), fontsize=7, color="0.3")
     ax.set_xscale("log")
     ax.set_xlabel("time per frame (ms, log scale; fastest of repeated runs)")
     ax.set_ylabel(ylabel)
-    ax.set_title(f"{ylabel} against time (mean over scenes); dashed: Pareto front per spp")
+    ax.set_title(f"{ylabel} against time (mean over scenes); dashed: Pareto front per spp; "
+                 "lines: the noisy input", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     handles, labels = ax.get_legend_handles_labels()
     for si, spp in enumerate(spps):
-        handles.append(plt.Line2D([], [], color="k", marker=markers[si % len(markers)], ls=""))
+        handles.append(plt.Line2D([], [], color="k", marker=SPP_MARKERS[si % len(SPP_MARKERS)], ls=""))
         labels.append(f"{spp} spp")
     ax.legend(handles, labels, fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()

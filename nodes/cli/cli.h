@@ -2,6 +2,7 @@
 #define EW_CLI_H
 
 #include "edgewise/edgewise.h"
+#include "ewcolor.h"
 #include "ewio.h"
 
 /* Exit codes: 0 success, 1 the work failed (bad input file, I/O), 2 the
@@ -52,5 +53,41 @@ ew_device *cli_device(int threads);
 /* Fail early (one line, returns EW_EXIT_FAIL) when `path` cannot be
  * written: its directory is missing or not writable, or it is a directory. */
 int cli_check_writable(const char *path);
+
+/* 8-bit output (PNG, JPEG, integer TIFF) is a display image: scene-linear
+ * colour goes through OpenColorIO's display/view transform first, the same
+ * as the graph's `display` node with its defaults. */
+typedef struct cli_view {
+    const char *display, *view; /* NULL: the config's default display / its default view */
+    int raw;                    /* --raw: values as they are, clipped */
+    ewcolor_proc *proc;         /* built by cli_view_prepare for an 8-bit output */
+} cli_view;
+/* --display NAME, --view NAME, --raw at argv[*i]: 1 consumed (*i moved past
+ * a value), 0 not one of them, -1 a missing value (printed). */
+int cli_parse_view(int argc, char **argv, int *i, cli_view *v);
+/* Before any work: the transform for out_path (unknown display/view names
+ * fail here, printed). Returns 0 or EW_EXIT_USAGE. */
+int cli_view_prepare(cli_view *v, const char *out_path);
+void cli_view_free(cli_view *v);
+/* ewio_write, with the display transform applied to an RGB(A) pass first
+ * when the file would store it as integers and it was read as floats (scene
+ * linear); an 8-bit input is already display-encoded and stays as it is.
+ * Says what it applied on stderr unless quiet. */
+int cli_write(ewio_file *f, const char *path, ewio_pixel_type type, const char *layer, const char *pass,
+              const cli_view *v, int quiet, char *err, size_t errlen);
+
+/* A progress bar on stderr while the library works: "denoise [####....]
+ * 42% frame 3/48, 0:12 left", redrawn in place at most ten times a second
+ * and cleared at the end. Only on a terminal and without -q: a log file or
+ * a pipe gets nothing. */
+typedef struct cli_progress {
+    const char *what;
+    int frames; /* > 1: "frame N/frames" from the fraction */
+    int enabled, drawn;
+    double t0, last;
+} cli_progress;
+void cli_progress_init(cli_progress *p, const char *what, int frames, int quiet);
+int cli_progress_cb(void *user, double fraction); /* an ew_progress_fn; never cancels */
+void cli_progress_end(cli_progress *p);           /* clear the line before other output */
 
 #endif

@@ -34,7 +34,7 @@ typedef struct {
 
 /* The fixed options every such command has, by getopt_long value. */
 enum { FIX_OUTPUT = 'o', FIX_QUIET = 'q', FIX_HELP = 'h', FIX_METHOD = 1000, FIX_LAYER, FIX_PASS, FIX_THREADS,
-       FIX_HALF, FIX_FLOAT, FIX_REFERENCE, GEN_BASE = 2000 };
+       FIX_HALF, FIX_FLOAT, FIX_REFERENCE, FIX_DISPLAY, FIX_VIEW, FIX_RAW, GEN_BASE = 2000 };
 
 typedef struct {
     const cli_op_command *cmd;
@@ -45,6 +45,7 @@ typedef struct {
     const char *in, *out, *method, *layer, *pass, *reference;
     int threads, quiet, method_given;
     ewio_pixel_type type;
+    cli_view view; /* --display, --view, --raw: 8-bit output through the display transform */
     int given[MAX_GIVEN];        /* index into gen */
     const char *given_value[MAX_GIVEN];
     int num_given;
@@ -96,6 +97,8 @@ static void build_options(parser *p) {
         {"pass", required_argument, NULL, FIX_PASS},     {"threads", required_argument, NULL, FIX_THREADS},
         {"half", no_argument, NULL, FIX_HALF},           {"float", no_argument, NULL, FIX_FLOAT},
         {"reference", required_argument, NULL, FIX_REFERENCE},
+        {"display", required_argument, NULL, FIX_DISPLAY}, {"view", required_argument, NULL, FIX_VIEW},
+        {"raw", no_argument, NULL, FIX_RAW},
     };
     int n = 0;
     for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++) {
@@ -151,6 +154,11 @@ static void print_param(const char *method, int32_t k, const ew_param_info *info
 
 static void print_help(const cli_op_command *c) {
     printf("usage: edgewise %s IN -o OUT [options]\n\n%s\n", c->name, c->intro);
+    printf("PNG and JPEG are 8-bit display images: the linear colour goes through\n"
+           "OpenColorIO's display/view transform first, as the graph's `display` node\n"
+           "does (config: $OCIO, else Blender's, else a built-in sRGB), so the file\n"
+           "looks as the render does in Blender. An 8-bit input (PNG, JPEG) is already\n"
+           "display-encoded and is written as it is. TIFF and EXR keep linear floats.\n\n");
     printf("options:\n");
     printf("  -o, --output FILE           output file (required; not IN)\n");
     if (!c->method) {
@@ -160,11 +168,14 @@ static void print_help(const cli_op_command *c) {
     }
     printf("  --layer NAME                view layer (default: the first with a colour pass)\n");
     if (c->pass_option)
-        printf("  --pass NAME                 pass to filter (default: the colour: Combined / Noisy Image)\n");
+        printf("  --pass NAME                 pass to filter (default: the colour the file shows: Combined)\n");
     printf("  --threads N                 worker threads, 0 = all cores (default 0)\n");
     printf("  --half | --float            EXR pixel type of written passes (default: as read)\n");
     printf("  --reference REF             also print PSNR/SSIM of input and output against REF\n");
-    printf("  -q, --quiet                 print errors only\n");
+    printf("  --display NAME              PNG/JPEG output: OpenColorIO display (default: the config's)\n");
+    printf("  --view NAME                 PNG/JPEG output: view transform (default: the display's, e.g. Standard)\n");
+    printf("  --raw                       PNG/JPEG output: linear values clipped to 0..1, no display transform\n");
+    printf("  -q, --quiet                 print errors only (and no progress bar, shown on a terminal)\n");
     printf("  -h, --help                  this text\n");
     for (int32_t m = 0; m < num_methods(c); m++) {
         const char *method = method_at(c, m);
@@ -223,6 +234,9 @@ static int parse(parser *p, int argc, char **argv) {
         case FIX_HALF: p->type = EWIO_HALF; break;
         case FIX_FLOAT: p->type = EWIO_FLOAT; break;
         case FIX_REFERENCE: p->reference = optarg; break;
+        case FIX_DISPLAY: p->view.display = optarg; break;
+        case FIX_VIEW: p->view.view = optarg; break;
+        case FIX_RAW: p->view.raw = 1; break;
         case ':':
             fprintf(stderr, "edgewise: %s needs a value\n", opt);
             return 0;
@@ -438,11 +452,11 @@ static int execute(const parser *p) {
     ew_layer_passes lp;
     int found = 0;
     if (want_layer) {
-        found = ew_find_layer_passes(f, want_layer, &lp, err, sizeof err) == 0;
+        found = ew_find_image_passes(f, want_layer, &lp, err, sizeof err) == 0;
         if (!found && !want_pass) { cli_fail("%s", err); goto done; }
     } else {
         for (int i = 0; i < ewio_num_layers(f) && !found; i++)
-            found = ew_find_layer_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0;
+            found = ew_find_image_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0;
     }
     const char *layer = want_layer ? want_layer : found ? lp.layer : ewio_layer_name(f, 0);
     const char *pass = want_pass ? want_pass : found ? lp.color : NULL;
@@ -523,10 +537,14 @@ static int execute(const parser *p) {
     if (r != EW_OK) { cli_fail("%s '%s': %s", cmd->kind, method, ew_device_last_error(dev)); goto done; }
     if (set_params(p, op, dev, 0) != 0) goto done;
 
+    cli_progress prog;
+    cli_progress_init(&prog, method, 1, quiet);
+    ew_op_set_progress(op, cli_progress_cb, &prog);
     double t0 = now_s();
     r = ew_op_commit(op);
     if (r == EW_OK) r = ew_op_execute(op);
     double dt = now_s() - t0;
+    cli_progress_end(&prog);
     if (r != EW_OK) { cli_fail("%s '%s' failed: %s", cmd->kind, method, ew_device_last_error(dev)); goto done; }
     if (!quiet) {
         /* what ran: the method and every parameter's value, read back */
@@ -591,7 +609,7 @@ static int execute(const parser *p) {
         free(pr);
         ewio_free(ref);
     }
-    if (ewio_write(f, out_path, type, layer, pass, err, sizeof err) != 0) {
+    if (cli_write(f, out_path, type, layer, pass, &p->view, quiet, err, sizeof err) != 0) {
         cli_fail("cannot write '%s': %s", out_path, err);
         goto done;
     }
@@ -620,8 +638,14 @@ int cli_op_run(const cli_op_command *cmd, int argc, char **argv) {
         goto out;
     }
     if (cli_check_writable(p->out) != 0) goto out;
+    /* display and view names are checked before any work */
+    if (cli_view_prepare(&p->view, p->out) != 0) {
+        rc = EW_EXIT_USAGE;
+        goto out;
+    }
     rc = execute(p);
 out:
+    cli_view_free(&p->view);
     free(p);
     return rc;
 }

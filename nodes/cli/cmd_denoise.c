@@ -23,9 +23,15 @@ static const char intro[] =
     "Normal/Depth are used when present) or a plain EXR/PNG/TIFF colour image.\n"
     "OUT's extension picks the format. An EXR output keeps every layer, pass and\n"
     "the header metadata of IN: Combined holds the denoised colour and the noisy\n"
-    "original is kept as the pass 'Noisy Image' (as Blender does). PNG/TIFF get\n"
-    "the denoised colour of the first layer only. OUT is written atomically and\n"
-    "must not be IN.\n"
+    "original is kept as the pass 'Noisy Image' (as Blender does). PNG/TIFF/JPEG\n"
+    "get the denoised colour of the first layer only. OUT is written atomically\n"
+    "and must not be IN.\n"
+    "\n"
+    "PNG and JPEG are 8-bit display images: the linear colour goes through\n"
+    "OpenColorIO's display/view transform first, as the graph's `display` node\n"
+    "does (config: $OCIO, else Blender's, else a built-in sRGB), so the file\n"
+    "looks as the render does in Blender. An 8-bit input (PNG, JPEG) is already\n"
+    "display-encoded and is written as it is. TIFF and EXR keep linear floats.\n"
     "\n"
     "options:\n"
     "  -o, --output FILE     output file (required)\n"
@@ -34,7 +40,10 @@ static const char intro[] =
     "  --threads N           worker threads, 0 = all cores (default 0)\n"
     "  --half | --float      EXR pixel type of the written passes (default: as read)\n"
     "  --reference REF       also print PSNR/SSIM of input and output against REF\n"
-    "  -q, --quiet           print errors only\n"
+    "  --display NAME        PNG/JPEG output: OpenColorIO display (default: the config's)\n"
+    "  --view NAME           PNG/JPEG output: view transform (default: the display's, e.g. Standard)\n"
+    "  --raw                 PNG/JPEG output: linear values clipped to 0..1, no display transform\n"
+    "  -q, --quiet           print errors only (and no progress bar, shown on a terminal)\n"
     "  -h, --help            this text\n";
 
 static const char outro[] =
@@ -67,6 +76,7 @@ typedef struct {
     int method_given;
     int threads, quiet;
     ewio_pixel_type type;
+    cli_view view; /* --display, --view, --raw */
     int num_set; /* method parameters given on the command line */
     const char *set_name[MAX_SET]; /* the library's static names */
     const char *set_text[MAX_SET];
@@ -83,10 +93,11 @@ typedef struct {
     char option[MAX_OPTS][64];
     const char *param[MAX_OPTS];
     int n;
-    struct option longs[MAX_OPTS + 12];
+    struct option longs[MAX_OPTS + 16];
 } param_options;
 
-enum { OPT_LAYER = 1000, OPT_METHOD, OPT_THREADS, OPT_HALF, OPT_FLOAT, OPT_REFERENCE, OPT_PARAM = 2000 };
+enum { OPT_LAYER = 1000, OPT_METHOD, OPT_THREADS, OPT_HALF, OPT_FLOAT, OPT_REFERENCE, OPT_DISPLAY, OPT_VIEW, OPT_RAW,
+       OPT_PARAM = 2000 };
 
 static void build_options(param_options *po) {
     memset(po, 0, sizeof *po);
@@ -113,6 +124,8 @@ static void build_options(param_options *po) {
         {"method", required_argument, NULL, OPT_METHOD}, {"threads", required_argument, NULL, OPT_THREADS},
         {"half", no_argument, NULL, OPT_HALF},           {"float", no_argument, NULL, OPT_FLOAT},
         {"reference", required_argument, NULL, OPT_REFERENCE},
+        {"display", required_argument, NULL, OPT_DISPLAY}, {"view", required_argument, NULL, OPT_VIEW},
+        {"raw", no_argument, NULL, OPT_RAW},
     };
     int n = 0;
     for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++) po->longs[n++] = fixed[i];
@@ -191,6 +204,9 @@ static int parse(int argc, char **argv, options *o) {
         case OPT_HALF: o->type = EWIO_HALF; break;
         case OPT_FLOAT: o->type = EWIO_FLOAT; break;
         case OPT_REFERENCE: o->reference = optarg; break;
+        case OPT_DISPLAY: o->view.display = optarg; break;
+        case OPT_VIEW: o->view.view = optarg; break;
+        case OPT_RAW: o->view.raw = 1; break;
         case ':': fprintf(stderr, "edgewise: %s needs a value\n", a); ok = 0; break;
         case '?': fprintf(stderr, "edgewise: unknown option '%s' (see 'edgewise denoise --help')\n", a); ok = 0; break;
         default:
@@ -392,8 +408,15 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     make_spec(j, method, &spec);
     spec.chosen = chosen;
     spec.chosen_len = sizeof chosen;
+    cli_progress prog;
+    char what[300];
+    snprintf(what, sizeof what, "denoise '%s'", layer[0] ? layer : "(image)");
+    cli_progress_init(&prog, what, 1, j->o->quiet);
+    spec.progress = cli_progress_cb;
+    spec.progress_user = &prog;
     double ms = 0.0;
     int bad = ew_method_run(j->dev, &spec, &in, j->out, &ms, j->err, sizeof j->err);
+    cli_progress_end(&prog);
     const int guided = in.albedo != NULL;
     const int has_nd = in.normal && in.depth, has_n = in.normal != NULL, has_d = in.depth != NULL;
     ew_layer_data_free(&in);
@@ -457,10 +480,14 @@ int cmd_denoise(int argc, char **argv) {
         return cli_fail("refusing to write the output over the input '%s': choose another -o", o.in);
 
     if (cli_check_writable(o.out) != 0) return EW_EXIT_FAIL;
+    if (cli_view_prepare(&o.view, o.out) != 0) return EW_EXIT_USAGE;
     job j;
     memset(&j, 0, sizeof j);
     j.o = &o;
-    if (ewio_read(o.in, &j.f, j.err, sizeof j.err) != 0) return cli_fail("%s", j.err);
+    if (ewio_read(o.in, &j.f, j.err, sizeof j.err) != 0) {
+        cli_view_free(&o.view);
+        return cli_fail("%s", j.err);
+    }
     int rc = EW_EXIT_FAIL;
     const size_t n = (size_t)ewio_width(j.f) * (size_t)ewio_height(j.f);
     float *noisy_first = NULL;
@@ -505,13 +532,14 @@ int cmd_denoise(int argc, char **argv) {
     ewio_set_attribute(j.f, "edgewise.version", ew_version_string());
     /* PNG/TIFF take only one pass: the first denoised layer's colour */
     const char *wpass = first.layer[0] ? "Combined" : first.color;
-    if (ewio_write(j.f, o.out, o.type, first.layer, wpass, j.err, sizeof j.err) != 0) {
+    if (cli_write(j.f, o.out, o.type, first.layer, wpass, &o.view, o.quiet, j.err, sizeof j.err) != 0) {
         cli_fail("%s", j.err);
         goto done;
     }
     if (!o.quiet) fprintf(stderr, "edgewise: wrote %s\n", o.out);
     rc = 0;
 done:
+    cli_view_free(&o.view);
     ew_device_destroy(j.dev);
     ewio_free(j.f);
     free(j.out);

@@ -27,7 +27,7 @@ static const char help[] =
     "  --set NODE.PARAM=VALUE  set a parameter (repeatable), e.g. --set dn.spatial_rate=12\n"
     "  --threads N             worker threads, 0 = all cores (default 0)\n"
     "  --report FILE           write the run's report (JSON: files written, metrics)\n"
-    "  -q, --quiet             print errors only\n"
+    "  -q, --quiet             print errors only (and no progress bar, shown on a terminal)\n"
     "  -h, --help              this text\n"
     "\n"
     "On Dask (python3 -m edgewise.distributed; docs/distributed.md): chunks of frames\n"
@@ -254,7 +254,11 @@ int cmd_graph(int argc, char **argv) {
         rc = 0;
         goto done;
     }
+    cli_progress prog;
+    cli_progress_init(&prog, "graph", ew_graph_frame_count(g), o.quiet);
+    ew_graph_set_progress(g, cli_progress_cb, &prog);
     ew_result r = ew_graph_run(g);
+    cli_progress_end(&prog);
     if (!o.quiet) print_summary(ew_graph_report(g));
     if (o.report && write_report(o.report, ew_graph_report(g)) != 0) goto done;
     if (r != EW_OK) {

@@ -219,12 +219,33 @@ extern "C" int ewcolor_display(const char *from, const char *display, const char
     }
 }
 
+extern "C" void ewcolor_default_view(const char *display, char *display_out, size_t dlen, char *view_out,
+                                     size_t vlen) {
+    std::string which, d, v;
+    try {
+        auto cfg = load_config(&which);
+        d = display && *display ? display : cfg->getDefaultDisplay();
+        v = cfg->getDefaultView(d.c_str());
+    } catch (const std::exception &) {
+    }
+    if (display_out && dlen) std::snprintf(display_out, dlen, "%s", d.c_str());
+    if (view_out && vlen) std::snprintf(view_out, vlen, "%s", v.c_str());
+}
+
 extern "C" void ewcolor_apply(const ewcolor_proc *p, float *px, int width, int height, int channels) {
     if (!p || !px || width <= 0 || height <= 0 || (channels != 3 && channels != 4)) return;
     const size_t n = (size_t)width * (size_t)height;
     if (p->exposure_scale != 1.0f)
         for (size_t i = 0; i < n; i++)
             for (int c = 0; c < 3; c++) px[i * channels + c] *= p->exposure_scale;
+    // RGBA is associated (premultiplied) as in EXR: a non-linear view
+    // transform applies to the colour itself, so divide by alpha around it
+    // (alpha 0 or 1, and non-finite alpha, leave the pixel as it is).
+    auto partial = [](float a) { return a > 0.0f && a < 1.0f; };
+    if (channels == 4)
+        for (size_t i = 0; i < n; i++)
+            if (partial(px[i * 4 + 3]))
+                for (int c = 0; c < 3; c++) px[i * 4 + c] /= px[i * 4 + 3];
     try {
         OCIO::PackedImageDesc desc(px, width, height, channels);
         p->cpu->apply(desc);
@@ -240,6 +261,10 @@ extern "C" void ewcolor_apply(const ewcolor_proc *p, float *px, int width, int h
                 float v = px[i * channels + c];
                 px[i * channels + c] = v < 0.0f ? -std::pow(-v, p->inv_gamma) : std::pow(v, p->inv_gamma);
             }
+    if (channels == 4)
+        for (size_t i = 0; i < n; i++)
+            if (partial(px[i * 4 + 3]))
+                for (int c = 0; c < 3; c++) px[i * 4 + c] *= px[i * 4 + 3];
 }
 
 extern "C" void ewcolor_free(ewcolor_proc *p) { delete p; }

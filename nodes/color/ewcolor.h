@@ -40,8 +40,13 @@ int ewcolor_transform(const char *from, const char *to, ewcolor_proc **out, char
 int ewcolor_display(const char *from, const char *display, const char *view, const char *look, float exposure,
                     float gamma, ewcolor_proc **out, char *err, size_t errlen);
 
+/* The names ewcolor_display takes for "" display / view: the config's
+ * default display and that display's default view ("" on failure). */
+void ewcolor_default_view(const char *display, char *display_out, size_t dlen, char *view_out, size_t vlen);
+
 /* Apply to packed float pixels in place; channels is 3 (RGB) or 4 (RGBA,
- * alpha passed through). */
+ * alpha passed through; colour associated with it, as in EXR: transformed
+ * as colour / alpha, then multiplied by alpha again). */
 void ewcolor_apply(const ewcolor_proc *p, float *pixels, int width, int height, int channels);
 void ewcolor_free(ewcolor_proc *p); /* NULL is a no-op */
 

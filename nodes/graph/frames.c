@@ -1,7 +1,10 @@
 /*
- * frames.c — frame patterns as Blender writes them: a run of '#' in the
- * file name is the frame number, zero-padded to the run's length
- * ("render_####.exr" -> "render_0042.exr").
+ * frames.c — frame patterns in file names, as renderers and compositors
+ * write sequences: a run of '#' is the frame number zero-padded to the
+ * run's length (Blender: "render_####.exr" -> "render_0042.exr"), and a
+ * printf-style "%0Nd" or "%d" is the same with N digits (Nuke, ffmpeg:
+ * "render_%04d.exr"). The first pattern in the file name counts; a pattern
+ * in a directory name is not one.
  */
 #include <ctype.h>
 #include <dirent.h>
@@ -11,14 +14,47 @@
 
 #include "graph.h"
 
-int ew_path_has_pattern(const char *path) { return path && strchr(path, '#') != NULL; }
+/* The frame pattern of `path`: where it starts, how many characters it
+ * takes and the digits it pads to. 0 when there is none. */
+static int find_pattern(const char *path, size_t *at, size_t *len, int *width) {
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    for (const char *c = base; *c; c++) {
+        if (*c == '#') {
+            size_t run = 0;
+            while (c[run] == '#') run++;
+            *at = (size_t)(c - path);
+            *len = run;
+            *width = (int)run;
+            return 1;
+        }
+        if (*c == '%') {
+            const char *d = c + 1;
+            int w = 0;
+            if (*d == '0') d++;
+            while (isdigit((unsigned char)*d) && w < 100) w = w * 10 + (*d++ - '0');
+            if (*d == 'd' && w <= 9) {
+                *at = (size_t)(c - path);
+                *len = (size_t)(d + 1 - c);
+                *width = w > 0 ? w : 1;
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+int ew_path_has_pattern(const char *path) {
+    size_t at, len;
+    int width;
+    return path && find_pattern(path, &at, &len, &width);
+}
 
 int ew_frame_path(const char *pattern, int frame, char *out, size_t len) {
-    const char *h = strchr(pattern, '#');
-    if (!h) return snprintf(out, len, "%s", pattern) < (int)len;
-    size_t run = 0;
-    while (h[run] == '#') run++;
-    int k = snprintf(out, len, "%.*s%0*d%s", (int)(h - pattern), pattern, (int)run, frame, h + run);
+    size_t at, plen;
+    int width;
+    if (!find_pattern(pattern, &at, &plen, &width)) return snprintf(out, len, "%s", pattern) < (int)len;
+    int k = snprintf(out, len, "%.*s%0*d%s", (int)at, pattern, width, frame, pattern + at + plen);
     return k >= 0 && (size_t)k < len;
 }
 
@@ -36,11 +72,12 @@ int ew_frames_on_disk(const char *pattern, int **out, int *count) {
     if (slash == pattern) snprintf(dir, sizeof dir, "/");
     else if (slash) snprintf(dir, sizeof dir, "%.*s", (int)(slash - pattern), pattern);
     else snprintf(dir, sizeof dir, ".");
-    const char *h = strchr(base, '#');
-    if (!h) return 0; /* a '#' in a directory name is not a frame pattern */
-    size_t pre = (size_t)(h - base), run = 0;
-    while (h[run] == '#') run++;
-    const char *suffix = h + run;
+    size_t at, plen;
+    int width;
+    if (!find_pattern(pattern, &at, &plen, &width)) return 0; /* none in the file name */
+    const char *h = pattern + at;
+    size_t pre = (size_t)(h - base), run = (size_t)width;
+    const char *suffix = h + plen;
     size_t suf = strlen(suffix);
     DIR *d = opendir(dir);
     if (!d) return 0;

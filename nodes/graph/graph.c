@@ -354,6 +354,8 @@ ew_result ew_graph_get_stats(const ew_graph *g, ew_graph_stats *out) {
     return EW_OK;
 }
 
+int32_t ew_graph_frame_count(const ew_graph *g) { return g && g->validated ? g->num_frames : 0; }
+
 const ew_pvalue *ew_node_value(const ew_gnode *n, const char *name) {
     int i = ew_sig_find_param(&n->sig, name);
     return i >= 0 ? &n->values[i] : NULL;

@@ -59,6 +59,13 @@ typedef struct ew_gnode {
     int out_buf[EW_SIG_MAX_PORTS]; /* pool index, -1 = none/external */
     int has_out[EW_SIG_MAX_PORTS];
     int taken_input; /* the input whose buffer output 0 took over this frame, -1 none */
+    /* Image metadata travelling with the pixels: the render's samples per
+     * pixel (Cycles' "cycles.<layer>.samples"), 0 unknown. A read node sets
+     * it on its outputs; any other node's outputs inherit the largest of
+     * its inputs' unless the node set one; a denoiser whose "samples"
+     * parameter is left at 0 takes it from its colour input. */
+    int in_samples[EW_SIG_MAX_PORTS];
+    int out_samples[EW_SIG_MAX_PORTS];
     void *state;  /* node implementation's, freed by type->release */
 } ew_gnode;
 
@@ -125,8 +132,9 @@ ew_result ew_graph_plan(ew_graph *g);
 
 /* frames.c */
 int ew_path_has_pattern(const char *path);
-/* Replace the first run of '#' with the frame number, zero-padded to the
- * run's length. Returns 0 when it does not fit. */
+/* Replace the frame pattern of the file name (a run of '#', or "%0Nd" /
+ * "%d") with the frame number, zero-padded to the run's length or N.
+ * Returns 0 when it does not fit. */
 int ew_frame_path(const char *pattern, int frame, char *out, size_t len);
 /* Frame numbers of files matching the pattern, sorted; *out malloc'ed. */
 int ew_frames_on_disk(const char *pattern, int **out, int *count);

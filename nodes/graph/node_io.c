@@ -16,21 +16,25 @@
 
 /* ---- read ---------------------------------------------------------------- */
 
-enum { R_COLOR, R_ALBEDO, R_NORMAL, R_DEPTH, R_Z, R_VECTOR, R_IMAGE, R_NUM };
+enum { R_COLOR, R_ALBEDO, R_NORMAL, R_DEPTH, R_Z, R_VECTOR, R_IMAGE, R_NOISY, R_NUM };
 
 static const ew_port_desc read_outputs[] = {
-    {"color", EW_PASS_COLOR, 3, 0, "noisy colour RGB: 'Noisy Image' if present, else 'Combined' (a plain file: R,G,B)"},
+    {"color", EW_PASS_COLOR, 3, 0, "colour RGB, the image the file shows: 'Combined' (a plain file: R,G,B)"},
     {"albedo", EW_PASS_ALBEDO, 3, 0, "'Denoising Albedo', else 'DiffCol'"},
     {"normal", EW_PASS_NORMAL, 3, 0, "'Denoising Normal', else 'Normal' (X,Y,Z)"},
     {"depth", EW_PASS_DEPTH, 1, 0, "'Denoising Depth', else 'Depth' (Z): guidance for denoisers"},
     {"z", EW_PASS_DEPTH, 1, 0, "'Depth' (Z): planar camera distance, what depth of field needs"},
     {"vector", EW_PASS_VECTOR, 4, 0, "'Vector' (X,Y,Z,W): motion vectors"},
     {"image", EW_PASS_ANY, 1, 0, "the pass named by 'pass', all its components in file order"},
+    {"noisy", EW_PASS_COLOR, 3, 0,
+     "a denoiser's input RGB: 'Noisy Image' when a denoiser already ran (Blender keeps the original there), else "
+     "the colour"},
 };
 
 static const ew_nparam_desc read_params[] = {
     {"path", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 1, 1, "Path",
-     "image file (EXR, multilayer EXR, PNG, TIFF); '#' runs are the frame number, e.g. render_####.exr"},
+     "image file (EXR, multilayer EXR, PNG, TIFF); a run of '#' or a %04d is the frame number, e.g. "
+     "render_####.exr"},
     {"layer", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 0, 0, "Layer",
      "view layer, e.g. 'ViewLayer'; empty: the first layer with a colour pass"},
     {"pass", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 0, 0, "Pass",
@@ -41,6 +45,7 @@ typedef struct {
     ewio_file *file; /* the last file read, kept from validation for the first frame */
     int frame;
     char path[4096];
+    char layer[256]; /* the layer read this frame (a write keeping the source writes into it) */
 } read_state;
 
 static void read_release(ew_gnode *n) {
@@ -111,7 +116,7 @@ static void list_passes(const ewio_file *f, const char *layer, char *buf, size_t
 static int wants_cycles_pass(const ew_gnode *n) {
     for (int o = R_COLOR; o <= R_DEPTH; o++)
         if (ew_node_output_wanted(n, o)) return 1;
-    return 0;
+    return ew_node_output_wanted(n, R_NOISY);
 }
 
 /* Which layer to read: the parameter, else the first with a colour pass
@@ -134,7 +139,7 @@ static int pick_layer(ew_gnode *n, const ewio_file *f, const char *path, char *l
         char err[512];
         ew_layer_passes lp;
         for (int i = 0; i < ewio_num_layers(f); i++)
-            if (ew_find_layer_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0) {
+            if (ew_find_image_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0) {
                 snprintf(layer, len, "%s", lp.layer);
                 return 0;
             }
@@ -155,19 +160,21 @@ typedef struct {
 static ew_result map_passes(ew_gnode *n, const ewio_file *f, const char *path, const char *layer, read_map *m) {
     memset(m, 0, sizeof *m);
     char passes[1024], err[512];
-    ew_layer_passes lp;
+    ew_layer_passes lp, noisy;
     int have_lp = 0;
     if (wants_cycles_pass(n)) {
-        if (ew_find_layer_passes(f, layer, &lp, err, sizeof err) != 0)
+        if (ew_find_image_passes(f, layer, &lp, err, sizeof err) != 0 ||
+            ew_find_layer_passes(f, layer, &noisy, err, sizeof err) != 0)
             return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "'%s': %s", path, err);
         have_lp = 1;
     }
-    static const char *const names[R_NUM] = {"color", "albedo", "normal", "depth", "z", "vector", "image"};
+    static const char *const names[R_NUM] = {"color", "albedo", "normal", "depth", "z", "vector", "image", "noisy"};
     for (int o = 0; o < R_NUM; o++) {
         if (!ew_node_output_wanted(n, o)) continue;
         const char *pass = NULL, *comps = NULL;
         switch (o) {
         case R_COLOR: pass = have_lp ? lp.color : NULL; comps = "RGB"; break;
+        case R_NOISY: pass = have_lp ? noisy.color : NULL; comps = "RGB"; break;
         case R_ALBEDO: pass = have_lp ? lp.albedo : NULL; comps = "RGB"; break;
         case R_NORMAL: pass = have_lp ? lp.normal : NULL; comps = "XYZ"; break;
         case R_DEPTH: pass = have_lp ? lp.depth : NULL; comps = "Z"; break;
@@ -190,9 +197,9 @@ static ew_result map_passes(ew_gnode *n, const ewio_file *f, const char *path, c
         }
         }
         if (!pass) {
-            static const char *const looked[R_NUM] = {"'Noisy Image', 'Combined'", "'Denoising Albedo', 'DiffCol'",
+            static const char *const looked[R_NUM] = {"'Combined'", "'Denoising Albedo', 'DiffCol'",
                                                       "'Denoising Normal', 'Normal'", "'Denoising Depth', 'Depth'",
-                                                      "'Depth'", "'Vector'", ""};
+                                                      "'Depth'", "'Vector'", "", "'Noisy Image', 'Combined'"};
             list_passes(f, layer, passes, sizeof passes);
             return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT,
                                 "output '%s': layer '%s' of '%s' has no %s pass (looked for %s; passes: %s)", names[o],
@@ -255,12 +262,17 @@ static ew_result read_execute(ew_gnode *n, ew_run *r) {
     if (res != EW_OK) return res;
     read_state *s = (read_state *)n->state;
     if (pick_layer(n, s->file, path, layer, sizeof layer) != 0) return EW_ERR_INVALID_ARGUMENT;
+    snprintf(s->layer, sizeof s->layer, "%s", layer);
     read_map m;
     if ((res = map_passes(n, s->file, path, layer, &m)) != EW_OK) return res;
     const int w = ewio_width(s->file), h = ewio_height(s->file);
+    char key[320];
+    snprintf(key, sizeof key, "cycles.%s.samples", layer);
+    const int spp = atoi(ewio_get_attribute(s->file, key));
     for (int o = 0; o < R_NUM && res == EW_OK; o++) {
         if (!m.pass[o]) continue;
         ew_image v;
+        n->out_samples[o] = spp > 0 ? spp : 0;
         res = ew_run_output(r, n, o, w, h, (int)strlen(m.comps[o]), &v);
         if (res == EW_OK && ewio_get_pass(s->file, layer, m.pass[o], m.comps[o], (float *)v.data, err, sizeof err) != 0)
             res = ew_node_fail(n, EW_ERR_IO, "'%s': %s", path, err);
@@ -288,8 +300,8 @@ static const char *const pixel_types[] = {"half", "float", NULL};
 
 static const ew_nparam_desc write_params[] = {
     {"path", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 1, 1, "Path",
-     "output file; the extension picks the format (.exr, .png, .tif); '#' runs are the frame number. Written "
-     "atomically; never one of the graph's inputs"},
+     "output file; the extension picks the format (.exr, .png, .tif, .jpg); a run of '#' or a %04d is the frame "
+     "number. Written atomically; never one of the graph's inputs, never the file of another write or frame"},
     {"layer", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 0, 0, "Layer",
      "EXR layer name, e.g. 'ViewLayer'; empty: a plain image"},
     {"pass", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 0, 0, "Pass",
@@ -298,6 +310,13 @@ static const ew_nparam_desc write_params[] = {
      "component names, one letter each (e.g. 'XYZ', 'Z'); empty: Y, RG, RGB or RGBA by channel count"},
     {"pixel_type", EW_NODE_PARAM_ENUM, 0, 0, 0, "half", {0, 0, 0, 0}, pixel_types, 0, 0, "Pixel Type",
      "EXR/TIFF sample type (PNG is 8-bit)"},
+    {"keep_source", EW_NODE_PARAM_BOOL, 0, 0, 1, "", {0, 0, 0, 0}, NULL, 0, 0, "Keep Source",
+     "start from the file the image was read from (the read node upstream, this frame): every layer, pass, "
+     "alpha and header entry stays, and the image replaces 'pass' of 'layer' (empty: the read layer's "
+     "Combined), as `edgewise denoise` does. Write .exr for a multilayer file"},
+    {"original", EW_NODE_PARAM_STRING, 0, 0, 0, "", {0, 0, 0, 0}, NULL, 0, 0, "Keep Original As",
+     "with keep_source: also keep the replaced pass's original values as this pass, e.g. 'Noisy Image' (as "
+     "Blender and `edgewise denoise` do); empty: not kept"},
 };
 
 static ew_result write_check(ew_gnode *n) {
@@ -312,7 +331,29 @@ static ew_result write_check(ew_gnode *n) {
     }
     if (strchr(ew_node_str(n, "pass"), '.'))
         return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'pass': a pass name cannot contain '.'");
+    if (strchr(ew_node_str(n, "original"), '.'))
+        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'original': a pass name cannot contain '.'");
+    if (ew_node_str(n, "original")[0] && ew_node_num(n, "keep_source") == 0.0)
+        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'original' needs keep_source: true");
     return EW_OK;
+}
+
+/* The read node the image comes from: up the graph from input `port`,
+ * through the first connected input of each node on the way (a library
+ * node's "color" first). NULL if no read is upstream. */
+static ew_gnode *upstream_read(const ew_gnode *n, int port) {
+    const ew_graph *g = n->g;
+    int at = n->src_node[port];
+    for (int hops = 0; at >= 0 && hops <= g->num_nodes; hops++) {
+        ew_gnode *u = g->nodes[at];
+        if (!strcmp(u->type->name, "read")) return u;
+        int next = -1, c = ew_sig_find_input(&u->sig, "color");
+        if (c >= 0 && u->src_node[c] >= 0) next = u->src_node[c];
+        for (int p = 0; next < 0 && p < u->sig.num_inputs; p++)
+            if (u->src_node[p] >= 0) next = u->src_node[p];
+        at = next;
+    }
+    return NULL;
 }
 
 /* The output directory must exist and be writable before anything runs. */
@@ -332,11 +373,42 @@ static ew_result write_check_files(ew_gnode *n) {
     if (access(dir, W_OK) != 0)
         return ew_node_fail(n, EW_ERR_IO, "parameter 'path': cannot write '%s': directory '%s' is not writable", path,
                             dir);
+    if (ew_node_num(n, "keep_source") != 0.0 && !upstream_read(n, 0))
+        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT,
+                            "parameter 'keep_source': input 'image' does not come from a read node, so there is no "
+                            "source file to keep");
     const char *ext = strrchr(path, '.');
     if (!ext || (strcasecmp(ext, ".exr") && strcasecmp(ext, ".png") && strcasecmp(ext, ".tif") &&
                  strcasecmp(ext, ".tiff") && strcasecmp(ext, ".jpg") && strcasecmp(ext, ".jpeg")))
         return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT,
                             "parameter 'path': '%s' needs an extension .exr, .png, .tif/.tiff or .jpg", path);
+    return EW_OK;
+}
+
+/* Open the source file of this frame and say where the image goes. */
+static ew_result keep_source_open(ew_gnode *n, ew_run *r, const ew_image *im, ewio_file **f, const char **layer,
+                                  const char **pass) {
+    ew_gnode *rn = upstream_read(n, 0);
+    if (!rn || !rn->state)
+        return ew_node_fail(n, EW_ERR_INVALID_STATE, "parameter 'keep_source': no read node upstream ran");
+    const read_state *rs = (const read_state *)rn->state;
+    char src[4096], err[1024];
+    if (!ew_frame_path(ew_node_str(rn, "path"), r->frame, src, sizeof src))
+        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'path': too long");
+    if (ewio_read(src, f, err, sizeof err) != 0) return ew_node_fail(n, EW_ERR_IO, "keep_source: %s", err);
+    if (ewio_width(*f) != im->width || ewio_height(*f) != im->height) {
+        const int fw = ewio_width(*f), fh = ewio_height(*f);
+        ewio_free(*f);
+        *f = NULL;
+        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "keep_source: the image is %dx%d but '%s' is %dx%d",
+                            im->width, im->height, src, fw, fh);
+    }
+    if (!(*layer)[0]) *layer = rs->layer;
+    if (!(*pass)[0]) {
+        ew_layer_passes lp;
+        *pass = (*layer)[0] ? "Combined"
+                            : ew_find_image_passes(*f, *layer, &lp, err, sizeof err) == 0 ? lp.color : "";
+    }
     return EW_OK;
 }
 
@@ -347,16 +419,38 @@ static ew_result write_execute(ew_gnode *n, ew_run *r) {
         return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'path': too long");
     const char *layer = ew_node_str(n, "layer");
     const char *pass = ew_node_str(n, "pass");
+    const int keep = ew_node_num(n, "keep_source") != 0.0;
+    ewio_file *f = NULL;
+    if (keep) {
+        ew_result kr = keep_source_open(n, r, im, &f, &layer, &pass);
+        if (kr != EW_OK) return kr;
+    }
     if (layer[0] && !pass[0]) pass = "Combined";
     const char *comps = ew_node_str(n, "channels");
     static const char *const auto_comps[] = {"", "Y", "RG", "RGB", "RGBA"};
     if (!comps[0]) comps = auto_comps[im->channels];
-    if ((int)strlen(comps) != im->channels)
+    if ((int)strlen(comps) != im->channels) {
+        ewio_free(f);
         return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'channels': '%s' names %d channels but the image has %d",
                             comps, (int)strlen(comps), im->channels);
-    ewio_file *f = NULL;
-    if (ewio_create(im->width, im->height, &f, err, sizeof err) != 0)
+    }
+    if (!f && ewio_create(im->width, im->height, &f, err, sizeof err) != 0)
         return ew_node_fail(n, EW_ERR_IO, "frame %d: %s", r->frame, err);
+    /* the replaced values kept under another name, before they go */
+    const char *orig = ew_node_str(n, "original");
+    if (keep && orig[0] && strcmp(orig, pass) != 0 && !ewio_has_pass(f, layer, orig, comps) &&
+        ewio_has_pass(f, layer, pass, comps)) {
+        const char *oc = ewio_has_pass(f, layer, pass, "RGBA") ? "RGBA" : comps;
+        float *o = (float *)malloc((size_t)im->width * im->height * strlen(oc) * sizeof(float));
+        if (!o) snprintf(err, sizeof err, "out of memory");
+        int bad = !o || ewio_get_pass(f, layer, pass, oc, o, err, sizeof err) != 0 ||
+                  ewio_set_pass(f, layer, orig, oc, o, err, sizeof err) != 0;
+        free(o);
+        if (bad) {
+            ewio_free(f);
+            return ew_node_fail(n, EW_ERR_IO, "parameter 'original': frame %d: %s", r->frame, err);
+        }
+    }
     /* ewio takes packed pixels; graph buffers are, caller views may not be */
     const ew_image *src = im;
     float *tmp = NULL;
@@ -376,8 +470,10 @@ static ew_result write_execute(ew_gnode *n, ew_run *r) {
     ew_result res = EW_OK;
     if (ewio_set_pass(f, layer, pass, comps, data, err, sizeof err) != 0)
         res = ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "frame %d: %s", r->frame, err);
-    ewio_set_attribute(f, "Software", "edgewise graph");
-    ewio_pixel_type pt = ew_node_num(n, "pixel_type") == 1.0 ? EWIO_FLOAT : EWIO_HALF;
+    if (!keep) ewio_set_attribute(f, "Software", "edgewise graph");
+    else ewio_set_attribute(f, "edgewise.version", ew_version_string());
+    /* a kept file's passes keep their types; new ones are half or float */
+    ewio_pixel_type pt = ew_node_num(n, "pixel_type") == 1.0 ? EWIO_FLOAT : keep ? EWIO_KEEP : EWIO_HALF;
     if (res == EW_OK && ewio_write(f, path, pt, layer, pass, err, sizeof err) != 0)
         res = ew_node_fail(n, EW_ERR_IO, "frame %d: %s", r->frame, err);
     if (res == EW_OK) ew_run_report_written(r, path);
@@ -388,7 +484,7 @@ static ew_result write_execute(ew_gnode *n, ew_run *r) {
 
 const ew_node_type ew_node_write = {
     "write", 1, "io", "write an image file atomically (EXR, PNG, TIFF), one per frame",
-    NULL, NULL, write_inputs, 1, NULL, 0, write_params, 5, -1, 1,
+    NULL, NULL, write_inputs, 1, NULL, 0, write_params, 7, -1, 1,
     write_check, write_check_files, NULL, write_execute, NULL,
 };
 

@@ -91,6 +91,16 @@ static ew_result lib_execute(ew_gnode *n, ew_run *r) {
         if (res == EW_OK) res = set_image(s, d->name, &v);
         if (res != EW_OK) return ew_node_fail(n, res, "output '%s': %s", d->name, ew_device_last_error(n->g->dev));
     }
+    /* The render's sample count from the colour's metadata when the
+     * parameter is left at 0 (unknown), so "auto" chooses as the CLI does
+     * for the same file; set every frame, as frames may differ. */
+    const int sp = ew_sig_find_param(&n->sig, "samples");
+    const int ci = ew_sig_find_input(&n->sig, "color");
+    if (sp >= n->sig.num_static_params && n->values[sp].num == 0.0 && ci >= 0) {
+        const int spp = n->has_in[ci] ? n->in_samples[ci] : 0;
+        res = ew_op_set_int(s->op, "samples", spp);
+        if (res != EW_OK) return ew_node_fail(n, res, "parameter 'samples': %s", ew_device_last_error(n->g->dev));
+    }
     res = ew_op_commit(s->op);
     if (res == EW_OK) res = ew_op_execute(s->op);
     s->run = NULL;

@@ -164,6 +164,7 @@ static ew_result gather(ew_graph *g, ew_gnode *n) {
                                 n->sig.inputs[p].name, src->id, src->sig.outputs[sp].name);
         n->in[p] = src->out[sp];
         n->has_in[p] = 1;
+        n->in_samples[p] = src->out_samples[sp];
         if (n->in[p].channels < n->sig.inputs[p].min_channels)
             return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "input '%s' needs at least %d channels but '%s.%s' has %d",
                                 n->sig.inputs[p].name, n->sig.inputs[p].min_channels, src->id,
@@ -178,6 +179,15 @@ static ew_result gather(ew_graph *g, ew_gnode *n) {
         }
     }
     return EW_OK;
+}
+
+/* Metadata a node did not set on its outputs flows through from its inputs. */
+static void inherit_samples(ew_gnode *n) {
+    int s = 0;
+    for (int p = 0; p < n->sig.num_inputs; p++)
+        if (n->has_in[p] && n->in_samples[p] > s) s = n->in_samples[p];
+    for (int o = 0; o < n->sig.num_outputs; o++)
+        if (n->has_out[o] && n->out_samples[o] == 0) n->out_samples[o] = s;
 }
 
 /* After a node: its inputs lose a consumer (an "output" node keeps its
@@ -202,6 +212,8 @@ static void reset_frame(ew_graph *g) {
         for (int p = 0; p < EW_SIG_MAX_PORTS; p++) {
             n->has_out[p] = 0;
             n->has_in[p] = 0;
+            n->in_samples[p] = 0;
+            n->out_samples[p] = 0;
             n->out_buf[p] = -1;
         }
     }
@@ -261,6 +273,7 @@ ew_result ew_graph_run(ew_graph *g) {
                     ew_graph_fail(g, EW_ERR_CANCELLED, "cancelled in node '%s' (frame %d)", n->id, run.frame);
                 break;
             }
+            inherit_samples(n);
             release_after(g, n);
         }
         json_object_set_new(fr, "seconds", json_real(now_s() - tf));

@@ -414,6 +414,83 @@ static ew_result check_overwrite(ew_graph *g) {
     return res;
 }
 
+typedef struct {
+    char *path; /* the directory resolved, then the file name */
+    int node, frame;
+} out_id;
+
+static int cmp_out(const void *a, const void *b) {
+    const out_id *x = (const out_id *)a, *y = (const out_id *)b;
+    int c = strcmp(x->path, y->path);
+    if (c) return c;
+    return x->node != y->node ? (x->node < y->node ? -1 : 1) : (x->frame > y->frame) - (x->frame < y->frame);
+}
+
+/* The file a write will create, as one spelling: the directory's real path
+ * (it exists: write's check_files) and the file name. */
+static char *out_key(const char *path) {
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    char *real = realpath(dir, NULL);
+    const char *base = slash ? slash + 1 : path;
+    size_t n = strlen(real ? real : dir) + strlen(base) + 2;
+    char *key = (char *)malloc(n);
+    if (key) snprintf(key, n, "%s/%s", real ? real : dir, base);
+    free(real);
+    return key;
+}
+
+/* Refuse before running when two writes, or two frames of one write, would
+ * create the same file: the later would silently replace the earlier. */
+static ew_result check_collisions(ew_graph *g) {
+    size_t cap = 0, count = 0;
+    out_id *ids = NULL;
+    char path[4096];
+    ew_result res = EW_OK;
+    for (int k = 0; k < g->num_order && res == EW_OK; k++) {
+        ew_gnode *n = g->nodes[g->order[k]];
+        if (strcmp(n->type->name, "write") != 0) continue;
+        for (int f = 0; f < g->num_frames && res == EW_OK; f++) {
+            if (!ew_frame_path(ew_node_str(n, "path"), g->frames[f], path, sizeof path)) continue;
+            if (count == cap) {
+                cap = cap ? cap * 2 : 64;
+                out_id *ni = (out_id *)realloc(ids, cap * sizeof *ni);
+                if (!ni) {
+                    res = ew_graph_fail(g, EW_ERR_OUT_OF_MEMORY, "out of memory");
+                    break;
+                }
+                ids = ni;
+            }
+            ids[count].path = out_key(path);
+            ids[count].node = g->order[k];
+            ids[count].frame = g->frames[f];
+            if (!ids[count].path) res = ew_graph_fail(g, EW_ERR_OUT_OF_MEMORY, "out of memory");
+            count++;
+        }
+    }
+    if (res == EW_OK && count > 1) qsort(ids, count, sizeof *ids, cmp_out);
+    for (size_t i = 1; res == EW_OK && i < count; i++) {
+        const out_id *a = &ids[i - 1], *b = &ids[i];
+        if (strcmp(a->path, b->path) != 0) continue;
+        const ew_gnode *na = g->nodes[a->node], *nb = g->nodes[b->node];
+        if (a->node == b->node)
+            res = ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT,
+                                "node '%s' parameter 'path': frames %d and %d would both be written to '%s': put the "
+                                "frame number in the file name ('####' or '%%04d', e.g. out_####.exr)",
+                                na->id, a->frame, b->frame, ew_node_str(na, "path"));
+        else
+            res = ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT,
+                                "nodes '%s' and '%s' would both write '%s' (frame %d): give each write its own path",
+                                na->id, nb->id, a->path, a->frame);
+    }
+    for (size_t i = 0; i < count; i++) free(ids[i].path);
+    free(ids);
+    return res;
+}
+
 ew_result ew_graph_check_files(ew_graph *g) {
     ew_result r = resolve_frames(g);
     if (r != EW_OK) return r;
@@ -421,6 +498,7 @@ ew_result ew_graph_check_files(ew_graph *g) {
         ew_gnode *n = g->nodes[g->order[k]];
         if (n->type->check_files && (r = n->type->check_files(n)) != EW_OK) return r;
     }
+    if ((r = check_collisions(g)) != EW_OK) return r;
     return check_overwrite(g);
 }
 

@@ -1146,4 +1146,28 @@ int ewio_create(int width, int height, ewio_file **out, char *err, size_t errlen
     return 1;
 }
 
+int ewio_pass_read_as_integer(const ewio_file *f, const char *layer, const char *pass) {
+    if (!f) return 0;
+    const std::string l = layer ? layer : "", p = pass ? pass : "";
+    bool any = false;
+    for (const Channel &c : f->ch)
+        if (c.layer == l && c.pass == p) {
+            any = true;
+            if (c.type.basetype != TypeDesc::UINT8 && c.type.basetype != TypeDesc::UINT16) return 0;
+        }
+    return any ? 1 : 0;
+}
+
+int ewio_write_is_integer(const ewio_file *f, const char *path, ewio_pixel_type type, const char *layer,
+                          const char *pass) {
+    if (!f || !path) return -1;
+    const std::string ext = lower_ext(base_of(path));
+    if (ext == "png" || ext == "jpg" || ext == "jpeg") return 1;
+    if (ext == "exr") return 0;
+    if (ext != "tif" && ext != "tiff") return -1;
+    /* TIFF keeps 8/16-bit only for a pass read as such (write_impl) */
+    return type == EWIO_KEEP && ewio_pass_read_as_integer(f, layer, pass) ? 1 : 0;
+}
+
+
 } // extern "C"

@@ -119,6 +119,17 @@ typedef enum ewio_pixel_type {
 int ewio_write(const ewio_file *f, const char *path, ewio_pixel_type type,
                const char *layer, const char *pass, char *err, size_t errlen);
 
+/* How ewio_write(f, path, type, layer, pass) stores samples: 1 as 8/16-bit
+ * integers clamped to 0..1 (PNG, JPEG, a TIFF of a pass read as integers
+ * under EWIO_KEEP), i.e. display values; 0 as floats (EXR, float TIFF);
+ * -1 for an extension it does not write. */
+int ewio_write_is_integer(const ewio_file *f, const char *path, ewio_pixel_type type, const char *layer,
+                          const char *pass);
+/* 1 when every channel of the pass was read as 8/16-bit integers (PNG,
+ * JPEG, integer TIFF): its values are already display-encoded, not scene
+ * linear. 0 otherwise (floats, new channels, no such pass). */
+int ewio_pass_read_as_integer(const ewio_file *f, const char *layer, const char *pass);
+
 /* Create an empty in-memory file of the given size (for tests and for
  * writing library outputs that did not come from a file): no channels, no
  * metadata; written as EXR it gets zip compression. Same size limits as

@@ -20,9 +20,9 @@ static const char *first_present(const ewio_file *f, const char *layer, const ch
     return NULL;
 }
 
-int ew_find_layer_passes(const ewio_file *f, const char *layer, ew_layer_passes *out, char *err,
-                         size_t errlen) {
-    static const char *const colors[] = {"Noisy Image", "Combined", "", NULL};
+/* colors: the colour pass names in order of preference. */
+static int find_passes(const ewio_file *f, const char *layer, const char *const *colors, ew_layer_passes *out,
+                       char *err, size_t errlen) {
     static const char *const albedos[] = {"Denoising Albedo", "DiffCol", NULL};
     static const char *const normals[] = {"Denoising Normal", "Normal", NULL};
     static const char *const depths[] = {"Denoising Depth", "Depth", NULL};
@@ -42,8 +42,8 @@ int ew_find_layer_passes(const ewio_file *f, const char *layer, ew_layer_passes 
     snprintf(out->layer, sizeof out->layer, "%s", layer);
     out->color = first_present(f, layer, "RGB", colors);
     if (!out->color) {
-        snprintf(err, errlen, "layer '%s' has no colour pass (looked for Noisy Image, Combined and plain R,G,B; layers found: %s)",
-                 layer, layers);
+        snprintf(err, errlen, "layer '%s' has no colour pass (looked for %s and plain R,G,B; layers found: %s)",
+                 layer, colors[0][0] == 'N' ? "Noisy Image, Combined" : "Combined, Noisy Image", layers);
         return 1;
     }
     out->color_comps = ewio_has_pass(f, layer, out->color, "RGBA") ? "RGBA" : "RGB";
@@ -51,4 +51,16 @@ int ew_find_layer_passes(const ewio_file *f, const char *layer, ew_layer_passes 
     out->normal = first_present(f, layer, "XYZ", normals);
     out->depth = first_present(f, layer, "Z", depths);
     return 0;
+}
+
+int ew_find_layer_passes(const ewio_file *f, const char *layer, ew_layer_passes *out, char *err, size_t errlen) {
+    static const char *const colors[] = {"Noisy Image", "Combined", "", NULL};
+    return find_passes(f, layer, colors, out, err, errlen);
+}
+
+int ew_find_image_passes(const ewio_file *f, const char *layer, ew_layer_passes *out, char *err, size_t errlen) {
+    /* "Noisy Image" is only a fallback: a layer that has it always has
+     * Combined too (Blender writes both), but a hand-made file may not. */
+    static const char *const colors[] = {"Combined", "", "Noisy Image", NULL};
+    return find_passes(f, layer, colors, out, err, errlen);
 }

@@ -1,7 +1,12 @@
 /*
- * cycles_passes.h — which passes of a Cycles render layer feed a denoiser:
- * the noisy colour ("Noisy Image" when Blender's own denoiser ran, else
- * "Combined"), and the feature passes with their fallbacks.
+ * cycles_passes.h — which passes of a Cycles render layer a command reads:
+ * the colour and the feature passes with their fallbacks. Two colours:
+ * - a denoiser's input is the noisy colour: "Noisy Image" when a denoiser
+ *   (Blender's, or `edgewise denoise`) already ran and kept the original,
+ *   else "Combined" (ew_find_layer_passes);
+ * - everything else (compare, info, filters, DoF, the graph's read.color)
+ *   works on the image the file shows, "Combined" (ew_find_image_passes):
+ *   on a denoised file the noisy original is not the picture.
  */
 #ifndef EW_CYCLES_PASSES_H
 #define EW_CYCLES_PASSES_H
@@ -20,9 +25,13 @@ typedef struct ew_layer_passes {
     const char *depth;       /* NULL when absent */
 } ew_layer_passes;
 
-/* Find the passes of `layer`. Returns 0 when the layer has a colour pass,
- * non-zero with a message otherwise (naming the layers found). */
+/* Find the passes of `layer` for a denoiser (colour: "Noisy Image", else
+ * "Combined", else a plain R,G,B). Returns 0 when the layer has a colour
+ * pass, non-zero with a message otherwise (naming the layers found). */
 int ew_find_layer_passes(const ewio_file *f, const char *layer, ew_layer_passes *out, char *err, size_t errlen);
+/* The same for the image the file shows (colour: "Combined", else a plain
+ * R,G,B, else "Noisy Image"). */
+int ew_find_image_passes(const ewio_file *f, const char *layer, ew_layer_passes *out, char *err, size_t errlen);
 
 /* The names of all layers, comma-separated, quoted, for messages. */
 void ew_list_layers(const ewio_file *f, char *buf, size_t len);

@@ -149,6 +149,7 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     if (r == EW_OK && !samples_set && in->samples > 0 && find_param(spec, "samples", &sp))
         r = ew_op_set_int(op, "samples", in->samples);
     if (r == EW_OK && spec->data_name) r = ew_op_set_data(op, spec->data_name, spec->data, spec->data_size);
+    if (r == EW_OK && spec->progress) r = ew_op_set_progress(op, spec->progress, spec->progress_user);
     double t0 = now_ms();
     if (r == EW_OK) r = ew_op_commit(op);
     if (r == EW_OK) r = ew_op_execute(op);

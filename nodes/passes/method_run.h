@@ -29,6 +29,9 @@ typedef struct ew_method_spec {
      * model "auto" picked */
     char *chosen;
     size_t chosen_len;
+    /* optional: the method's progress (ew_*_set_progress) */
+    ew_progress_fn progress;
+    void *progress_user;
 } ew_method_spec;
 
 /* Inputs of one layer, read once, reused across methods. */

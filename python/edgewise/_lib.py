@@ -16,6 +16,27 @@ class LibraryNotFoundError(OSError):
     """libedgewise / libedgewise_nodes could not be found or loaded."""
 
 
+class EdgewiseError(Exception):
+    """A failure of the library: `code` is the ew_result value, `code_name`
+    its name, str(e) the library's message."""
+
+    def __init__(self, code, message):
+        self.code = int(code)
+        self.code_name = RESULT_NAMES.get(self.code, str(code))
+        Exception.__init__(self, message)
+
+    def __str__(self):
+        return Exception.__str__(self)
+
+
+class UnknownNameError(EdgewiseError, KeyError):
+    """An unknown node type, method or pass name (EW_ERR_INVALID_ARGUMENT).
+    Also a KeyError, for code written when that was what it raised."""
+
+    def __init__(self, message):
+        EdgewiseError.__init__(self, 1, message)
+
+
 # ---- C structures (edgewise.h, nodes.h) -----------------------------------
 
 class Image(ctypes.Structure):
@@ -110,6 +131,13 @@ def _candidate_dirs():
         dirs.append(env if os.path.isdir(env) else os.path.dirname(os.path.abspath(env)))
     here = os.path.dirname(os.path.abspath(__file__))
     dirs.append(here)
+    # where the installer said the libraries are: `cmake --install` writes the
+    # install's library directory, `pip install ./python` the clone's build/lib
+    try:
+        from . import _install
+        dirs.extend(d for d in getattr(_install, "LIBRARY_DIRS", ()) if d)
+    except ImportError:
+        pass
     dirs.append(os.path.join(os.path.dirname(os.path.dirname(here)), "build", "lib"))
     return dirs
 
@@ -175,6 +203,15 @@ def _declare(core, nodes):
     fn(nodes, "ew_graph_report", c_char_p, c_void_p)
     fn(nodes, "ew_graph_get_stats", c_int32, c_void_p, P(GraphStats))
     fn(nodes, "ew_nodes_color_config", c_int32, c_char_p, ctypes.c_size_t)
+    sz = ctypes.c_size_t
+    fn(nodes, "ew_image_file_read", c_int32, c_char_p, P(c_void_p), c_char_p, sz)
+    fn(nodes, "ew_image_file_create", c_int32, c_int32, c_int32, P(c_void_p), c_char_p, sz)
+    fn(nodes, "ew_image_file_destroy", None, c_void_p)
+    fn(nodes, "ew_image_file_describe", c_char_p, c_void_p)
+    fn(nodes, "ew_image_file_get_pass", c_int32, c_void_p, c_char_p, c_char_p, c_char_p, P(Image), c_char_p, sz)
+    fn(nodes, "ew_image_file_set_pass", c_int32, c_void_p, c_char_p, c_char_p, c_char_p, P(Image), c_char_p, sz)
+    fn(nodes, "ew_image_file_set_attribute", c_int32, c_void_p, c_char_p, c_char_p)
+    fn(nodes, "ew_image_file_write", c_int32, c_void_p, c_char_p, c_int32, c_char_p, c_char_p, c_char_p, sz)
 
 
 def libs():

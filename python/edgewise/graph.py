@@ -13,14 +13,7 @@ from . import _lib
 from .node_types import node_type
 
 
-class EdgewiseError(Exception):
-    """A failure of the library: `code` is the ew_result value, `code_name`
-    its name, str(e) the library's message."""
-
-    def __init__(self, code, message):
-        self.code = int(code)
-        self.code_name = _lib.RESULT_NAMES.get(self.code, str(code))
-        Exception.__init__(self, message)
+EdgewiseError = _lib.EdgewiseError
 
 
 class CancelledError(EdgewiseError):
@@ -404,6 +397,11 @@ def run_node(type_name, outputs=None, device=None, progress=None, **kwargs):
         g.add("output", id="out%d" % i, image=node[name])
     g.run(progress)
     result = dict((name, g.output("out%d" % i, copy=False)) for i, name in enumerate(names))
+    # A denoiser works on RGB; alpha goes through, as the filters carry it.
+    color = kwargs.get("color")
+    if type_name == "denoise" and "output" in result and isinstance(color, np.ndarray) and color.ndim == 3 \
+            and color.shape[2] == 4 and result["output"].shape[2] == 3:
+        result["output"] = np.concatenate((result["output"], np.asarray(color[:, :, 3:4], np.float32)), axis=2)
     if outputs is None or isinstance(outputs, str):
         return result[names[0]]
     return result

@@ -27,7 +27,7 @@ def node_type(name, method=None):
     _, nodes = _lib.libs()
     info = _lib.NodeTypeInfo()
     if nodes.ew_node_type_get(_e(name), _e(method), info) != 0:
-        raise KeyError("unknown node type %r%s" % (name, "" if method is None else " with method %r" % method))
+        raise _lib.UnknownNameError("unknown node type %r%s" % (name, "" if method is None else " with method %r" % method))
     out = {
         "name": _s(info.name),
         "version": info.version,

@@ -72,7 +72,7 @@ no_temps "$T" no_temporaries_left
 # ---- good input
 expect two_layers 0 "layer 'Back Plate'" -- denoise "$T/two_layers.exr" -o "$T/two_out.exr"
 "$EW" info "$T/two_out.exr" >"$T/info" 2>&1
-grep -q "layer 'ViewLayer': colour 'Noisy Image'" "$T/info" && grep -q "layer 'Back Plate'" "$T/info" \
+grep -q "layer 'ViewLayer': colour 'Combined' (denoise reads 'Noisy Image')" "$T/info" && grep -q "layer 'Back Plate'" "$T/info" \
   && ok both_layers_written_with_noisy_kept || bad both_layers_written_with_noisy_kept
 grep -q "ViewLayer.Denoising Albedo.R" "$T/info" && ok other_passes_kept || bad other_passes_kept
 expect bad_samples 0 "" -- denoise "$T/bad_samples.exr" -o "$T/bs.exr" --float

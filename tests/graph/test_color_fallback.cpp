@@ -34,9 +34,10 @@ int main() {
     EXPECT(std::fabs(px[0] - 0.46135f) < 1e-3f && std::fabs(px[1]) < 1e-6f && std::fabs(px[2] - 1.0f) < 1e-4f);
     ewcolor_free(p);
     EXPECT(ewcolor_display("", "", "", "", 0.0f, 1.0f, &p, err, sizeof err) == 0);
-    float q[4] = {0.18f, 0.18f, 0.18f, 0.5f};
+    // RGBA is associated: the colour 0.09 at alpha 0.5 is 0.18 shown at half coverage
+    float q[4] = {0.09f, 0.09f, 0.09f, 0.5f};
     ewcolor_apply(p, q, 1, 1, 4);
-    EXPECT(std::fabs(q[0] - 0.46135f) < 1e-3f && q[3] == 0.5f);
+    EXPECT(std::fabs(q[0] - 0.5f * 0.46135f) < 1e-3f && q[3] == 0.5f);
     ewcolor_free(p);
     EXPECT(ewcolor_display("", "sRGB", "Raw", "", 1.0f, 1.0f, &p, err, sizeof err) == 0);
     float r[3] = {0.25f, 0.25f, 0.25f};

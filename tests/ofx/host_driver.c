@@ -200,7 +200,9 @@ OfxStatus hx_clip_prefs(const host_bundle *b, int plugin, host_effect *inst, Ofx
         char name[128];
         snprintf(name, sizeof name, "OfxImageClipPropComponents_%s", clip->name);
         hp_declare(*out, name, 's', 1, 1);
-        hp_set_s(*out, name, 0, hp_s(clip->props, "OfxImageEffectPropComponents", 0));
+        /* the host's default, as hosts negotiating components by the spec
+         * do: the richest the effect supports, whatever the input has */
+        hp_set_s(*out, name, 0, "OfxImageComponentRGBA");
         snprintf(name, sizeof name, "OfxImageClipPropDepth_%s", clip->name);
         hp_declare(*out, name, 's', 1, 1);
         hp_set_s(*out, name, 0, hp_s(clip->props, "OfxImageEffectPropPixelDepth", 0));

@@ -40,6 +40,7 @@ const fx_sample *fx_cornell(char *err, size_t len) {
         ewio_free(f);
         return NULL;
     }
+    s.samples = atoi(ewio_get_attribute(f, "cycles.ViewLayer.samples"));
     ewio_free(f);
     cornell = s;
     cornell_loaded = 1;

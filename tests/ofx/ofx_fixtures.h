@@ -19,6 +19,7 @@ typedef struct fx_sample {
     float *normal;  /* Denoising Normal, 3 */
     float *ddepth;  /* Denoising Depth, 1 */
     float *depth;   /* Depth (planar camera depth, metres), 1 */
+    int samples;    /* the file's cycles.ViewLayer.samples, 0 if absent */
 } fx_sample;
 
 /* Loads $EW_SAMPLE_DIR/cornell/f0001_spp0004.exr once per process (the

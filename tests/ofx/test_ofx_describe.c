@@ -209,7 +209,14 @@ TEST(parameters_are_generated_from_the_descriptors) {
             if (!p) FAIL_AT("%s: no parameter %s", method, info.name);
             CHECK(p);
             OfxPropertySetHandle q = p->props;
-            CHECK(!strcmp(hp_s(q, "OfxParamPropHint", 0), info.hint));
+            if (!strcmp(info.name, "samples")) {
+                /* what 0 means in a host: its sample count for the clip, else the noise */
+                CHECK_STR_CONTAINS(hp_s(q, "OfxParamPropHint", 0), "0: the Source clip's sample count");
+                CHECK_STR_CONTAINS(hp_s(q, "OfxParamPropHint", 0), "org.edgewise.OfxImageClipPropRenderSamples");
+                CHECK_STR_CONTAINS(hp_s(q, "OfxParamPropHint", 0), "noise");
+            } else {
+                CHECK(!strcmp(hp_s(q, "OfxParamPropHint", 0), info.hint));
+            }
             CHECK(!strcmp(hp_s(q, "OfxParamPropScriptName", 0), info.name));
             /* the label is the name in words: "spatial_rate" -> "Spatial rate" */
             const char *label = hp_s(q, "OfxPropLabel", 0);
@@ -263,6 +270,30 @@ TEST(load_fetches_suites_and_instances_get_handles) {
     fx_close(&fx);
     CHECK_EQ_INT(host_st.memory_out, 0); /* instance data came from, and went back to, the memory suite */
     if (host_st.violations) FAIL_AT("%d host violations, last: %s", host_st.violations, host_st.last_violation);
+}
+
+/* plugin/README.md names every plugin of the bundle by its identifier. */
+TEST(readme_lists_every_plugin) {
+    const char *dir = getenv("EW_SAMPLE_DIR");
+    if (!dir) SKIP("EW_SAMPLE_DIR not set: no source tree to find plugin/README.md in");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/../plugin/README.md", dir);
+    FILE *f = fopen(path, "rb");
+    if (!f) FAIL_AT("cannot open %s", path);
+    CHECK(f);
+    static char text[1 << 16];
+    size_t len = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[len] = '\0';
+    host_bundle b;
+    if (hb_open(&b, err, sizeof err)) FAIL_AT("%s", err);
+    CHECK(b.dl);
+    for (int i = 0; i < b.get_count(); i++) {
+        char want[96];
+        snprintf(want, sizeof want, "`%s`", b.get_plugin(i)->pluginIdentifier);
+        if (!strstr(text, want)) FAIL_AT("plugin/README.md does not list %s", want);
+    }
+    hb_close(&b);
 }
 
 TEST(registered_test_count) {

@@ -44,6 +44,11 @@ typedef struct {
     /* If the library refuses these inputs/parameters, the plugin must refuse
      * them too (kOfxStatFailed with the library's message) instead. */
     int library_may_refuse;
+    /* > 0: the host gives the render's sample count on the Source clip */
+    int source_samples;
+    /* a one-channel clip the host hands over expanded to RGBA, as (0, 0, 0,
+     * v), with the clip's unmapped components Alpha; NULL: none */
+    const char *expanded_clip;
 } render_case;
 
 static float *rgb_of(const float *rgba, size_t n) {
@@ -71,13 +76,24 @@ static void run_case(const render_case *c) {
         goto done;
     }
     hx_clip_set_image(he_clip(fx.inst, "Source"), src, w, h, c->src_comps, c->x1, c->y1, c->layout);
+    if (c->source_samples > 0)
+        hp_set_i(he_clip(fx.inst, "Source")->props, "org.edgewise.OfxImageClipPropRenderSamples", 0, c->source_samples);
     for (int i = 0; i < c->num_aux; i++) {
         host_clip *clip = he_clip(fx.inst, c->aux[i].clip);
         if (!clip) {
             FAIL_AT("no clip %s", c->aux[i].clip);
             goto done;
         }
-        hx_clip_set_image(clip, c->aux[i].data, w, h, c->aux[i].comps, c->x1, c->y1, c->layout);
+        if (c->expanded_clip && !strcmp(c->expanded_clip, c->aux[i].clip) && c->aux[i].comps == 1) {
+            float *rgba = (float *)calloc(n * 4, sizeof(float));
+            if (!rgba) abort();
+            for (size_t k = 0; k < n; k++) rgba[k * 4 + 3] = c->aux[i].data[k];
+            hx_clip_set_image(clip, rgba, w, h, 4, c->x1, c->y1, c->layout);
+            hp_set_s(clip->props, "OfxImageClipPropUnmappedComponents", 0, "OfxImageComponentAlpha");
+            free(rgba);
+        } else {
+            hx_clip_set_image(clip, c->aux[i].data, w, h, c->aux[i].comps, c->x1, c->y1, c->layout);
+        }
     }
     for (int i = 0; i < c->num_params; i++)
         if (fx_set_param(&fx, c->params[i].name, c->params[i].value)) {
@@ -260,10 +276,49 @@ TEST(pyramid_matches_library) {
     run_case(&c);
 }
 
+static void dof_case(const fx_sample *s, render_case *c);
+
 TEST(dof_matches_library) {
     NEED("org.edgewise.filter.dof");
     const fx_sample *s = cornell();
     CHECK(s);
+    render_case c;
+    dof_case(s, &c);
+    run_case(&c);
+}
+
+/* A host that expands the one-channel Depth to RGBA (depth in alpha, R = G
+ * = B = 0) against the clip preference: the plugin reads the alpha. */
+TEST(dof_depth_expanded_to_rgba_by_the_host) {
+    NEED("org.edgewise.filter.dof");
+    const fx_sample *s = cornell();
+    CHECK(s);
+    render_case c;
+    dof_case(s, &c);
+    c.expanded_clip = "Depth";
+    run_case(&c);
+}
+
+/* nbg in the filter context, where its features cannot be mandatory, and
+ * nothing connected but Source: the colour-guided grid, and a warning. */
+TEST(nbg_without_features_falls_back) {
+    NEED("org.edgewise.denoise.nbg");
+    const fx_sample *s = cornell();
+    CHECK(s);
+    render_case c;
+    memset(&c, 0, sizeof c);
+    c.id = "org.edgewise.denoise.nbg";
+    c.kind = "denoiser";
+    c.method = "bgrid"; /* what the library runs: the reference */
+    c.context = FILTER;
+    c.s = s;
+    c.src_comps = 4;
+    run_case(&c);
+    CHECK_STR_CONTAINS(host_st.last_message, "denoised by the bilateral grid guided by the colour alone");
+}
+
+static void dof_case(const fx_sample *s, render_case *c0) {
+    memset(c0, 0, sizeof *c0);
     render_case c;
     memset(&c, 0, sizeof c);
     c.id = "org.edgewise.filter.dof";
@@ -282,7 +337,7 @@ TEST(dof_matches_library) {
     c.params[2] = (fx_param){"radius", 12};
     c.params[3] = (fx_param){"weights", 0}; /* see pyramid_case */
     c.num_params = 4;
-    run_case(&c);
+    *c0 = c;
 }
 
 TEST(atrous_matches_library) {
@@ -351,6 +406,59 @@ TEST(every_plugin_with_defaults_matches_library) {
         run_case(&c);
         if (ew_failed_now_) return;
     }
+}
+
+/* "auto" with its "samples" parameter at 0 takes the sample count the host
+ * gives on the Source clip, so it picks what the CLI and a graph pick for
+ * the same file: the library run with that count. */
+static void auto_case(const fx_sample *s, render_case *c, int samples) {
+    memset(c, 0, sizeof *c);
+    c->id = "org.edgewise.denoise.auto";
+    c->kind = "denoiser";
+    c->method = "auto";
+    c->context = GENERAL;
+    c->s = s;
+    c->src_comps = 4;
+    c->aux[0] = (case_aux){"Albedo", "albedo", s->albedo, 3};
+    c->aux[1] = (case_aux){"Normal", "normal", s->normal, 3};
+    c->aux[2] = (case_aux){"Depth", "depth", s->ddepth, 1};
+    c->num_aux = 3;
+    c->source_samples = samples;
+    c->lib_params[0] = (fx_param){"samples", (double)samples};
+    c->num_lib_params = 1;
+}
+
+TEST(auto_takes_the_file_sample_count_from_the_source_clip) {
+    const fx_sample *s = cornell();
+    CHECK(s);
+    NEED("org.edgewise.denoise.auto");
+    CHECK(s->samples > 0); /* the bundled render says how many */
+    render_case c;
+    auto_case(s, &c, s->samples);
+    run_case(&c);
+}
+
+TEST(auto_takes_another_sample_count_from_the_source_clip) {
+    const fx_sample *s = cornell();
+    CHECK(s);
+    NEED("org.edgewise.denoise.auto");
+    /* A count the noise estimate of this 4-spp frame would not lead to, so
+     * a plugin ignoring the host's count renders something else. */
+    const int n = s->w * s->h, spp = 1024;
+    float *with = (float *)malloc((size_t)n * 4 * sizeof(float)), *without = (float *)malloc((size_t)n * 4 * sizeof(float));
+    if (!with || !without) abort();
+    fx_image aux[3] = {{"albedo", s->albedo, 3}, {"normal", s->normal, 3}, {"depth", s->ddepth, 1}};
+    fx_param p = {"samples", (double)spp};
+    int threads = 3; /* host_reset's CPUs, as run_case's reference uses */
+    CHECK_EQ_INT(fx_reference("denoiser", "auto", threads, s->w, s->h, s->rgba, 4, 3, aux, 3, &p, 1, with, err, sizeof err), 0);
+    CHECK_EQ_INT(fx_reference("denoiser", "auto", threads, s->w, s->h, s->rgba, 4, 3, aux, 3, NULL, 0, without, err, sizeof err), 0);
+    char msg[256];
+    CHECK(fx_compare(with, without, (size_t)n * 4, 4, s->w, msg, sizeof msg) > 0);
+    free(with);
+    free(without);
+    render_case c;
+    auto_case(s, &c, spp);
+    run_case(&c);
 }
 
 /* An odd-sized crop away from the origin, rendered through windows that

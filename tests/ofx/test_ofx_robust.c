@@ -69,6 +69,7 @@ TEST(region_of_definition_interest_and_clip_preferences) {
     fx_sample crop;
     OPEN(fx, BGRID, FILTER, crop);
     hx_clip_set_image(he_clip(fx.inst, "Albedo"), crop.albedo, crop.w, crop.h, 3, -7, 13, 0);
+    hx_clip_set_image(he_clip(fx.inst, "Depth"), crop.ddepth, crop.w, crop.h, 1, -7, 13, 0);
 
     double rod[4];
     CHECK_EQ_INT(hx_rod(&fx.bundle, fx.index, fx.inst, 1.0, rod), kOfxStatOK);
@@ -93,6 +94,7 @@ TEST(region_of_definition_interest_and_clip_preferences) {
     /* a feature clip keeps its components (a one-channel depth stays one channel) */
     CHECK(!strcmp(hp_s(prefs, "OfxImageClipPropComponents_Albedo", 0), "OfxImageComponentRGB"));
     CHECK(!strcmp(hp_s(prefs, "OfxImageClipPropDepth_Albedo", 0), "OfxBitDepthFloat"));
+    CHECK(!strcmp(hp_s(prefs, "OfxImageClipPropComponents_Depth", 0), "OfxImageComponentAlpha"));
     CHECK_EQ_INT(hp_count(prefs, "OfxImageClipPropDepth_Normal"), -1); /* unconnected: not asked */
     hp_free(prefs);
     if (host_st.violations) FAIL_AT("%d host violations, last: %s", host_st.violations, host_st.last_violation);

@@ -43,8 +43,10 @@ class TestExamples(TempDirTest):
         if not blender or "asan" in os.environ.get("LD_PRELOAD", ""):
             self.skipTest("Blender is not installed")
         script = os.path.join(EXAMPLES, "denoise_numpy.py")
-        code = ("import sys; sys.argv = [%r, %r]; exec(compile(open(%r).read(), %r, 'exec'), "
-                "{'__name__': '__main__', '__file__': %r})" % (script, self.tmp, script, script, script))
+        # Blender's Python ignores PYTHONPATH: the package's directory goes on its path here
+        pkg = os.environ.get("PYTHONPATH") or os.path.join(EXAMPLES, "..", "python")
+        code = ("import sys; sys.path.insert(0, %r); sys.argv = [%r, %r]; exec(compile(open(%r).read(), %r, 'exec'), "
+                "{'__name__': '__main__', '__file__': %r})" % (pkg, script, self.tmp, script, script, script))
         r = run([blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python-expr", code],
                 env=dict(os.environ), timeout=300)
         self.assertEqual(r.returncode, 0, r.stdout[-2000:] + r.stderr[-2000:])

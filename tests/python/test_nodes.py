@@ -113,12 +113,16 @@ class TestGraphs(TempDirTest):
         g = ew.Graph()
         r = g.add("read", path=RENDER)
         g.add("denoise", id="given", samples=4, color=r.color, albedo=r.albedo, normal=r.normal, depth=r.depth)
-        g.add("denoise", id="estimated", color=r.color, albedo=r.albedo, normal=r.normal, depth=r.depth)
+        # the file's sample count travels with the read colour; an array has none
+        g.add("denoise", id="from_file", color=r.color, albedo=r.albedo, normal=r.normal, depth=r.depth)
+        g.add("denoise", id="estimated", color=g.add_input(read_image(RENDER)), albedo=r.albedo, normal=r.normal,
+              depth=r.depth)
         g.add("denoise", id="plain", method="bgrid", color=r.color, albedo=r.albedo)
-        for n in ("given", "estimated", "plain"):
+        for n in ("given", "from_file", "estimated", "plain"):
             g.add("output", id="o_" + n, image=g.node(n)["output"])
         methods = g.run()["frames"][0]["methods"]
         self.assertEqual(methods["given"], "nbg 2layer-3grid (4 spp)")
+        self.assertEqual(methods["from_file"], "nbg 2layer-3grid (4 spp)")
         self.assertIn("noise estimate", methods["estimated"])
         self.assertEqual(methods["plain"], "bgrid")
 

@@ -165,6 +165,39 @@ typedef struct ew_graph_stats {
     double overhead_seconds;  /* part of run_seconds spent in the graph itself */
 } ew_graph_stats;
 EW_NODES_API ew_result ew_graph_get_stats(const ew_graph *g, ew_graph_stats *out);
+/* Frames the next run runs, once validated (0 before, or for NULL). */
+EW_NODES_API int32_t ew_graph_frame_count(const ew_graph *g);
+
+/* ---- image files (what Python's edgewise.read / write use) -------------- */
+/* A whole image file in memory (EXR, multilayer EXR, PNG, TIFF, JPEG) with
+ * its layers, passes and header; pixels as float. Channel names follow
+ * Blender's multilayer EXR, "<layer>.<pass>.<component>"; a plain RGB(A)
+ * file is layer "" with pass "". Failures return a code and a one-line
+ * message in err (errlen bytes). */
+typedef struct ew_image_file ew_image_file;
+EW_NODES_API ew_result ew_image_file_read(const char *path, ew_image_file **out, char *err, size_t errlen);
+EW_NODES_API ew_result ew_image_file_create(int32_t width, int32_t height, ew_image_file **out, char *err,
+                                            size_t errlen);
+EW_NODES_API void ew_image_file_destroy(ew_image_file *f);
+/* JSON: {"width", "height", "layers": {layer: {"passes": {pass: "RGBA"},
+ * "color": the pass the file shows, "noisy"/"albedo"/"normal"/"depth": what
+ * a denoiser reads}}, "attributes": {Cycles' sample counts, compression...}}.
+ * Valid until the file changes or is destroyed. */
+EW_NODES_API const char *ew_image_file_describe(ew_image_file *f);
+/* Copy a pass into / out of a packed view of the file's size with one
+ * channel per letter of comps ("RGBA", "XYZ", "Z"...). set_pass replaces the
+ * pass's channels or adds them. */
+EW_NODES_API ew_result ew_image_file_get_pass(const ew_image_file *f, const char *layer, const char *pass,
+                                              const char *comps, const ew_image *dst, char *err, size_t errlen);
+EW_NODES_API ew_result ew_image_file_set_pass(ew_image_file *f, const char *layer, const char *pass, const char *comps,
+                                              const ew_image *src, char *err, size_t errlen);
+EW_NODES_API ew_result ew_image_file_set_attribute(ew_image_file *f, const char *name, const char *value);
+/* Write atomically. pixel_type: 0 each pass as read (new ones half), 1
+ * half, 2 float. EXR keeps every layer, pass and header entry; PNG/TIFF/JPEG
+ * take pass `pass` of `layer` only, values as they are. Never over the file
+ * it was read from. */
+EW_NODES_API ew_result ew_image_file_write(const ew_image_file *f, const char *path, int32_t pixel_type,
+                                           const char *layer, const char *pass, char *err, size_t errlen);
 
 /* Which OpenColorIO config the colour nodes use, e.g. "$OCIO=/path" or
  * "Blender: /usr/share/blender/.../config.ocio" or "built-in fallback (raw,
