@@ -56,7 +56,7 @@ static const ew_image_desc images[] = {
 };
 
 static const ew_param_desc params[] = {
-    {"samples", EW_PARAM_INT, 0.0f, 0.0f, 1e7f, "samples per pixel of the render (0: unknown, estimate the noise)"},
+    {"samples", EW_PARAM_INT, 0.0f, 0.0f, 16777216.0f, "samples per pixel of the render (0: unknown, estimate the noise)"},
     {"quality", EW_PARAM_INT, 0.0f, 0.0f, 2.0f,
      "how far up the ladder auto may climb: fast (the default: grids and nbg only), balanced (kpcn where it "
      "measured better on the validation scenes, 9-32 spp), high (kpcn also where it tied, 3-32 spp); kpcn needs "

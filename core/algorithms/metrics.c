@@ -12,6 +12,14 @@ static float tonemap(float v) {
     return powf(v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v), 1.0f / 2.2f);
 }
 
+/* A test sample as displayed: a non-finite one counts as the worst error,
+ * the displayable value farthest from the reference's (so a NaN output is
+ * never "identical" to a reference, even a NaN or black one). */
+static float tonemap_test(float v, float ref_tm) {
+    if (!isfinite(v)) return ref_tm < 0.5f ? 1.0f : 0.0f;
+    return tonemap(v);
+}
+
 static ew_result check_pair(ew_device *dev, const ew_image *a, const ew_image *b, double *out, int *channels) {
     if (!dev) return EW_ERR_INVALID_ARGUMENT;
     ew__clear_error(dev);
@@ -36,7 +44,8 @@ ew_result ew_image_psnr(ew_device *dev, const ew_image *a, const ew_image *b, do
         for (int x = 0; x < a->width; x++) {
             const float *pa = ew__pixel(a, x, y), *pb = ew__pixel(b, x, y);
             for (int c = 0; c < C; c++) {
-                double d = (double)tonemap(pa[c]) - (double)tonemap(pb[c]);
+                const float rt = tonemap(pb[c]);
+                double d = (double)tonemap_test(pa[c], rt) - (double)rt;
                 se += d * d;
             }
         }
@@ -86,8 +95,8 @@ ew_result ew_image_ssim(ew_device *dev, const ew_image *a, const ew_image *b, do
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) {
                 size_t i = (size_t)y * w + x;
-                X[i] = tonemap(ew__pixel(a, x, y)[c]);
                 Y[i] = tonemap(ew__pixel(b, x, y)[c]);
+                X[i] = tonemap_test(ew__pixel(a, x, y)[c], Y[i]);
                 XX[i] = X[i] * X[i];
                 YY[i] = Y[i] * Y[i];
                 XY[i] = X[i] * Y[i];

@@ -94,7 +94,8 @@ typedef struct ew_backend {
      * host and device (docs/backends.md). On a backend with its own memory
      * (dev->device_memory) the host must not touch these buffers directly.
      * Entries returning ew_result also report queued kernels' failures and
-     * have then written the detail to dev->last_error. ---- */
+     * have then recorded the detail as the calling thread's last error
+     * (dev->set_error). ---- */
     void *(*mem_alloc)(ew_device *dev, size_t bytes); /* NULL when out of memory */
     void (*mem_free)(ew_device *dev, void *ptr);      /* NULL is a no-op */
     /* host -> device; the host buffer may be reused as soon as it returns */

@@ -148,13 +148,15 @@ ew_result ew__cuda_device_create(const ew_device_desc *d, ew_device **out) {
     dev->device_memory = 1;
     dev->device_images = d->device_images != 0;
     dev->pool = ew_pool_create(1);
-    if (!dev->pool) {
+    if (!dev->pool || ew__device_init_common(dev) != 0) {
+        ew_pool_destroy(dev->pool);
         free(dev);
         return EW_ERR_OUT_OF_MEMORY;
     }
     ew_result r = api->device_init(dev, d->cuda_device, d->cuda_stream, dev->last_error, sizeof dev->last_error);
     if (r != EW_OK) {
         ew_pool_destroy(dev->pool);
+        ew__device_free_common(dev);
         free(dev);
         return r;
     }

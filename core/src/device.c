@@ -9,18 +9,95 @@
 
 #define EW_MAX_THREADS 1024
 
+/* The calling thread's slot on `dev`, made (or the oldest recycled) when it
+ * has none. Called with dev->error_lock held. */
+static ew_error_slot *slot_of(ew_device *dev, int create) {
+    pthread_t self = pthread_self();
+    ew_error_slot *free_slot = NULL, *oldest = NULL;
+    for (int i = 0; i < EW_ERROR_SLOTS; i++) {
+        ew_error_slot *s = &dev->errors[i];
+        if (s->used && pthread_equal(s->thread, self)) return s;
+        if (!s->used && !free_slot) free_slot = s;
+        if (s->used && (!oldest || s->stamp < oldest->stamp)) oldest = s;
+    }
+    if (!create) return NULL;
+    /* more threads than slots: the least recently failing thread's message
+     * goes (documented with ew_device_last_error) */
+    ew_error_slot *s = free_slot ? free_slot : oldest;
+    s->used = 1;
+    s->thread = self;
+    s->msg[0] = '\0';
+    return s;
+}
+
+static ew_error_slot *lock_slot(ew_device *dev, int create) {
+    pthread_mutex_lock(&dev->error_lock);
+    ew_error_slot *s = slot_of(dev, create);
+    if (s) s->stamp = ++dev->error_clock;
+    pthread_mutex_unlock(&dev->error_lock);
+    return s;
+}
+
 ew_result ew__fail(ew_device *dev, ew_result r, const char *fmt, ...) {
     if (dev) {
+        ew_error_slot *s = lock_slot(dev, 1);
         va_list ap;
         va_start(ap, fmt);
-        vsnprintf(dev->last_error, sizeof dev->last_error, fmt, ap);
+        /* only this thread writes its slot's text (see struct ew_device) */
+        vsnprintf(s->msg, sizeof s->msg, fmt, ap);
         va_end(ap);
     }
     return r;
 }
 
+void ew__set_error(ew_device *dev, const char *msg) {
+    if (!dev) return;
+    ew_error_slot *s = lock_slot(dev, 1);
+    snprintf(s->msg, sizeof s->msg, "%s", msg ? msg : "");
+}
+
 void ew__clear_error(ew_device *dev) {
-    if (dev) dev->last_error[0] = '\0';
+    if (!dev) return;
+    /* a thread that never failed keeps no slot */
+    pthread_mutex_lock(&dev->error_lock);
+    ew_error_slot *s = slot_of(dev, 0);
+    pthread_mutex_unlock(&dev->error_lock);
+    if (s) s->msg[0] = '\0';
+}
+
+int ew__device_init_common(ew_device *dev) {
+    dev->errors = (ew_error_slot *)calloc(EW_ERROR_SLOTS, sizeof *dev->errors);
+    if (!dev->errors) return -1;
+    if (pthread_mutex_init(&dev->error_lock, NULL) != 0) {
+        free(dev->errors);
+        dev->errors = NULL;
+        return -1;
+    }
+    __atomic_store_n(&dev->refs, 1, __ATOMIC_RELAXED);
+    dev->set_error = ew__set_error;
+    return 0;
+}
+
+void ew__device_free_common(ew_device *dev) {
+    if (!dev->errors) return;
+    pthread_mutex_destroy(&dev->error_lock);
+    free(dev->errors);
+    dev->errors = NULL;
+}
+
+void ew__device_retain(ew_device *dev) {
+    if (dev) __atomic_fetch_add(&dev->refs, 1, __ATOMIC_RELAXED);
+}
+
+static void device_free(ew_device *dev) {
+    if (dev->backend->device_release) dev->backend->device_release(dev);
+    ew_pool_destroy(dev->pool);
+    ew__device_free_common(dev);
+    free(dev);
+}
+
+void ew__device_release(ew_device *dev) {
+    if (dev && __atomic_sub_fetch(&dev->refs, 1, __ATOMIC_ACQ_REL) == 0) device_free(dev);
 }
 
 ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
@@ -57,7 +134,8 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
     dev->num_threads = threads;
     dev->backend = &ew_cpu_backend;
     dev->pool = ew_pool_create(threads);
-    if (!dev->pool) {
+    if (!dev->pool || ew__device_init_common(dev) != 0) {
+        ew_pool_destroy(dev->pool);
         free(dev);
         return EW_ERR_OUT_OF_MEMORY;
     }
@@ -65,16 +143,20 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
     return EW_OK;
 }
 
-void ew_device_destroy(ew_device *dev) {
-    if (!dev) return;
-    if (dev->backend->device_release) dev->backend->device_release(dev);
-    ew_pool_destroy(dev->pool);
-    free(dev);
-}
+void ew_device_destroy(ew_device *dev) { ew__device_release(dev); }
+
+void ew_device_retain(ew_device *dev) { ew__device_retain(dev); }
 
 ew_device_type ew_device_get_type(const ew_device *dev) { return dev ? dev->type : EW_DEVICE_DEFAULT; }
 int32_t ew_device_get_num_threads(const ew_device *dev) { return dev ? dev->num_threads : 0; }
-const char *ew_device_last_error(const ew_device *dev) { return dev ? dev->last_error : ""; }
+const char *ew_device_last_error(const ew_device *dev) {
+    if (!dev) return "";
+    ew_device *d = (ew_device *)dev; /* the slot table, not the device, changes */
+    pthread_mutex_lock(&d->error_lock);
+    const ew_error_slot *s = slot_of(d, 0);
+    pthread_mutex_unlock(&d->error_lock);
+    return s ? s->msg : "";
+}
 
 const char *ew_result_string(ew_result r) {
     switch (r) {

@@ -1,4 +1,9 @@
+#include "src/finite.h"
 #include "src/internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
 
 ew_image ew_image_packed(float *data, int32_t width, int32_t height, int32_t channels) {
     ew_image v;
@@ -35,12 +40,58 @@ int ew__image_valid(const ew_image *img, const char **why) {
         w = "image is larger than 65536 pixels per side or 2^28 pixels";
     else if (img->channels <= 0 || img->channels > 64) w = "channel count must be 1..64";
     else if (img->format != EW_FORMAT_FLOAT) w = "only EW_FORMAT_FLOAT images are supported";
+    else if ((uintptr_t)img->data % sizeof(float) != 0) w = "image data is not aligned to a float (4 bytes)";
+    else if (img->pixel_stride % (int64_t)sizeof(float) != 0 || img->row_stride % (int64_t)sizeof(float) != 0)
+        w = "image strides must be multiples of 4 bytes (float alignment)";
     else {
-        int64_t ps = ew__pixel_stride(img), rs = ew__row_stride(img);
-        int64_t rs_abs = rs < 0 ? -rs : rs;
+        /* Bounds first, so that nothing below overflows: a stride may be any
+         * int64 the caller writes (INT64_MIN has no absolute value). */
+        const int64_t lim = INT64_MAX / 2;
+        int64_t ps = ew__pixel_stride(img);
+        int64_t rs = img->row_stride;
         if (ps < (int64_t)img->channels * (int64_t)sizeof(float)) w = "pixel stride smaller than a pixel";
-        else if (rs_abs < ps * img->width) w = "row stride smaller than a row";
+        else if (ps > lim / img->width) w = "pixel stride too large (the row would overflow)";
+        else if (rs < -lim || rs > lim) w = "row stride too large (the image would overflow)";
+        else {
+            rs = ew__row_stride(img);
+            int64_t rs_abs = rs < 0 ? -rs : rs;
+            if (rs_abs < ps * img->width) w = "row stride smaller than a row";
+            else if (rs_abs > lim / img->height) w = "row stride too large (the image would overflow)";
+        }
     }
     if (why) *why = w;
     return w == NULL;
+}
+
+typedef struct {
+    const ew_image *out, *in;
+    int channels, in_channels;
+    long replaced;
+} finite_job;
+
+static float finite_or(float v) { return isnan(v) ? 0.0f : isinf(v) ? (v > 0 ? FLT_MAX : -FLT_MAX) : v; }
+
+static void finite_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
+    finite_job *j = (finite_job *)ctx;
+    (void)tid;
+    long replaced = 0;
+    for (int64_t y = y0; y < y1; y++)
+        for (int x = 0; x < j->out->width; x++) {
+            float *o = ew__pixel(j->out, x, (int)y);
+            int bad = 0;
+            for (int c = 0; c < j->channels; c++) bad |= !isfinite(o[c]);
+            if (!bad) continue;
+            replaced++;
+            const float *i = j->in ? ew__pixel(j->in, x, (int)y) : NULL;
+            for (int c = 0; c < j->channels; c++)
+                o[c] = finite_or(i && c < j->in_channels ? i[c] : o[c]);
+        }
+    __atomic_fetch_add(&j->replaced, replaced, __ATOMIC_RELAXED);
+}
+
+long ew__finite_fallback(ew_device *dev, const ew_image *out, const ew_image *in) {
+    if (!out || dev->device_images) return 0;
+    finite_job j = {out, in && in->data != out->data ? in : NULL, out->channels, in ? in->channels : 0, 0};
+    ew_pool_run(dev->pool, out->height, 0, finite_rows, &j);
+    return j.replaced;
 }

@@ -8,16 +8,48 @@
 #include "edgewise/edgewise.h"
 #include "src/thread_pool.h"
 
+#include <pthread.h>
+
 struct ew_backend;
 
 #define EW_ERROR_MAX 512
+
+/* One thread's last error on a device (ew_device_last_error). */
+typedef struct ew_error_slot {
+    pthread_t thread;
+    int used;
+    unsigned long stamp; /* last use, to recycle the oldest slot */
+    char msg[EW_ERROR_MAX];
+} ew_error_slot;
+
+#define EW_ERROR_SLOTS 64
 
 struct ew_device {
     ew_device_type type;
     int32_t num_threads;
     ew_thread_pool *pool;
     const struct ew_backend *backend;
+    /* Backends write a message here only while the device is being created
+     * (one thread, before the handle is returned); afterwards every message
+     * goes through ew__fail / ew__set_error into the calling thread's slot. */
     char last_error[EW_ERROR_MAX];
+    /* How a loaded backend module records a message as the calling thread's
+     * last error (ew__set_error; the module cannot link the core's hidden
+     * symbols). */
+    void (*set_error)(ew_device *dev, const char *msg);
+    /* The last error is kept per calling thread, as OIDN does: two threads
+     * using one device each read their own failure, and neither reads a
+     * message while the other writes it. The lock guards the slot table
+     * (and the refcount's final release); a slot's text is written only by
+     * its own thread. */
+    pthread_mutex_t error_lock;
+    ew_error_slot *errors; /* EW_ERROR_SLOTS of them, allocated with the device */
+    unsigned long error_clock;
+    /* Every op made on the device holds a reference, as does the caller
+     * until ew_device_destroy: the device is freed when the last goes, so
+     * destroying it before its ops is safe. Changed with __atomic builtins
+     * (this header is also compiled as CUDA C++, where <stdatomic.h> is not). */
+    int refs;
     /* backends with memory of their own (docs/backends.md) */
     int device_memory;  /* 1: backend buffers are not host-addressable (CUDA) */
     int device_images;  /* 1: ew_image data pointers are device pointers (ew_device_desc) */
@@ -28,6 +60,16 @@ struct ew_device {
 ew_result ew__fail(ew_device *dev, ew_result r, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 void ew__clear_error(ew_device *dev);
+/* Record a ready message (e.g. a backend's) as the calling thread's last error. */
+void ew__set_error(ew_device *dev, const char *msg);
+/* Device reference counting for the ops made on it: ew__device_release
+ * frees the device with its last reference. */
+void ew__device_retain(ew_device *dev);
+void ew__device_release(ew_device *dev);
+/* Set up / tear down what every device has whatever its backend (the error
+ * slots, the refcount). 0 on success. */
+int ew__device_init_common(ew_device *dev);
+void ew__device_free_common(ew_device *dev);
 
 /* Checks a view: non-null data, positive size within limits, float format,
  * strides at least as large as the pixel. Fills *why on failure. */

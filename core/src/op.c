@@ -1,3 +1,4 @@
+#include "src/finite.h"
 #include "src/op.h"
 
 #include <stdio.h>
@@ -41,6 +42,7 @@ ew_result ew_op_create_kind(ew_device *dev, const char *kind, const char *name, 
     if (!op) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
     op->type = t;
     op->dev = dev;
+    ew__device_retain(dev); /* the device outlives its ops whatever the destroy order */
     for (int i = 0; i < t->num_params; i++) op->params[i] = t->params[i].default_value;
     *out = op;
     return EW_OK;
@@ -56,11 +58,53 @@ static void release(ew_op *op) {
     op->committed = 0;
 }
 
-void ew_op_destroy(ew_op *op) {
-    if (!op) return;
+static void op_free(ew_op *op) {
+    ew_device *dev = op->dev;
     release(op);
     if (op->data_state && op->type->release_data) op->type->release_data(op);
     free(op);
+    ew__device_release(dev);
+}
+
+void ew_op_destroy(ew_op *op) {
+    if (!op) return;
+    /* from inside its own progress callback: freed when the run returns */
+    if (__atomic_load_n(&op->busy, __ATOMIC_ACQUIRE)) {
+        __atomic_store_n(&op->destroy_pending, 1, __ATOMIC_RELEASE);
+        return;
+    }
+    op_free(op);
+}
+
+/* Refuse a call that would change an op while its commit or execute runs
+ * (a progress callback calling back into it). */
+static ew_result busy_fail(ew_op *op, const char *what) {
+    return ew__fail(op->dev, EW_ERR_INVALID_STATE,
+                    "%s called while the %s '%s' is running (from its progress callback?): wait for "
+                    "commit/execute to return",
+                    what, op->type->kind, op->type->name);
+}
+
+#define EW_OP_NOT_BUSY(op, what)                                                   \
+    do {                                                                           \
+        if (__atomic_load_n(&(op)->busy, __ATOMIC_ACQUIRE)) return busy_fail(op, what); \
+    } while (0)
+
+/* Enter / leave a run; 0 when the op is already running. */
+static int op_enter(ew_op *op) {
+    int expected = 0;
+    return __atomic_compare_exchange_n(&op->busy, &expected, 1, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE);
+}
+
+/* Returns 1 when the op was destroyed during the run (the caller must not
+ * touch it again). */
+static int op_leave(ew_op *op) {
+    __atomic_store_n(&op->busy, 0, __ATOMIC_RELEASE);
+    if (__atomic_load_n(&op->destroy_pending, __ATOMIC_ACQUIRE)) {
+        op_free(op);
+        return 1;
+    }
+    return 0;
 }
 
 static void list_slots(const ew_op_type *t, char *buf, size_t len, int images) {
@@ -78,6 +122,7 @@ static void list_slots(const ew_op_type *t, char *buf, size_t len, int images) {
 ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view) {
     if (!op) return EW_ERR_INVALID_ARGUMENT;
     ew__clear_error(op->dev);
+    EW_OP_NOT_BUSY(op, "set_image");
     const ew_op_type *t = op->type;
     for (int i = 0; name && i < t->num_images; i++) {
         if (strcmp(name, t->images[i].name) != 0) continue;
@@ -103,6 +148,7 @@ ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view) {
 ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int) {
     if (!op) return EW_ERR_INVALID_ARGUMENT;
     ew__clear_error(op->dev);
+    EW_OP_NOT_BUSY(op, "set_param");
     const ew_op_type *t = op->type;
     for (int i = 0; name && i < t->num_params; i++) {
         const ew_param_desc *p = &t->params[i];
@@ -178,6 +224,7 @@ const char *ew_op_kind(const ew_op *op) { return op ? op->type->kind : NULL; }
 ew_result ew_op_set_data(ew_op *op, const char *name, const void *data, size_t size) {
     if (!op) return EW_ERR_INVALID_ARGUMENT;
     ew__clear_error(op->dev);
+    EW_OP_NOT_BUSY(op, "set_data");
     if (!op->type->set_data)
         return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "%s '%s' takes no data ('%s')", op->type->kind,
                         op->type->name, name ? name : "(null)");
@@ -209,10 +256,8 @@ int ew_op_report(ew_op *op, double fraction) {
     return op->progress ? op->progress(op->progress_user, fraction) : 1;
 }
 
-ew_result ew_op_commit(ew_op *op) {
-    if (!op) return EW_ERR_INVALID_ARGUMENT;
+static ew_result commit_checked(ew_op *op) {
     ew_device *dev = op->dev;
-    ew__clear_error(dev);
     const ew_op_type *t = op->type;
     const ew_image *first = NULL;
     const char *first_name = NULL;
@@ -238,14 +283,32 @@ ew_result ew_op_commit(ew_op *op) {
     return r;
 }
 
+ew_result ew_op_commit(ew_op *op) {
+    if (!op) return EW_ERR_INVALID_ARGUMENT;
+    ew_device *dev = op->dev;
+    ew__clear_error(dev);
+    if (!op_enter(op)) return busy_fail(op, "commit");
+    ew_result r = commit_checked(op);
+    op_leave(op);
+    return r;
+}
+
 ew_result ew_op_execute(ew_op *op) {
     if (!op) return EW_ERR_INVALID_ARGUMENT;
     ew__clear_error(op->dev);
+    if (!op_enter(op)) return busy_fail(op, "execute");
+    ew_result r;
     if (!op->committed)
-        return ew__fail(op->dev, EW_ERR_INVALID_STATE, "execute called before commit (or after a change)");
-    if (!ew_op_report(op, 0.0)) return ew__fail(op->dev, EW_ERR_CANCELLED, "cancelled");
-    ew_result r = op->type->execute(op);
-    if (r == EW_OK) ew_op_report(op, 1.0);
+        r = ew__fail(op->dev, EW_ERR_INVALID_STATE, "execute called before commit (or after a change)");
+    else if (!ew_op_report(op, 0.0))
+        r = ew__fail(op->dev, EW_ERR_CANCELLED, "cancelled");
+    else {
+        r = op->type->execute(op);
+        if (r == EW_OK && !strcmp(op->type->kind, "filter"))
+            ew__finite_fallback(op->dev, ew_op_image(op, "output"), ew_op_image(op, "color"));
+        if (r == EW_OK) ew_op_report(op, 1.0);
+    }
+    op_leave(op);
     return r;
 }
 

@@ -89,6 +89,11 @@ struct ew_op {
     ew_progress_fn progress;
     void *progress_user;
     int committed;
+    /* 1 while commit or execute runs: calls on the op from its progress
+     * callback (which may run on a worker thread) are refused rather than
+     * free state the run is using; a destroy then waits for the run's end. */
+    int busy;
+    int destroy_pending;
     void *state;
     void *data_state;
 };

@@ -43,6 +43,8 @@ void ew_weights_free(ew_weights *w) {
     memset(w, 0, sizeof *w);
 }
 
+#define EW_WEIGHTS_MAX_ABS 1e6f
+
 #define FAIL(...) do { snprintf(err, errlen, __VA_ARGS__); ew_weights_free(out); return 1; } while (0)
 
 int ew_weights_parse(const void *bytes, size_t size, ew_weights *out, char *err, size_t errlen) {
@@ -83,6 +85,12 @@ int ew_weights_parse(const void *bytes, size_t size, ew_weights *out, char *err,
             rd_u32(&r, &u);
             memcpy(&t->data[k], &u, 4);
             if (!isfinite(t->data[k])) FAIL("weights file: tensor '%s' holds a non-finite value", t->name);
+            /* Trained weights stay within tens (the largest shipped is 32);
+             * values near FLT_MAX only overflow the network into an all-NaN
+             * (then black) output, so they are refused like non-finite ones. */
+            if (fabsf(t->data[k]) > EW_WEIGHTS_MAX_ABS)
+                FAIL("weights file: tensor '%s' holds %g, beyond any trained weight (|w| <= %g)", t->name,
+                     (double)t->data[k], (double)EW_WEIGHTS_MAX_ABS);
         }
     }
     if (r.at != r.size) FAIL("weights file: %zu unexpected trailing bytes", r.size - r.at);

@@ -1,6 +1,8 @@
 #ifndef EW_CLI_H
 #define EW_CLI_H
 
+#include <stdio.h>
+
 #include "edgewise/edgewise.h"
 #include "ewcolor.h"
 #include "ewio.h"
@@ -89,5 +91,18 @@ typedef struct cli_progress {
 void cli_progress_init(cli_progress *p, const char *what, int frames, int quiet);
 int cli_progress_cb(void *user, double fraction); /* an ew_progress_fn; never cancels */
 void cli_progress_end(cli_progress *p);           /* clear the line before other output */
+
+/* cli_safety.c: remove --max-memory / --max-pixels (anywhere on the command
+ * line) into the read limits of ewio (EDGEWISE_MAX_MEMORY / _PIXELS); 0 on a
+ * bad value (message printed). And SIGINT/SIGTERM/SIGHUP: remove the
+ * temporary being written, exit 128 + the signal number. */
+int cli_take_limits(int *argc, char **argv);
+void cli_install_signal_handlers(void);
+/* fopen(path, "rb") of a regular file only (a FIFO, device or directory is
+ * refused at once instead of blocking or reading forever); NULL with *why. */
+FILE *cli_fopen_regular(const char *path, const char **why);
+/* Before any work: the -o of an image command has a name, a supported
+ * extension and is not a device or FIFO, and cli_check_writable passes. */
+int cli_check_image_output(const char *path);
 
 #endif

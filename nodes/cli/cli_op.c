@@ -302,13 +302,19 @@ static int32_t image_index(const char *method, const char *name) {
 }
 
 static int read_bytes(const char *path, unsigned char **out, size_t *len) {
-    FILE *fp = fopen(path, "rb");
+    const char *why = "";
+    FILE *fp = cli_fopen_regular(path, &why); /* a FIFO would block, a device never end */
     if (!fp) return -1;
     unsigned char *buf = NULL;
     size_t n = 0, cap = 0;
     for (;;) {
         if (n == cap) {
             cap = cap ? cap * 2 : 65536;
+            if (cap > ((size_t)1 << 28) + 65536) { /* the weights format's own bound */
+                free(buf);
+                fclose(fp);
+                return -1;
+            }
             unsigned char *nb = (unsigned char *)realloc(buf, cap);
             if (!nb) {
                 free(buf);
@@ -438,7 +444,7 @@ static int execute(const parser *p) {
     const ewio_pixel_type type = p->type;
     char err[1024];
     ewio_file *f = NULL;
-    if (ewio_read(in_path, &f, err, sizeof err) != 0) return cli_fail("cannot read '%s': %s", in_path, err);
+    if (ewio_read(in_path, &f, err, sizeof err) != 0) return cli_fail("%s", err); /* err names the file */
     int rc = EW_EXIT_FAIL;
     float *pix = NULL, *out = NULL, *bufs[MAX_IMAGES] = {NULL};
     ew_device *dev = NULL;
@@ -589,7 +595,7 @@ static int execute(const parser *p) {
     ewio_set_attribute(f, "edgewise.version", ew_version_string());
     if (reference) {
         ewio_file *ref = NULL;
-        if (ewio_read(reference, &ref, err, sizeof err) != 0) { cli_fail("cannot read reference '%s': %s", reference, err); goto done; }
+        if (ewio_read(reference, &ref, err, sizeof err) != 0) { cli_fail("reference: %s", err); goto done; }
         float *pr = cli_read_color(ref, NULL, err, sizeof err);
         if (!pr || ewio_width(ref) != w || ewio_height(ref) != h || C < 3) {
             free(pr);
@@ -637,7 +643,12 @@ int cli_op_run(const cli_op_command *cmd, int argc, char **argv) {
         cli_fail("refusing to write the output over the input '%s': choose another -o", p->in);
         goto out;
     }
-    if (cli_check_writable(p->out) != 0) goto out;
+    /* the reference is scored against after the write: it must survive it */
+    if (p->reference && same_file(p->reference, p->out)) {
+        cli_fail("refusing to write the output over the reference '%s': choose another -o", p->reference);
+        goto out;
+    }
+    if (cli_check_image_output(p->out) != 0) goto out;
     /* display and view names are checked before any work */
     if (cli_view_prepare(&p->view, p->out) != 0) {
         rc = EW_EXIT_USAGE;

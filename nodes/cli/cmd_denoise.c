@@ -299,9 +299,10 @@ static int parse(int argc, char **argv, options *o) {
 /* The bytes of a file given for a data parameter (its validation is the
  * library's, at set_data). */
 static int read_data(options *o) {
-    FILE *f = fopen(o->data_path, "rb");
+    const char *why = "";
+    FILE *f = cli_fopen_regular(o->data_path, &why); /* a FIFO would block, a device never end */
     if (!f) return cli_fail("cannot read '%s': %s (see 'edgewise denoise --help' for the built-in names)",
-                            o->data_path, strerror(errno));
+                            o->data_path, why);
     long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
     if (n <= 0 || n > (1L << 28) || fseek(f, 0, SEEK_SET) != 0) {
         fclose(f);
@@ -478,8 +479,11 @@ int cmd_denoise(int argc, char **argv) {
     if (o.data_path && read_data(&o) != 0) return EW_EXIT_FAIL;
     if (same_file(o.in, o.out))
         return cli_fail("refusing to write the output over the input '%s': choose another -o", o.in);
+    /* the reference is scored against after the write: it must survive it */
+    if (o.reference && same_file(o.reference, o.out))
+        return cli_fail("refusing to write the output over the reference '%s': choose another -o", o.reference);
 
-    if (cli_check_writable(o.out) != 0) return EW_EXIT_FAIL;
+    if (cli_check_image_output(o.out) != 0) return EW_EXIT_FAIL;
     if (cli_view_prepare(&o.view, o.out) != 0) return EW_EXIT_USAGE;
     job j;
     memset(&j, 0, sizeof j);

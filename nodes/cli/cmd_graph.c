@@ -1,6 +1,7 @@
 /*
  * edgewise graph — run or check a node graph file (docs/graphs.md).
  */
+#define _DEFAULT_SOURCE /* realpath */
 #include <errno.h>
 #include <jansson.h>
 #include <limits.h>
@@ -8,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cli.h"
@@ -153,14 +155,18 @@ static void print_summary(const char *report) {
     json_decref(root);
 }
 
+/* The report goes through the same atomic write as images: a full disk
+ * leaves no empty or cut file, an existing report stays as it was. */
 static int write_report(const char *path, const char *text) {
-    if (cli_check_writable(path) != 0) return EW_EXIT_FAIL;
-    FILE *f = fopen(path, "w");
-    if (!f || fputs(text, f) < 0 || fputc('\n', f) == EOF) {
-        if (f) fclose(f);
-        return cli_fail("cannot write the report '%s'", path);
-    }
-    if (fclose(f) != 0) return cli_fail("cannot write the report '%s'", path);
+    size_t n = strlen(text);
+    char *buf = (char *)malloc(n + 2);
+    if (!buf) return cli_fail("out of memory");
+    memcpy(buf, text, n);
+    buf[n] = '\n';
+    char err[1024];
+    int bad = ewio_write_text(path, buf, n + 1, err, sizeof err);
+    free(buf);
+    if (bad) return cli_fail("the report: %s", err);
     return 0;
 }
 
@@ -217,6 +223,15 @@ static int run_on_dask(int argc, char **argv) {
                     "python3-distributed; $EDGEWISE_PYTHON picks the interpreter)", py, strerror(e));
 }
 
+/* Same file, by inode when both exist, else by resolved directory + name
+ * (ew_graph_check_side_file's rule). */
+static int same_path(const char *a, const char *b) {
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char ra[4096], rb[4096];
+    return realpath(a, ra) && realpath(b, rb) && !strcmp(ra, rb);
+}
+
 int cmd_graph(int argc, char **argv) {
     if (wants_dask(argc, argv)) return run_on_dask(argc, argv);
     options o;
@@ -246,6 +261,21 @@ int cmd_graph(int argc, char **argv) {
     if (ew_graph_validate(g) != EW_OK) {
         cli_fail("%s: %s", o.file, ew_graph_last_error(g));
         goto done;
+    }
+    /* the report is one more output of the run: never an input, the graph
+     * file or an image the run writes */
+    if (o.report) {
+        if (same_path(o.report, o.file)) {
+            cli_fail("refusing to write the report over the graph file '%s': choose another --report", o.file);
+            rc = EW_EXIT_USAGE;
+            goto done;
+        }
+        if (ew_graph_check_side_file(g, o.report) != EW_OK) {
+            cli_fail("refusing to write the report: %s: choose another --report", ew_graph_last_error(g));
+            rc = EW_EXIT_USAGE;
+            goto done;
+        }
+        if (cli_check_writable(o.report) != 0) goto done;
     }
     if (o.check_only) {
         ew_graph_stats st;

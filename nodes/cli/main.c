@@ -25,9 +25,14 @@ static const char usage[] =
     "  nodes               list every node type with its ports and parameters\n"
     "\n"
     "  edgewise <command> --help   options of a command\n"
+    "  --max-memory SIZE           any command: refuse inputs whose pixels would take more\n"
+    "                              (e.g. 8G; default 3/4 of the physical memory)\n"
+    "  --max-pixels N              any command: refuse larger images (default and at most 2^28)\n"
     "  edgewise --version          library version\n";
 
 int main(int argc, char **argv) {
+    cli_install_signal_handlers();
+    if (!cli_take_limits(&argc, argv)) return EW_EXIT_USAGE;
     if (argc < 2) {
         fputs(usage, stderr);
         return EW_EXIT_USAGE;

@@ -44,6 +44,7 @@ ew_result ew_graph_create(ew_device *dev, ew_graph **out) {
         g->own_dev = 1;
     } else {
         g->dev = dev;
+        ew_device_retain(dev); /* the caller may destroy its device first */
     }
     *out = g;
     return EW_OK;
@@ -70,12 +71,13 @@ void ew_graph_destroy(ew_graph *g) {
     if (!g) return;
     for (int i = 0; i < g->num_nodes; i++) free_node(g->nodes[i]);
     free(g->nodes);
+    free(g->id_index);
     free(g->order);
     free(g->frames);
     for (int i = 0; i < g->num_bufs; i++) free(g->bufs[i].data);
     free(g->bufs);
     free(g->report);
-    if (g->own_dev) ew_device_destroy(g->dev);
+    ew_device_destroy(g->dev); /* our device, or our reference to the caller's */
     free(g);
 }
 
@@ -88,10 +90,37 @@ ew_gnode *ew_graph_find(const ew_graph *g, const char *id) {
     return i >= 0 ? g->nodes[i] : NULL;
 }
 
+static unsigned long id_hash(const char *s) {
+    unsigned long h = 14695981039346656037UL; /* FNV-1a */
+    for (; *s; s++) h = (h ^ (unsigned char)*s) * 1099511628211UL;
+    return h;
+}
+
 int ew_graph_index(const ew_graph *g, const char *id) {
-    for (int i = 0; id && i < g->num_nodes; i++)
-        if (!strcmp(g->nodes[i]->id, id)) return i;
-    return -1;
+    if (!id || !g->id_index) return -1;
+    const unsigned long mask = (unsigned long)g->id_index_cap - 1;
+    for (unsigned long k = id_hash(id) & mask;; k = (k + 1) & mask) {
+        int v = g->id_index[k];
+        if (v == 0) return -1;
+        if (!strcmp(g->nodes[v - 1]->id, id)) return v - 1;
+    }
+}
+
+/* Room for one more id in the index (rebuilt twice as large when half full). */
+static int index_reserve(ew_graph *g) {
+    if ((g->num_nodes + 1) * 2 <= g->id_index_cap) return 0;
+    int cap = g->id_index_cap ? g->id_index_cap * 2 : 64;
+    int *t = (int *)calloc((size_t)cap, sizeof *t);
+    if (!t) return -1;
+    for (int i = 0; i < g->num_nodes; i++) {
+        unsigned long k = id_hash(g->nodes[i]->id) & (unsigned long)(cap - 1);
+        while (t[k]) k = (k + 1) & (unsigned long)(cap - 1);
+        t[k] = i + 1;
+    }
+    free(g->id_index);
+    g->id_index = t;
+    g->id_index_cap = cap;
+    return 0;
 }
 
 static int valid_id(const char *id) {
@@ -116,6 +145,7 @@ ew_result ew_graph_add_node(ew_graph *g, const char *id, const char *type) {
         return ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT, "node '%s': unknown node type '%.80s' (types: %s)", id,
                              type ? type : "(null)", names);
     }
+    if (index_reserve(g) != 0) return ew_graph_fail(g, EW_ERR_OUT_OF_MEMORY, "out of memory");
     if (g->num_nodes == g->cap_nodes) {
         int cap = g->cap_nodes ? g->cap_nodes * 2 : 8;
         ew_gnode **nn = (ew_gnode **)realloc(g->nodes, (size_t)cap * sizeof *nn);
@@ -129,7 +159,14 @@ ew_result ew_graph_add_node(ew_graph *g, const char *id, const char *type) {
     snprintf(n->id, sizeof n->id, "%s", id);
     n->type = t;
     n->taken_input = -1;
-    g->nodes[g->num_nodes++] = n;
+    g->nodes[g->num_nodes] = n;
+    {
+        const unsigned long mask = (unsigned long)g->id_index_cap - 1;
+        unsigned long k = id_hash(n->id) & mask;
+        while (g->id_index[k]) k = (k + 1) & mask;
+        g->id_index[k] = g->num_nodes + 1;
+    }
+    g->num_nodes++;
     ew_graph_invalidate(g);
     return EW_OK;
 }

@@ -82,6 +82,11 @@ typedef struct ew_graph {
     char base_dir[4096]; /* relative paths of a loaded file are relative to this */
     ew_gnode **nodes;
     int num_nodes, cap_nodes;
+    /* Open-addressing index of node ids (node index + 1, 0 empty), at most
+     * half full: finding a node is O(1), so loading and checking a graph
+     * stays linear in its nodes. */
+    int *id_index;
+    int id_index_cap;
     int frames_set, first_frame, last_frame;
     ew_progress_fn progress;
     void *progress_user;

@@ -4,6 +4,9 @@
  * connections are checked by validation like any API-built graph.
  */
 #include <errno.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <jansson.h>
 #include <limits.h>
 #include <stdio.h>
@@ -212,8 +215,21 @@ ew_result ew_graph_load_string(ew_graph *g, const char *json, const char *base_d
 ew_result ew_graph_load_file(ew_graph *g, const char *path) {
     if (!g || !path) return EW_ERR_INVALID_ARGUMENT;
     g->err[0] = '\0';
-    FILE *f = fopen(path, "rb");
-    if (!f) return ew_graph_fail(g, EW_ERR_IO, "cannot read graph '%s': %s", path, strerror(errno));
+    /* a regular file only: a FIFO would block the open (O_NONBLOCK) and a
+     * device could be read forever */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return ew_graph_fail(g, EW_ERR_IO, "cannot read graph '%s': %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return ew_graph_fail(g, EW_ERR_IO, "cannot read graph '%s': %s", path,
+                             S_ISDIR(st.st_mode) ? "is a directory" : "not a regular file");
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        close(fd);
+        return ew_graph_fail(g, EW_ERR_IO, "cannot read graph '%s': %s", path, strerror(errno));
+    }
     char *buf = NULL;
     size_t len = 0, cap = 0;
     for (;;) {

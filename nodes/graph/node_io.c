@@ -531,3 +531,5 @@ const ew_node_type ew_node_output = {
     NULL, NULL, output_inputs, 1, NULL, 0, NULL, 0, -1, 1,
     NULL, NULL, NULL, output_execute, NULL,
 };
+
+void ew_nodes_remove_temporaries(void) { ewio_remove_temporaries(); }

@@ -53,6 +53,31 @@ static ew_result report_cycle(ew_graph *g, const int *indeg) {
     return r;
 }
 
+/* A binary min-heap of node indices. */
+static void heap_push(int *h, int *n, int v) {
+    int k = (*n)++;
+    while (k > 0 && h[(k - 1) / 2] > v) {
+        h[k] = h[(k - 1) / 2];
+        k = (k - 1) / 2;
+    }
+    h[k] = v;
+}
+
+static int heap_pop(int *h, int *n) {
+    const int top = h[0], last = h[--*n];
+    int k = 0;
+    for (;;) {
+        int c = 2 * k + 1;
+        if (c >= *n) break;
+        if (c + 1 < *n && h[c + 1] < h[c]) c++;
+        if (h[c] >= last) break;
+        h[k] = h[c];
+        k = c;
+    }
+    if (*n > 0) h[k] = last;
+    return top;
+}
+
 ew_result ew_graph_plan(ew_graph *g) {
     const int nn = g->num_nodes;
     int *indeg = (int *)calloc((size_t)nn, sizeof(int));
@@ -70,23 +95,81 @@ ew_result ew_graph_plan(ew_graph *g) {
         for (int p = 0; p < n->sig.num_inputs; p++)
             if (n->src_node[p] >= 0) indeg[i]++;
     }
-    /* Kahn, taking nodes in file order among the ready ones so the order is
-     * stable and readable. O(n^2) on graph size, which is small. */
+    /* Kahn, in sweeps over the file order (a node that becomes ready later
+     * in the same sweep joins it; one before the sweep's position waits for
+     * the next), so the order is stable and readable. Consumers come from
+     * an edge list and the sweeps from two heaps: O((nodes + edges) log
+     * nodes), where sweeping the whole graph for every placed node made a
+     * long chain cubic. */
     int placed = 0;
-    for (int progress = 1; progress && placed < nn;) {
-        progress = 0;
-        for (int i = 0; i < nn; i++) {
-            if (indeg[i] != 0) continue;
-            indeg[i] = -1;
-            order[placed++] = i;
-            progress = 1;
-            for (int j = 0; j < nn; j++) {
-                const ew_gnode *m = g->nodes[j];
-                for (int p = 0; p < m->sig.num_inputs; p++)
-                    if (m->src_node[p] == i && indeg[j] > 0) indeg[j]--;
+    int *first = (int *)calloc((size_t)nn + 1, sizeof(int));
+    int ne = 0;
+    for (int j = 0; j < nn; j++) ne += g->nodes[j]->sig.num_inputs;
+    int *edge = (int *)malloc(((size_t)ne + 1) * sizeof(int));
+    int *heap_a = (int *)malloc((size_t)nn * sizeof(int)), *heap_b = (int *)malloc((size_t)nn * sizeof(int));
+    if (!first || !edge || !heap_a || !heap_b) {
+        free(first);
+        free(edge);
+        free(heap_a);
+        free(heap_b);
+        free(indeg);
+        free(order);
+        free(live);
+        return ew_graph_fail(g, EW_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    for (int j = 0; j < nn; j++) { /* one edge per connected input port */
+        const ew_gnode *m = g->nodes[j];
+        for (int p = 0; p < m->sig.num_inputs; p++)
+            if (m->src_node[p] >= 0) first[m->src_node[p] + 1]++;
+    }
+    for (int i = 0; i < nn; i++) first[i + 1] += first[i];
+    {
+        int *fill = (int *)calloc((size_t)nn, sizeof(int));
+        if (!fill) {
+            free(first);
+            free(edge);
+            free(heap_a);
+            free(heap_b);
+            free(indeg);
+            free(order);
+            free(live);
+            return ew_graph_fail(g, EW_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        for (int j = 0; j < nn; j++) {
+            const ew_gnode *m = g->nodes[j];
+            for (int p = 0; p < m->sig.num_inputs; p++) {
+                int i = m->src_node[p];
+                if (i >= 0) edge[first[i] + fill[i]++] = j;
             }
         }
+        free(fill);
     }
+    int na = 0, nb = 0;
+    for (int i = 0; i < nn; i++)
+        if (indeg[i] == 0) heap_push(heap_a, &na, i);
+    while (na > 0) {
+        const int i = heap_pop(heap_a, &na);
+        indeg[i] = -1;
+        order[placed++] = i;
+        for (int e = first[i]; e < first[i + 1]; e++) {
+            const int j = edge[e];
+            if (indeg[j] > 0 && --indeg[j] == 0) {
+                if (j > i) heap_push(heap_a, &na, j);
+                else heap_push(heap_b, &nb, j);
+            }
+        }
+        if (na == 0) { /* the sweep ends: the next starts from the file's top */
+            int *t = heap_a;
+            heap_a = heap_b;
+            heap_b = t;
+            na = nb;
+            nb = 0;
+        }
+    }
+    free(first);
+    free(edge);
+    free(heap_a);
+    free(heap_b);
     if (placed < nn) {
         ew_result r = report_cycle(g, indeg);
         free(indeg);

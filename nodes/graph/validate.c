@@ -78,7 +78,11 @@ static ew_result convert(ew_gnode *n, const ew_nparam_desc *p, const ew_raw *r, 
         if (p->type == EW_NODE_PARAM_INT && x != floor(x))
             return ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT, "node '%s' parameter '%s': expected an integer, got %g",
                                  n->id, p->name, x);
-        if (!(x >= p->min && x <= p->max))
+        /* Float parameters reach the library as float, whose limits are
+         * floats: 0.1 (double) is below 0.1f, yet it is the same parameter
+         * value once rounded, so compare what the library will get. */
+        const double xc = p->type == EW_NODE_PARAM_FLOAT ? (double)(float)x : x;
+        if (!(xc >= p->min && xc <= p->max))
             return ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT, "node '%s' parameter '%s' = %g is outside [%g, %g]", n->id,
                                  p->name, x, p->min, p->max);
         v->num = x;
@@ -318,6 +322,18 @@ static ew_result resolve_frames(ew_graph *g) {
     g->num_frames = 0;
     if (g->frames_set) {
         int n = g->last_frame - g->first_frame + 1;
+        /* A range over a write without a frame pattern would write one file
+         * again for every frame (a million times for "0-1000000"). */
+        for (int k = 0; n > 1 && k < g->num_order; k++) {
+            ew_gnode *w = g->nodes[g->order[k]];
+            if (strcmp(w->type->name, "write") != 0) continue;
+            const char *path = ew_node_str(w, "path");
+            if (path && !ew_path_has_pattern(path))
+                return ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT,
+                                     "frames %d-%d: node '%s' parameter 'path' ('%s') has no frame pattern (####), so "
+                                     "every frame would overwrite the same file; add one or run a single frame",
+                                     g->first_frame, g->last_frame, w->id, path);
+        }
         g->frames = (int *)malloc((size_t)n * sizeof(int));
         if (!g->frames) return ew_graph_fail(g, EW_ERR_OUT_OF_MEMORY, "out of memory");
         for (int i = 0; i < n; i++) g->frames[i] = g->first_frame + i;
@@ -489,6 +505,58 @@ static ew_result check_collisions(ew_graph *g) {
     for (size_t i = 0; i < count; i++) free(ids[i].path);
     free(ids);
     return res;
+
+/* Canonical form of a path that may not exist yet: the resolved directory
+ * plus the base name ("" when the directory does not resolve). */
+static void canonical(const char *path, char *out, size_t len) {
+    char dir[4096], res[4096]; /* realpath needs PATH_MAX (4096 on Linux) */
+    out[0] = '\0';
+    if (realpath(path, res)) {
+        snprintf(out, len, "%s", res);
+        return;
+    }
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    const char *base = slash ? slash + 1 : path;
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == dir) dir[1] = '\0';
+    else *slash = '\0';
+    if (!realpath(dir, res)) return;
+    int k = snprintf(out, len, "%s/%s", strcmp(res, "/") ? res : "", base);
+    if (k < 0 || (size_t)k >= len) out[0] = '\0'; /* too long to compare */
+}
+
+ew_result ew_graph_check_side_file(ew_graph *g, const char *side) {
+    if (!g || !side) return EW_ERR_INVALID_ARGUMENT;
+    ew_result r = resolve_frames(g);
+    if (r != EW_OK) return r;
+    struct stat ss;
+    const int side_exists = stat(side, &ss) == 0;
+    char side_c[4096], path[4096], path_c[4096];
+    canonical(side, side_c, sizeof side_c);
+    for (int k = 0; k < g->num_nodes; k++) {
+        ew_gnode *n = g->nodes[k];
+        const int is_read = !strcmp(n->type->name, "read"), is_write = !strcmp(n->type->name, "write");
+        if (!is_read && !is_write) continue;
+        const char *pattern = ew_node_str(n, "path");
+        if (!pattern || !*pattern) continue;
+        for (int f = 0; f < g->num_frames; f++) {
+            if (!ew_frame_path(pattern, g->frames[f], path, sizeof path)) continue;
+            struct stat st;
+            int same;
+            if (side_exists && stat(path, &st) == 0) {
+                same = st.st_dev == ss.st_dev && st.st_ino == ss.st_ino;
+            } else {
+                canonical(path, path_c, sizeof path_c);
+                same = side_c[0] && !strcmp(side_c, path_c);
+            }
+            if (same)
+                return ew_graph_fail(g, EW_ERR_INVALID_ARGUMENT, "'%s' is %s of the graph (node '%s', frame %d)", side,
+                                     is_read ? "an input" : "an output", n->id, g->frames[f]);
+            if (!ew_path_has_pattern(pattern)) break; /* the same file every frame */
+        }
+    }
+    return EW_OK;
 }
 
 ew_result ew_graph_check_files(ew_graph *g) {

@@ -15,6 +15,8 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -27,6 +29,7 @@
 #include <new>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fcntl.h>
@@ -49,10 +52,25 @@ constexpr int kMaxChannels = 4096;
  * about this many floats, so no second whole-image copy is ever held. */
 constexpr size_t kBandFloats = size_t(4) << 20;
 
+/* An allocator that leaves new floats uninitialised: a plane is sized from
+ * the header before its pixels are read, and zero-filling it would make the
+ * whole declared image resident at once — before a truncated file fails on
+ * its first scan line. Every float is written before it is read. */
+template <class T> struct NoInit : std::allocator<T> {
+    template <class U> struct rebind { using other = NoInit<U>; };
+    NoInit() = default;
+    template <class U> NoInit(const NoInit<U> &) noexcept {}
+    template <class U, class... A> void construct(U *p, A &&...a) {
+        if constexpr (sizeof...(A) == 0) ::new (static_cast<void *>(p)) U;
+        else ::new (static_cast<void *>(p)) U(std::forward<A>(a)...);
+    }
+};
+using Plane = std::vector<float, NoInit<float>>;
+
 struct Channel {
     std::string name, layer, pass, comp;
     TypeDesc type; /* the type it was read with (or half for new channels) */
-    std::vector<float> px; /* width*height, row-major */
+    Plane px; /* width*height, row-major */
 };
 
 } // namespace
@@ -269,12 +287,43 @@ std::string missing_msg(const ewio_file &f, const std::string &layer, const std:
 
 /* ------------------------------------------------------------ dimensions */
 
+std::string gib(unsigned long long bytes) {
+    char b[64];
+    snprintf(b, sizeof b, "%.1f GiB", double(bytes) / double(1ULL << 30));
+    return b;
+}
+
+unsigned long long physical_memory() {
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? (unsigned long long)pages * (unsigned long long)page : 0;
+}
+
 std::string check_dims(long long w, long long h) {
     if (w <= 0 || h <= 0)
         return "invalid image dimensions " + std::to_string(w) + "x" + std::to_string(h);
-    if (w > kMaxSide || h > kMaxSide || w * h > kMaxPixels)
+    const long long maxp = ewio_max_pixels();
+    if (w > kMaxSide || h > kMaxSide)
         return "image too large: " + std::to_string(w) + "x" + std::to_string(h) +
-               " (limits: 65536 per side, 2^28 pixels)";
+               " (at most 65536 pixels per side)";
+    if (w * h > maxp)
+        return "image too large: " + std::to_string(w) + "x" + std::to_string(h) + " is " +
+               std::to_string(w * h) + " pixels, above the limit of " + std::to_string(maxp) +
+               " (--max-pixels or EDGEWISE_MAX_PIXELS raise it, up to 2^28)";
+    return std::string();
+}
+
+/* What a whole read of the file holds: every channel of every part as
+ * float, from the header alone (before anything is allocated). */
+std::string check_bytes(long long w, long long h, long long channels) {
+    const unsigned long long need = (unsigned long long)w * (unsigned long long)h *
+                                    (unsigned long long)channels * sizeof(float);
+    const unsigned long long lim = ewio_max_memory();
+    if (lim && need > lim)
+        return "the header declares " + std::to_string(w) + "x" + std::to_string(h) + " pixels x " +
+               std::to_string(channels) + " channels = " + gib(need) +
+               " as float, above the memory limit of " + gib(lim) +
+               " (--max-memory or EDGEWISE_MAX_MEMORY raise it; the default is 3/4 of the "
+               "physical memory)";
     return std::string();
 }
 
@@ -329,14 +378,60 @@ std::string canonical_target(const std::string &path) {
     return (d == "/" ? d : d + "/") + base_of(path);
 }
 
+/* Temporaries being written, so that ewio_remove_temporaries() can delete
+ * them from a signal handler (SIGINT/SIGTERM during a write). This table is
+ * the shim's one piece of process-wide mutable state: a signal handler has
+ * nothing else to reach. Slots are claimed with atomics and the handler
+ * only reads them and calls unlink(), both async-signal-safe. */
+constexpr int kTempSlots = 32;
+struct TempSlot {
+    std::atomic<int> state{0}; /* 0 free, 1 claimed (path being set), 2 armed */
+    char path[4096];
+};
+TempSlot g_temps[kTempSlots];
+
 /* Removes the temporary file unless released. */
 struct TempGuard {
     std::string path;
     bool armed = false;
+    int slot = -1;
+    /* The file at `path` now exists and is ours. */
+    void arm() {
+        armed = true;
+        if (path.size() >= sizeof g_temps[0].path) return;
+        for (int i = 0; i < kTempSlots; i++) {
+            int expected = 0;
+            if (g_temps[i].state.compare_exchange_strong(expected, 1)) {
+                memcpy(g_temps[i].path, path.c_str(), path.size() + 1);
+                g_temps[i].state.store(2);
+                slot = i;
+                return;
+            }
+        }
+    }
+    /* Renamed into place: nothing to remove any more. */
+    void release() {
+        armed = false;
+        if (slot >= 0) g_temps[slot].state.store(0);
+        slot = -1;
+    }
     ~TempGuard() {
         if (armed) unlink(path.c_str());
+        release();
     }
 };
+
+/* Name of a temporary beside `dir`/`base`: ".<base>.tmp-XXXXXXXX.<ext>",
+ * with base shortened when the whole would pass the 255-byte name limit
+ * (an output name of 238-255 characters is itself fine). */
+std::string temp_name(const std::string &dir, const std::string &base, const std::string &ext,
+                      const std::string &suffix) {
+    const size_t extra = 1 + 5 + suffix.size() + (ext.empty() ? 0 : 1 + ext.size());
+    std::string b = base;
+    if (b.size() + extra > 255) b.resize(extra < 255 ? 255 - extra : 0);
+    return (dir == "/" ? std::string("/") : dir + "/") + "." + b + ".tmp-" + suffix +
+           (ext.empty() ? "" : "." + ext);
+}
 
 /* ------------------------------------------------------------------ read */
 
@@ -396,6 +491,46 @@ int read_impl(const char *path, ewio_file **out, std::string &msg) {
     f->full_height = s0.full_height > 0 ? s0.full_height : s0.height;
     const size_t npix = size_t(s0.width) * size_t(s0.height);
     const std::string fmt = in->format_name();
+
+    /* Every part's header before any pixel memory: a part that cannot be
+     * kept beside the first (another size or origin, deep, 3D) refuses the
+     * file with the reason rather than silently leaving that part out of
+     * the output, and the whole read is checked against the memory limit. */
+    long long total_channels = 0;
+    for (int sub = 0;; sub++) {
+        if (sub > 0 && !in->seek_subimage(sub, 0)) break;
+        const ImageSpec s = in->spec();
+        const std::string nm = s.get_string_attribute("oiio:subimagename");
+        const std::string part = "part " + std::to_string(sub + 1) + (nm.empty() ? "" : " " + q(nm));
+        if (sub > 0 && (s.deep || s.depth > 1)) {
+            msg = "cannot read " + q(p) + ": " + part + " is a " + (s.deep ? "deep" : "volume (3D)") +
+                  " image, which is not supported";
+            return 1;
+        }
+        if (sub > 0 && (s.width != s0.width || s.height != s0.height || s.x != s0.x || s.y != s0.y)) {
+            msg = "cannot read " + q(p) + ": " + part + " is " + std::to_string(s.width) + "x" +
+                  std::to_string(s.height) + " at (" + std::to_string(s.x) + "," + std::to_string(s.y) +
+                  ") but part 1 is " + std::to_string(s0.width) + "x" + std::to_string(s0.height) +
+                  " at (" + std::to_string(s0.x) + "," + std::to_string(s0.y) +
+                  "): parts of different sizes or origins are not supported (the output keeps every "
+                  "layer in one part); extract the parts first";
+            return 1;
+        }
+        total_channels += std::max(0, s.nchannels);
+        if (total_channels > kMaxChannels) {
+            msg = "cannot read " + q(p) + ": too many channels (limit " + std::to_string(kMaxChannels) + ")";
+            return 1;
+        }
+    }
+    d = check_bytes(s0.width, s0.height, total_channels);
+    if (!d.empty()) {
+        msg = "cannot read " + q(p) + ": " + d;
+        return 1;
+    }
+    if (!in->seek_subimage(0, 0)) {
+        msg = "cannot read " + q(p) + ": " + oiio_msg(in->geterror(), "cannot go back to the first part");
+        return 1;
+    }
 
     /* Subimages: multi-part EXR parts of the same size and origin are merged. */
     int nparts = 0;
@@ -746,8 +881,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     {
         int fd = -1, e = 0;
         for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
-            guard.path = (dir == "/" ? std::string("/") : dir + "/") + "." + base + ".tmp-" +
-                         random_suffix() + "." + ext;
+            guard.path = temp_name(dir, base, ext, random_suffix());
             fd = open(guard.path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
             e = errno;
             if (fd < 0 && e != EEXIST) break;
@@ -760,7 +894,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
                       errno_text(e) + ")";
             return 1;
         }
-        guard.armed = true;
+        guard.arm();
         if (dst_exists && S_ISREG(dst_st.st_mode))
             (void)fchmod(fd, dst_st.st_mode & 07777); /* keep the destination's mode */
         close(fd);
@@ -860,7 +994,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         msg = what + "rename of the temporary file failed (" + errno_text(errno) + ")";
         return 1;
     }
-    guard.armed = false;
+    guard.release();
     {
         int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
         if (dfd >= 0) {
@@ -871,11 +1005,149 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     return 0;
 }
 
+/* The text twin of write_impl's file handling: a temporary beside the
+ * destination, every byte written and flushed, then renamed over it. */
+int write_text_impl(const char *cpath, const char *text, size_t len, std::string &msg) {
+    const std::string path(cpath);
+    const std::string base = base_of(path);
+    const std::string dir = dir_of(path);
+    const std::string what = "cannot write " + q(path) + ": ";
+    if (base.empty() || base == "." || base == "..") {
+        msg = what + "not a file name";
+        return 1;
+    }
+    struct stat dst_st;
+    const bool dst_exists = stat(path.c_str(), &dst_st) == 0;
+    if (dst_exists && S_ISDIR(dst_st.st_mode)) {
+        msg = what + "is a directory";
+        return 1;
+    }
+    if (dst_exists && !S_ISREG(dst_st.st_mode)) {
+        msg = what + "not a regular file";
+        return 1;
+    }
+    struct stat dir_st;
+    if (stat(dir.c_str(), &dir_st) != 0 || !S_ISDIR(dir_st.st_mode)) {
+        msg = what + "directory " + q(dir) + " does not exist";
+        return 1;
+    }
+    TempGuard guard;
+    int fd = -1, e = 0;
+    for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
+        guard.path = temp_name(dir, base, lower_ext(base), random_suffix());
+        fd = open(guard.path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        e = errno;
+        if (fd < 0 && e != EEXIST) break;
+    }
+    if (fd < 0) {
+        msg = what + "cannot create a temporary file in " + q(dir) + " (" + errno_text(e) + ")";
+        return 1;
+    }
+    guard.arm();
+    if (dst_exists) (void)fchmod(fd, dst_st.st_mode & 07777);
+    size_t done = 0;
+    while (done < len) {
+        ssize_t k = ::write(fd, text + done, len - done);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) {
+            e = k < 0 ? errno : ENOSPC;
+            close(fd);
+            msg = what + errno_text(e);
+            return 1;
+        }
+        done += size_t(k);
+    }
+    if (fsync(fd) != 0) {
+        e = errno;
+        close(fd);
+        msg = what + "flushing the temporary file failed (" + errno_text(e) + ")";
+        return 1;
+    }
+    if (close(fd) != 0) {
+        msg = what + errno_text(errno);
+        return 1;
+    }
+    if (rename(guard.path.c_str(), path.c_str()) != 0) {
+        msg = what + "rename of the temporary file failed (" + errno_text(errno) + ")";
+        return 1;
+    }
+    guard.release();
+    int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dfd >= 0) {
+        (void)fsync(dfd);
+        close(dfd);
+    }
+    return 0;
+}
+
 } // namespace
 
 /* ================================================================ C API */
 
 extern "C" {
+
+int ewio_write_text(const char *path, const char *text, size_t len, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!path || !*path || (!text && len)) {
+        set_err(err, errlen, "ewio_write_text: invalid argument (NULL or empty path, or NULL text)");
+        return 1;
+    }
+    try {
+        std::string msg;
+        int rc = write_text_impl(path, text ? text : "", len, msg);
+        if (rc) set_err(err, errlen, msg);
+        return rc;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, std::string("cannot write '") + path + "': out of memory");
+    } catch (...) {
+        set_err(err, errlen, std::string("cannot write '") + path + "': unexpected error");
+    }
+    return 1;
+}
+
+void ewio_remove_temporaries(void) {
+    for (int i = 0; i < kTempSlots; i++)
+        if (g_temps[i].state.load() == 2) unlink(g_temps[i].path);
+}
+
+int ewio_parse_size(const char *text, unsigned long long *out) {
+    if (!text || !out) return 1;
+    errno = 0;
+    char *end = nullptr;
+    const double v = strtod(text, &end);
+    if (end == text || errno || !(v > 0) || !std::isfinite(v)) return 1;
+    double mul = 1;
+    std::string suf(end);
+    for (char &c : suf) c = char(toupper((unsigned char)c));
+    if (suf == "" || suf == "B") mul = 1;
+    else if (suf == "K" || suf == "KB" || suf == "KIB") mul = 1024.0;
+    else if (suf == "M" || suf == "MB" || suf == "MIB") mul = 1024.0 * 1024;
+    else if (suf == "G" || suf == "GB" || suf == "GIB") mul = 1024.0 * 1024 * 1024;
+    else if (suf == "T" || suf == "TB" || suf == "TIB") mul = 1024.0 * 1024 * 1024 * 1024;
+    else return 1;
+    const double b = v * mul;
+    if (b < 1 || b > 1.8e19) return 1;
+    *out = (unsigned long long)b;
+    return 0;
+}
+
+unsigned long long ewio_max_memory(void) {
+    unsigned long long v = 0;
+    const char *e = getenv("EDGEWISE_MAX_MEMORY");
+    if (e && *e && ewio_parse_size(e, &v) == 0) return v;
+    return physical_memory() / 4 * 3;
+}
+
+long long ewio_max_pixels(void) {
+    const char *e = getenv("EDGEWISE_MAX_PIXELS");
+    if (e && *e) {
+        char *end = nullptr;
+        errno = 0;
+        long long v = strtoll(e, &end, 10);
+        if (end != e && *end == '\0' && errno == 0 && v >= 1) return std::min(v, kMaxPixels);
+    }
+    return kMaxPixels;
+}
 
 int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
     clear_err(err, errlen);
@@ -993,7 +1265,7 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
         }
         const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
         /* Prepare everything that allocates before changing the file. */
-        std::vector<std::vector<float>> data(n);
+        std::vector<Plane> data(n);
         size_t nnew = 0;
         for (size_t k = 0; k < n; k++) {
             data[k].resize(npix);

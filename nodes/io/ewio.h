@@ -41,14 +41,28 @@ typedef struct ewio_file ewio_file;
 
 /* Read a whole image file (EXR, multilayer EXR, PNG, TIFF, anything OIIO
  * reads). Fails cleanly on missing, unreadable, truncated or non-image files,
- * on zero/negative dimensions and on images above 65536 px per side or 2^28
- * pixels (checked before any pixel memory is allocated). On failure *out is
- * NULL: no partial image is ever returned. Non-finite values are kept as
- * read. Multi-part EXRs: all parts of the same size and origin as the first
- * are merged (others are skipped); a channel name already taken gets the
- * part's name as prefix. Deep and 3D images are refused. */
+ * on zero/negative dimensions, on images above 65536 px per side or
+ * ewio_max_pixels() pixels, and on files whose every channel as float would
+ * take more than ewio_max_memory() bytes — all checked from the headers
+ * before any pixel memory is allocated (and pixel memory becomes resident
+ * only as the pixels are read). On failure *out is NULL: no partial image is
+ * ever returned. Non-finite values are kept as read. Multi-part EXRs: every
+ * part must have the size and origin of the first (a file with other parts
+ * is refused, naming the part) and all are merged; a channel name already
+ * taken gets the part's name as prefix. Deep and 3D images are refused. */
 int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen);
 void ewio_free(ewio_file *f); /* NULL is a no-op */
+
+/* The read limits, from the environment, so every reader in the process (the
+ * CLI's commands and the graph's read nodes alike) applies the same ones:
+ * EDGEWISE_MAX_PIXELS (at most, and by default, 2^28) and
+ * EDGEWISE_MAX_MEMORY (bytes, or with a K/M/G/T suffix in powers of 1024;
+ * default 3/4 of the physical memory). The CLI's --max-pixels and
+ * --max-memory set them. */
+unsigned long long ewio_max_memory(void);
+long long ewio_max_pixels(void);
+/* "8G", "512M", "1.5T", "1000000" -> bytes; 0 on success. */
+int ewio_parse_size(const char *text, unsigned long long *out);
 
 /* Accessors: 0 / NULL for a NULL file or an index out of range. Returned
  * names stay valid until the next ewio_set_pass on the file or ewio_free. */
@@ -129,6 +143,21 @@ int ewio_write_is_integer(const ewio_file *f, const char *path, ewio_pixel_type 
  * JPEG, integer TIFF): its values are already display-encoded, not scene
  * linear. 0 otherwise (floats, new channels, no such pass). */
 int ewio_pass_read_as_integer(const ewio_file *f, const char *layer, const char *pass);
+
+/* Write `len` bytes of text (a report, a CSV) on the same atomic path as
+ * ewio_write: a temporary beside `path`, flushed, renamed over it; on any
+ * failure (a full disk) `path` is left as it was — never empty or cut
+ * short — and the temporary is removed. Refuses a directory or a
+ * non-regular file (a FIFO, a device) at `path`. */
+int ewio_write_text(const char *path, const char *text, size_t len, char *err, size_t errlen);
+
+/* Remove every temporary that a write in this process is filling now.
+ * Async-signal-safe: for a SIGINT/SIGTERM handler, which then ends the
+ * process (the CLI exits 128 + the signal number). A process killed
+ * outright (SIGKILL, power loss) leaves its temporary behind: a hidden
+ * ".<name>.tmp-XXXXXXXX.<ext>" beside the output, safe to delete when no
+ * edgewise run writes there. */
+void ewio_remove_temporaries(void);
 
 /* Create an empty in-memory file of the given size (for tests and for
  * writing library outputs that did not come from a file): no channels, no

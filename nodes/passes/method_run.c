@@ -1,5 +1,6 @@
 #include "method_run.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,8 +49,17 @@ int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_d
     char key[320];
     snprintf(key, sizeof key, "cycles.%s.samples", lp->layer);
     const char *spp = ewio_get_attribute(f, key);
-    out->samples = spp ? atoi(spp) : 0;
-    if (out->samples < 0) out->samples = 0;
+    /* Cycles allows up to 2^24 samples; anything larger (or a number past
+     * int) means "very many" rather than wrapping through atoi. */
+    long long n = 0;
+    if (spp) {
+        char *end;
+        errno = 0;
+        n = strtoll(spp, &end, 10);
+        if (end == spp) n = 0;
+        else if (errno == ERANGE || n > (1LL << 24)) n = n < 0 ? 0 : 1LL << 24;
+    }
+    out->samples = n < 0 ? 0 : (int)n;
     return fail;
 }
 

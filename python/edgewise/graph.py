@@ -75,7 +75,11 @@ def image_view(array):
     if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError("an image is an array of shape (height, width) or (height, width, 1..4), got %r"
                          % (np.shape(array),))
-    if a.dtype != np.float32 or a.strides[2] != 4 or a.strides[1] <= 0:
+    # The C API reads a stride of 0 as "packed" (EW_STRIDE_PACKED), never as
+    # a repeated pixel or row: numpy's broadcast views (stride 0) and views
+    # whose rows overlap are copied, so the library only sees real strides.
+    if (a.dtype != np.float32 or a.strides[2] != 4 or a.strides[1] < 4 * a.shape[2]
+            or abs(a.strides[0]) < a.strides[1] * a.shape[1]):
         a = np.ascontiguousarray(a, dtype=np.float32)
     view = _lib.Image(a.ctypes.data, a.shape[1], a.shape[0], a.shape[2], a.strides[1], a.strides[0], 1)
     return view, a

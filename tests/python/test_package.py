@@ -80,6 +80,23 @@ class TestArrays(unittest.TestCase):
         out = ew.run_node("multiply", a=view, value=(2, 2, 2))
         np.testing.assert_array_equal(out, view * 2)
 
+    def test_zero_strides_are_copied_not_read_as_packed(self):
+        # numpy's broadcast views repeat one row (row stride 0) or one pixel
+        # (pixel stride 0); the C API reads a 0 stride as "packed", so such
+        # a view must reach it as a copy with real strides. 4096 wide: read
+        # as packed, the rows would run far past the one real row.
+        for w in (64, 4096):
+            row = np.linspace(0, 1, w * 3, dtype=np.float32).reshape(w, 3)
+            rows = np.broadcast_to(row, (5, w, 3))
+            self.assertEqual(rows.strides[0], 0)
+            view, kept = ew.image_view(rows)
+            self.assertNotEqual(view.row_stride, 0)
+            self.assertNotEqual(view.pixel_stride, 0)
+            np.testing.assert_array_equal(ew.run_node("multiply", a=rows, value=(2, 2, 2)), rows * 2)
+        px = np.broadcast_to(np.float32([0.25, 0.5, 1.0]), (6, 7, 3))
+        self.assertEqual(px.strides[:2], (0, 0))
+        np.testing.assert_array_equal(ew.run_node("multiply", a=px, value=(2, 2, 2)), px * 2)
+
     def test_outputs_are_views_of_graph_memory(self):
         out = ew.run_node("add", a=np.zeros((5, 7), np.float32), value=0.5)
         self.assertFalse(out.flags.owndata)

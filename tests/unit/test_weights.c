@@ -74,3 +74,25 @@ TEST(non_finite_values_rejected) {
     CHECK_STR_CONTAINS(err, "non-finite");
     free(buf);
 }
+
+TEST(overflowing_values_rejected) {
+    /* finite, valid checksum, but a network of FLT_MAX weights overflows to
+     * NaN and the denoised output goes black */
+    float a[6] = {1, 2, 3.4e38f, 4, 5, 6}, b[2] = {7, -2e7f};
+    ew_weights w = sample(a, b);
+    void *buf; size_t n; char err[256];
+    CHECK_EQ_INT(ew_weights_serialize(&w, &buf, &n), 0);
+    ew_weights r;
+    CHECK(ew_weights_parse(buf, n, &r, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "beyond any trained weight");
+    free(buf);
+    a[2] = 3;
+    CHECK_EQ_INT(ew_weights_serialize(&w, &buf, &n), 0);
+    CHECK(ew_weights_parse(buf, n, &r, err, sizeof err) != 0); /* b[1] still too large */
+    free(buf);
+    b[1] = -2e5f;
+    CHECK_EQ_INT(ew_weights_serialize(&w, &buf, &n), 0);
+    CHECK_EQ_INT(ew_weights_parse(buf, n, &r, err, sizeof err), 0);
+    ew_weights_free(&r);
+    free(buf);
+}

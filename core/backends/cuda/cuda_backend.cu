@@ -65,8 +65,10 @@ ew_result take_error(ew_device *dev) {
     cuda_ctx *c = ctx_of(dev);
     if (c->first_error == cudaSuccess) return EW_OK;
     const cudaError_t e = c->first_error;
-    snprintf(dev->last_error, sizeof dev->last_error, "CUDA device %d: %s failed: %s (%s)", c->ordinal,
-             c->first_what, cudaGetErrorString(e), cudaGetErrorName(e));
+    char msg[EW_ERROR_MAX];
+    snprintf(msg, sizeof msg, "CUDA device %d: %s failed: %s (%s)", c->ordinal, c->first_what,
+             cudaGetErrorString(e), cudaGetErrorName(e));
+    dev->set_error(dev, msg); /* the calling thread's last error */
     c->first_error = cudaSuccess;
     c->first_what = NULL;
     return result_of(e);

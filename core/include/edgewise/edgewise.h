@@ -3,7 +3,24 @@
  *
  * Model: OIDN's C API. Opaque handles, an explicit device, caller-owned image
  * views, set parameters -> commit -> execute. Every fallible call returns an
- * ew_result; the detailed message of the last failure is kept per device.
+ * ew_result; the detailed message of the last failure is kept per device and
+ * per calling thread.
+ *
+ * Threading contract (as OIDN's):
+ *   - A device may be used from several threads at once: different
+ *     denoisers/filters made on one device may be created, set, committed,
+ *     executed and destroyed concurrently (their parallel loops take turns
+ *     on the device's worker threads), and so may the metric functions.
+ *     Two devices in one process are independent.
+ *   - One denoiser/filter is used by one thread at a time: calls on the
+ *     same handle from two threads at once must be serialised by the caller.
+ *   - ew_device_last_error gives the calling thread's own last message.
+ *
+ * Lifetime: a denoiser/filter (and a node graph) holds a reference to its
+ * device, so the destroy order does not matter: ew_device_destroy releases
+ * the caller's reference and the device goes with the last handle made on
+ * it. After ew_device_destroy the caller must not pass that device to a new
+ * call (ew_device_retain first to keep using it).
  * The library never prints, never exits and has no global mutable state
  * (beyond the once-written CUDA probe of ew_backend_unavailable_reason).
  */
@@ -88,11 +105,16 @@ EW_API ew_result ew_device_create(const ew_device_desc *desc, ew_device **out);
  * counts GPUs — and the answer holds for the life of the process. That
  * once-written probe is the library's only global state. */
 EW_API const char *ew_backend_unavailable_reason(ew_device_type type);
-EW_API void ew_device_destroy(ew_device *dev); /* NULL is a no-op */
+/* Releases the caller's reference (see "Lifetime" above); NULL is a no-op. */
+EW_API void ew_device_destroy(ew_device *dev);
+/* One more reference, released by one more ew_device_destroy. */
+EW_API void ew_device_retain(ew_device *dev);
 EW_API ew_device_type ew_device_get_type(const ew_device *dev);
 EW_API int32_t ew_device_get_num_threads(const ew_device *dev);
-/* Message of the last failed call on this device ("" if none). Valid until
- * the next call on the device. Never NULL. */
+/* Message of the calling thread's last failed call on this device ("" if
+ * none): another thread's failures on the same device do not show here.
+ * Valid until this thread's next call on the device. Never NULL. (Messages
+ * are kept for the 64 threads that failed most recently.) */
 EW_API const char *ew_device_last_error(const ew_device *dev);
 
 /* ---- image views ------------------------------------------------------ */
@@ -100,8 +122,19 @@ typedef enum ew_format {
     EW_FORMAT_FLOAT = 1 /* 32-bit float per channel */
 } ew_format;
 
-/* A view of caller-owned pixels. Strides are in bytes; 0 means packed.
- * row_stride may be negative (OFX hosts pass bottom-up images). */
+/* A view of caller-owned pixels. Stride rules:
+ *   - Strides are in bytes. A stride of 0 is EW_STRIDE_PACKED: "the packed
+ *     value" (pixel_stride = channels * 4, row_stride = pixel_stride *
+ *     width), never a repeated pixel or row. A view whose pixels or rows
+ *     repeat (numpy's broadcast_to, stride 0) cannot be passed as it is:
+ *     copy it first (the Python package does).
+ *   - pixel_stride >= channels * 4; |row_stride| >= pixel_stride * width;
+ *     row_stride may be negative (OFX hosts pass bottom-up images): row y
+ *     starts at data + y * row_stride.
+ *   - data and both strides are multiples of 4 (float alignment).
+ *   - The whole view (|row_stride| * height) must fit in an int64.
+ * Views breaking a rule are refused with EW_ERR_INVALID_ARGUMENT when set. */
+#define EW_STRIDE_PACKED 0
 typedef struct ew_image {
     void *data;
     int32_t width, height, channels;
@@ -121,7 +154,11 @@ EW_API ew_image ew_image_packed(float *data, int32_t width, int32_t height, int3
 
 /* ---- progress --------------------------------------------------------- */
 /* Called with a fraction in [0,1]; return 0 to cancel, non-zero to go on.
- * May be called from a worker thread, one call at a time. */
+ * May be called from a worker thread, one call at a time. The callback must
+ * not set, commit or execute the denoiser/filter that is running (those calls
+ * return EW_ERR_INVALID_STATE); destroying it from the callback is deferred
+ * until execute returns (return 0 as well to stop the work early). Other
+ * handles may be used. */
 typedef int (*ew_progress_fn)(void *user, double fraction);
 
 /* ---- operations: every denoiser and filter ------------------------------ */
@@ -287,7 +324,9 @@ EW_API ew_result ew_method_flags(const char *kind, const char *name, uint32_t *f
  * Quality of `test` against `reference` over the first 3 channels (1 if an
  * image has fewer), computed on the tone-mapped values clip(x, 0, 1)^(1/2.2)
  * that a display shows — the convention of the denoising literature.
- * Non-finite test samples count as the worst error (0 vs reference).
+ * Non-finite test samples count as the worst error: the displayed value
+ * farthest from the reference's (1 against a dark reference sample, 0
+ * against a bright one), so NaN never scores as identical.
  * PSNR in dB (+inf for identical images), SSIM with an 11x11 Gaussian
  * window (sigma 1.5), averaged over channels.
  */

@@ -145,10 +145,20 @@ EW_NODES_API ew_result ew_graph_set_progress(ew_graph *g, ew_progress_fn fn, voi
  * directories and that no write would replace an input of the graph.
  * ew_graph_run validates first when anything changed since. */
 EW_NODES_API ew_result ew_graph_validate(ew_graph *g);
+/* For a file a caller writes beside the run (the CLI's --report): refuse
+ * (EW_ERR_INVALID_ARGUMENT, naming the node and frame) a path that any
+ * frame of the validated graph reads or writes, compared by device and
+ * inode when both exist, else by resolved path. */
+EW_NODES_API ew_result ew_graph_check_side_file(ew_graph *g, const char *path);
 /* Run every frame, streaming: one frame in memory at a time, buffers reused
  * after their last consumer. A failure stops the run; frames already
  * written stay. */
 EW_NODES_API ew_result ew_graph_run(ew_graph *g);
+
+/* Remove the temporaries of the image writes this library is doing now
+ * (".<name>.tmp-XXXXXXXX.<ext>" beside an output). Async-signal-safe: for
+ * a SIGINT/SIGTERM handler that then ends the process. */
+EW_NODES_API void ew_nodes_remove_temporaries(void);
 
 /* JSON text describing the last run: frames, files written, metrics
  * ("{}" before any run). Valid until the next run or destroy. */
