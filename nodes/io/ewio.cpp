@@ -522,6 +522,7 @@ int read_impl(const char *path, ewio_file **out, std::string &msg) {
             return 1;
         }
     }
+    (void)in->geterror(); /* clear the "no such subimage" noise of the scan's end */
     d = check_bytes(s0.width, s0.height, total_channels);
     if (!d.empty()) {
         msg = "cannot read " + q(p) + ": " + d;

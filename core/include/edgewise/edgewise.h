@@ -7,16 +7,17 @@
  * per calling thread.
  *
  * Threading contract (as OIDN's):
- *   - A device may be used from several threads at once: different
- *     denoisers/filters made on one device may be created, set, committed,
+ *   - A device may be used from several threads at once: different ops
+ *     (ew_op, and its ew_denoiser/ew_filter aliases) made on one device may
+ *     be created, set, committed,
  *     executed and destroyed concurrently (their parallel loops take turns
  *     on the device's worker threads), and so may the metric functions.
  *     Two devices in one process are independent.
- *   - One denoiser/filter is used by one thread at a time: calls on the
+ *   - One op is used by one thread at a time: calls on the
  *     same handle from two threads at once must be serialised by the caller.
  *   - ew_device_last_error gives the calling thread's own last message.
  *
- * Lifetime: a denoiser/filter (and a node graph) holds a reference to its
+ * Lifetime: an op (and a node graph) holds a reference to its
  * device, so the destroy order does not matter: ew_device_destroy releases
  * the caller's reference and the device goes with the last handle made on
  * it. After ew_device_destroy the caller must not pass that device to a new
@@ -155,7 +156,7 @@ EW_API ew_image ew_image_packed(float *data, int32_t width, int32_t height, int3
 /* ---- progress --------------------------------------------------------- */
 /* Called with a fraction in [0,1]; return 0 to cancel, non-zero to go on.
  * May be called from a worker thread, one call at a time. The callback must
- * not set, commit or execute the denoiser/filter that is running (those calls
+ * not set, commit or execute the op that is running (those calls
  * return EW_ERR_INVALID_STATE); destroying it from the callback is deferred
  * until execute returns (return 0 as well to stop the work early). Other
  * handles may be used. */
