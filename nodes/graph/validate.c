@@ -505,6 +505,7 @@ static ew_result check_collisions(ew_graph *g) {
     for (size_t i = 0; i < count; i++) free(ids[i].path);
     free(ids);
     return res;
+}
 
 /* Canonical form of a path that may not exist yet: the resolved directory
  * plus the base name ("" when the directory does not resolve). */
