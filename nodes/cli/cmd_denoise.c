@@ -230,17 +230,23 @@ static int parse(int argc, char **argv, options *o) {
     }
     if (!o->in) { fprintf(stderr, "edgewise: denoise needs an input file (see 'edgewise denoise --help')\n"); return 0; }
     if (!o->out) { fprintf(stderr, "edgewise: denoise needs an output file: -o OUT\n"); return 0; }
-    /* without --method, a parameter only one denoiser has picks it */
+    /* without --method, a parameter of another denoiser picks it: the one
+     * whose enum names the value (--model 2layer-1grid is nbg's), else the
+     * first in the library's order (--model FILE stays nbg, as the help says;
+     * kpcn weights need --method kpcn) */
     for (int i = 0; i < o->num_set && !o->method_given; i++) {
         if (param_index(library_method(o->method), o->set_name[i]) >= 0) continue;
-        const char *only = NULL;
-        int count = 0;
+        const char *first_m = NULL, *named = NULL;
         for (int32_t k = 0; k < ew_method_count("denoiser"); k++) {
             const char *m = NULL;
             ew_method_get("denoiser", k, &m, NULL, NULL, NULL);
-            if (param_index(m, o->set_name[i]) >= 0) { only = m; count++; }
+            int32_t pi = param_index(m, o->set_name[i]);
+            if (pi < 0) continue;
+            if (!first_m) first_m = m;
+            if (!named && ew_method_param_choice_index("denoiser", m, pi, o->set_text[i]) >= 0) named = m;
         }
-        if (count == 1) o->method = only;
+        if (named) o->method = named;
+        else if (first_m) o->method = first_m;
     }
     const char *lm = library_method(o->method);
     const char *kind = ew_method_kind(lm);
