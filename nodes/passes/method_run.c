@@ -165,10 +165,9 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     /* A filter on demodulated colour is a filter used as a denoiser: it
      * runs with the denoisers' do-no-harm stage (the filter's own default
      * is off: it may smooth on purpose). The spec's parameters still win. */
-    ew_param_info hp;
-    if (r == EW_OK && demod && find_param(spec, "do_no_harm", &hp)) {
-        r = ew_op_set_int(op, "do_no_harm", (int32_t)denoiser_default("do_no_harm", 1.0f));
-        if (r == EW_OK) r = ew_op_set_float(op, "outlier_k", denoiser_default("outlier_k", 0.0f));
+    if (r == EW_OK && demod && has_param(spec, "do_no_harm")) {
+        r = set_int(1, op, "do_no_harm", (int32_t)denoiser_default("do_no_harm", 1.0f));
+        if (r == EW_OK) r = set_float(1, op, "outlier_k", denoiser_default("outlier_k", 0.0f));
     }
     int samples_set = 0;
     for (int k = 0; r == EW_OK && k < spec->num_params; k++) {

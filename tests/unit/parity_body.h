@@ -336,7 +336,6 @@ TEST(harm_stage_steps) {
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);
     d.radiance = dnan(p.dut, N * 3);
-    d.rejected = dup_to(p.dut, rejected, N * 3);
     d.clamped = dnan(p.dut, N * 4);
     d.out = dup_to(p.dut, out, N * 3);
     d.stats = dnan(p.dut, N * 3);
