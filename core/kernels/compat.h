@@ -23,5 +23,7 @@ EW_HD float ew_clampf(float v, float lo, float hi) { return v < lo ? lo : (v > h
 EW_HD int ew_mini(int a, int b) { return a < b ? a : b; }
 EW_HD int ew_maxi(int a, int b) { return a > b ? a : b; }
 EW_HD int ew_finitef(float v) { return isfinite(v) ? 1 : 0; }
+/* The filters' finite-output rule for one value: NaN as 0, +-Inf as +-FLT_MAX. */
+EW_HD float ew_finite_orf(float v) { return isnan(v) ? 0.0f : isinf(v) ? (v > 0.0f ? 3.40282347e+38f : -3.40282347e+38f) : v; }
 
 #endif

@@ -120,7 +120,9 @@ EW_HD void ew_temporal_px(int x, int y, const ew_temporal_params *p, const ew_te
         for (int c = 0; c < 3; c++) out[c] = cur_ok ? hist[c] + alpha * (cur[c] - hist[c]) : hist[c];
         b->out_len[j] = ew_minf(len + (cur_ok ? 1.0f : 0.0f), p->max_frames);
     } else {
-        for (int c = 0; c < 3; c++) out[c] = cur[c];
+        /* no history: the frame itself, finite as every filter's output is
+         * (the op's host fallback does not reach device memory) */
+        for (int c = 0; c < 3; c++) out[c] = ew_finite_orf(cur[c]);
         b->out_len[j] = cur_ok ? 1.0f : 0.0f;
     }
 }

@@ -1,3 +1,4 @@
+#include "kernels/compat.h"
 #include "src/finite.h"
 #include "src/internal.h"
 
@@ -69,8 +70,6 @@ typedef struct {
     long replaced;
 } finite_job;
 
-static float finite_or(float v) { return isnan(v) ? 0.0f : isinf(v) ? (v > 0 ? FLT_MAX : -FLT_MAX) : v; }
-
 static void finite_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
     finite_job *j = (finite_job *)ctx;
     (void)tid;
@@ -84,7 +83,7 @@ static void finite_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
             replaced++;
             const float *i = j->in ? ew__pixel(j->in, x, (int)y) : NULL;
             for (int c = 0; c < j->channels; c++)
-                o[c] = finite_or(i && c < j->in_channels ? i[c] : o[c]);
+                o[c] = ew_finite_orf(i && c < j->in_channels ? i[c] : o[c]);
         }
     __atomic_fetch_add(&j->replaced, replaced, __ATOMIC_RELAXED);
 }

@@ -87,6 +87,7 @@ typedef struct cli_progress {
     int frames; /* > 1: "frame N/frames" from the fraction */
     int enabled, drawn;
     double t0, last;
+    int last_frame; /* the frame last drawn */
 } cli_progress;
 void cli_progress_init(cli_progress *p, const char *what, int frames, int quiet);
 int cli_progress_cb(void *user, double fraction); /* an ew_progress_fn; never cancels */

@@ -227,9 +227,11 @@ int cli_progress_cb(void *user, double fraction) {
     const double now = cli_now();
     if (fraction < 0.0) fraction = 0.0;
     if (fraction > 1.0) fraction = 1.0;
-    /* at most ten lines a second; the end always */
-    if (p->last >= 0.0 && now - p->last < 0.1 && fraction < 1.0) return 1;
+    /* at most ten lines a second; a new frame and the end always */
+    const int frame = p->frames > 1 ? (int)(fraction * p->frames + 1e-9) : 0;
+    if (p->last >= 0.0 && now - p->last < 0.1 && fraction < 1.0 && frame == p->last_frame) return 1;
     p->last = now;
+    p->last_frame = frame;
     const double elapsed = now - p->t0;
     char bar[31], left[32] = "", frames[48] = "";
     const int fill = (int)(fraction * 30.0);
@@ -245,8 +247,7 @@ int cli_progress_cb(void *user, double fraction) {
         snprintf(left, sizeof left, ", %s", t);
     }
     if (p->frames > 1) {
-        int done = (int)(fraction * p->frames + 1e-9);
-        snprintf(frames, sizeof frames, " frame %d/%d", done < p->frames ? done + 1 : p->frames, p->frames);
+        snprintf(frames, sizeof frames, " frame %d/%d", frame < p->frames ? frame + 1 : p->frames, p->frames);
     }
     fprintf(stderr, "\r%s [%s] %3d%%%s%s\033[K", p->what, bar, (int)(fraction * 100.0), frames, left);
     fflush(stderr);

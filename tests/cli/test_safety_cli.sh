@@ -121,7 +121,9 @@ if command -v oiiotool >/dev/null; then
   oiiotool --pattern noise 1536x1536 12 -d float -o big.exr >/dev/null 2>&1
   for sig in TERM INT; do
     mkdir -p "sig$sig"; rm -f "sig$sig"/*
-    "$EW" filter big.exr -o "sig$sig/out.exr" --method bilateral --float -q >/dev/null 2>&1 &
+    # env restores the default action: sh starts a background job with SIGINT
+    # ignored, and the program keeps an ignored signal ignored (as nohup wants)
+    env --default-signal="$sig" "$EW" filter big.exr -o "sig$sig/out.exr" --method bilateral --float -q >/dev/null 2>&1 &
     pid=$!
     caught=0
     for _ in $(seq 1 3000); do

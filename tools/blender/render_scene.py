@@ -1064,8 +1064,10 @@ def mat_fine(name, rng, kind, scale, bump):
     if bump > 0.0:
         nt = m.node_tree
         p = nt.nodes["Principled BSDF"]
-        fac = next(n for n in nt.nodes if n.bl_idname.startswith("ShaderNodeTex")
-                   and n.bl_idname != "ShaderNodeTexCoord").outputs["Fac"]
+        tex = next(n for n in nt.nodes if n.bl_idname.startswith("ShaderNodeTex")
+                   and n.bl_idname != "ShaderNodeTexCoord")
+        # the height is the texture's scalar output: Voronoi names it Distance
+        fac = tex.outputs["Fac" if "Fac" in tex.outputs else "Distance"]
         b = nt.nodes.new("ShaderNodeBump")
         b.inputs["Strength"].default_value = bump
         b.inputs["Distance"].default_value = 0.02
