@@ -15,16 +15,18 @@
 /* ---- architecture ------------------------------------------------------- */
 int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen) {
     memset(net, 0, sizeof *net);
-    int c = 0;
-    char tail = 0;
-    if (!arch || sscanf(arch, "kpcn-c%d%c", &c, &tail) != 1 || c < EW_KPCN_MIN_CH || c > EW_KPCN_MAX_CH) {
-        snprintf(err, errlen, "unknown kpcn architecture '%s' (expected kpcn-c<C>, C in %d..%d)", arch ? arch : "",
-                 EW_KPCN_MIN_CH, EW_KPCN_MAX_CH);
+    int c = 0, used = 0;
+    if (!arch || sscanf(arch, "kpcn-c%d%n", &c, &used) != 1 || c < EW_KPCN_MIN_CH || c > EW_KPCN_MAX_CH ||
+        (arch[used] != '\0' && strcmp(arch + used, "-noise") != 0)) {
+        snprintf(err, errlen, "unknown kpcn architecture '%s' (expected kpcn-c<C> or kpcn-c<C>-noise, C in %d..%d)",
+                 arch ? arch : "", EW_KPCN_MIN_CH, EW_KPCN_MAX_CH);
         return 1;
     }
-    snprintf(net->arch, sizeof net->arch, "kpcn-c%d", c);
+    net->noise = arch[used] != '\0';
+    net->inputs = net->noise ? EW_KPCN_MAX_INPUTS : EW_KPCN_INPUTS;
+    snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s", c, net->noise ? "-noise" : "");
     net->ch = c;
-    net->h0 = EW_KPCN_INPUTS;
+    net->h0 = net->inputs;
     net->u0 = net->h0 + c;
     net->d0 = net->u0 + c;
     net->k0 = net->d0 + c;
@@ -42,7 +44,7 @@ int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen) {
     net->nplanes[2] = net->k2 + EW_KPCN_TAPS;
     const int L = EW_ACT_LEAKY, N = EW_ACT_NONE;
     const ew_kpcn_layer spec[EW_KPCN_NLAYERS] = {
-        {0, 0, EW_KPCN_INPUTS, net->h0, c, L, 0, 0},
+        {0, 0, net->inputs, net->h0, c, L, 0, 0},
         {1, net->p1, c, net->h1, c, L, 0, 0},
         {2, net->p2, c, net->h2a, c, L, 0, 0},
         {2, net->h2a, c, net->h2b, c, L, 0, 0},
@@ -96,7 +98,7 @@ double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net) {
 int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, char *err, size_t errlen) {
     *params = NULL;
     if (strncmp(w->arch, "kpcn-", 5) != 0) {
-        snprintf(err, errlen, "weights are for '%s', not kpcn (expected 'kpcn-c<C>')", w->arch);
+        snprintf(err, errlen, "weights are for '%s', not kpcn (expected 'kpcn-c<C>[-noise]')", w->arch);
         return 1;
     }
     if (ew_kpcn_init(net, w->arch, err, errlen) != 0) return 1;
@@ -196,6 +198,32 @@ size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
     return f;
 }
 
+void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params) {
+    memset(params, 0, net->nparams * sizeof(float));
+    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+        const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[l];
+        const int co = ew_mini(D->cout, S->cout), ci = ew_mini(D->cin, S->cin);
+        for (int o = 0; o < co; o++) {
+            for (int i = 0; i < ci; i++)
+                memcpy(params + D->w_off + ((size_t)o * D->cin + i) * 25,
+                       src_params + S->w_off + ((size_t)o * S->cin + i) * 25, 25 * sizeof(float));
+            params[D->b_off + o] = src_params[S->b_off + o];
+        }
+    }
+}
+
+float ew_kpcn_frame_noise(int width, int height, const float *radiance) {
+    double *rows = (double *)malloc(sizeof(double) * 2 * (size_t)height), sum = 0.0, count = 0.0;
+    if (!rows) return ew_kpcn_noise_feature(0.0);
+    for (int y = 0; y < height; y++) ew_reduce_row(EW_REDUCE_NOISE, y, width, radiance, rows);
+    for (int y = 0; y < height; y++) {
+        sum += rows[2 * y];
+        count += rows[2 * y + 1];
+    }
+    free(rows);
+    return ew_kpcn_noise_feature(count > 0.0 ? sum / count : 0.0);
+}
+
 /* ---- frames --------------------------------------------------------------- */
 void ew_kpcn_frame_free(ew_kpcn_frame *f) {
     if (!f) return;
@@ -212,7 +240,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
     const long n = (long)width * height;
     f->width = width;
     f->height = height;
-    f->input = (float *)malloc(sizeof(float) * n * EW_KPCN_INPUTS);
+    f->input = (float *)malloc(sizeof(float) * n * EW_KPCN_MAX_INPUTS);
     f->radiance = (float *)malloc(sizeof(float) * n * 3);
     f->albedo_f = (float *)malloc(sizeof(float) * n * 3);
     f->ref = (float *)malloc(sizeof(float) * n * 3);
@@ -251,7 +279,8 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
                 memcpy(f->radiance + ((long)y * width + x) * 3, raw + ((long)y * width + x) * 3, 3 * sizeof(float));
         }
     free(raw);
-    ew_kpcn_input_args ia = {width, height, f->radiance, albedo, normal, depth, b.depth_scale, f->input, width, n};
+    ew_kpcn_input_args ia = {width, height, f->radiance, albedo, normal, depth, b.depth_scale, f->input, width, n,
+                             1, ew_kpcn_frame_noise(width, height, f->radiance)};
     for (int y = 0; y < height; y++)
         for (int x = 0; x < width; x++) ew_kpcn_input_px(x, y, &ia);
     for (long j = 0; j < n; j++)
@@ -264,7 +293,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
 
 /* ---- scratch -------------------------------------------------------------- */
 struct ew_kpcn_scratch {
-    int size;
+    int size, inputs;
     ew_gn_planes buf[EW_KPCN_SCALES], dbuf[EW_KPCN_SCALES];
     float *rad[EW_KPCN_SCALES]; /* 3 planes each */
     float *out[EW_KPCN_SCALES], *dout[EW_KPCN_SCALES];
@@ -276,6 +305,7 @@ ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
     ew_kpcn_scratch *s = (ew_kpcn_scratch *)calloc(1, sizeof *s);
     if (!s) return NULL;
     s->size = size;
+    s->inputs = net->inputs;
     size_t flat = 0;
     for (int k = 0; k < EW_KPCN_SCALES; k++) {
         const int P = size >> k;
@@ -368,7 +398,7 @@ static void load_patch(const ew_kpcn_frame *f, const ew_kpcn_patch *r, int size,
             if (flipx) a = size - 1 - a;
             if (flipy) b = size - 1 - b;
             const long j = (long)(r->y0 + b) * f->width + (r->x0 + a), q = (long)v * size + u;
-            for (int c = 0; c < EW_KPCN_INPUTS; c++) ew_gn_plane_row(&s->buf[0], c, v)[u] = f->input[c * n + j];
+            for (int c = 0; c < s->inputs; c++) ew_gn_plane_row(&s->buf[0], c, v)[u] = f->input[c * n + j];
             /* normals follow the symmetry (as algorithms/train.c) */
             float nx = f->input[6 * n + j], ny = f->input[7 * n + j];
             if (flipx) nx = 1.0f - nx;

@@ -9,7 +9,7 @@
  * dominated by the full-resolution layers.
  *
  * Layers (all 5x5 SAME convolutions with biases; C = the width):
- *   0 enc0  scale 0  inputs (10)     -> h0 (C)  LeakyReLU
+ *   0 enc0  scale 0  inputs (10|11)  -> h0 (C)  LeakyReLU
  *   1 enc1  scale 1  pool(h0) (C)    -> h1 (C)  LeakyReLU
  *   2 enc2a scale 2  pool(h1) (C)    -> h2a (C) LeakyReLU
  *   3 enc2b scale 2  h2a             -> h2b (C) LeakyReLU
@@ -19,14 +19,15 @@
  *   7 dec0  scale 0  [h0, up(d1)]    -> d0 (C)  LeakyReLU
  *   8 head0 scale 0  d0              -> 25 + 1
  *
- * Weights file (src/weights.h): arch "kpcn-c<C>", tensors conv<l>.weight
+ * Weights file (src/weights.h): arch "kpcn-c<C>" (10 inputs) or
+ * "kpcn-c<C>-noise" (11: the frame's noise level too), tensors conv<l>.weight
  * [cout, cin, 5, 5] and conv<l>.bias [cout], l = 0..8.
  *
  * Per scale, one zero-padded plane buffer (algorithms/guidenet.h's
  * ew_gn_planes) holds every plane of that scale, laid out so that each
  * convolution's input is one contiguous run of planes (the decoders' skip
  * concatenation costs nothing):
- *   scale 0: inputs (10) | h0 | up(d1) | d0 | head0 (26)
+ *   scale 0: inputs (10|11) | h0 | up(d1) | d0 | head0 (26)
  *   scale 1: pool(h0) | h1 | up(h2b) | d1 | head1 (26)
  *   scale 2: pool(h1) | h2a | h2b | head2 (25)
  */
@@ -52,8 +53,10 @@ typedef struct ew_kpcn_layer {
 } ew_kpcn_layer;
 
 typedef struct ew_kpcn_net {
-    char arch[32]; /* "kpcn-c<C>" */
+    char arch[32]; /* "kpcn-c<C>" or "kpcn-c<C>-noise" */
     int ch;
+    int noise;  /* 1: the network also sees the frame's noise level (kernels/kpcn.h) */
+    int inputs; /* input planes: EW_KPCN_INPUTS, + 1 with noise */
     int nplanes[EW_KPCN_SCALES];
     /* plane indices */
     int h0, u0, d0, k0, p1, h1, u1, d1, k1, p2, h2a, h2b, k2;
@@ -61,7 +64,7 @@ typedef struct ew_kpcn_net {
     size_t nparams;
 } ew_kpcn_net;
 
-/* "kpcn-c<C>" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH]. 0 or non-zero + message. */
+/* "kpcn-c<C>[-noise]" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH]. 0 or non-zero + message. */
 int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen);
 /* Kaiming-uniform for the LeakyReLU layers, heads 10x smaller (kernels start
  * near a box filter, blends near one half), zero biases; a pure function of
@@ -69,6 +72,14 @@ int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen);
 void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params);
 int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, char *err, size_t errlen);
 int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t *size);
+/* Parameters of net from those of another architecture src (a warm start):
+ * each layer's overlapping [cout][cin] block is copied, the rest is zero, so
+ * a "-noise" net made from its plain twin computes the same output until the
+ * noise plane's weights are trained. */
+void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params);
+/* The noise plane's value of a frame: EW_REDUCE_NOISE over its (clamped,
+ * demodulated) radiance, 3 floats a pixel. */
+float ew_kpcn_frame_noise(int width, int height, const float *radiance);
 /* Multiply-adds of the convolutions per full-resolution pixel. */
 double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net);
 /* The convolution of layer l on the scale buffers buf[scale]. */
@@ -96,7 +107,7 @@ size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
 /* One frame, preprocessed as the op preprocesses it. */
 typedef struct ew_kpcn_frame {
     int width, height;
-    float *input;    /* EW_KPCN_INPUTS planes of width*height */
+    float *input;    /* EW_KPCN_MAX_INPUTS planes of width*height (the noise plane last) */
     float *radiance; /* 3 a pixel: demodulated, firefly-clamped */
     float *albedo_f; /* 3 a pixel: albedo + eps */
     float *ref;      /* 3 a pixel: the reference colour (linear) */

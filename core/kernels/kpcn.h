@@ -25,7 +25,8 @@
 #include "kernels/conv.h"
 #include "kernels/denoise_px.h"
 
-#define EW_KPCN_INPUTS 10 /* network input planes */
+#define EW_KPCN_INPUTS 10     /* network input planes of the per-pixel features */
+#define EW_KPCN_MAX_INPUTS 11 /* and the frame's noise level, in the "-noise" models */
 #define EW_KPCN_KR 2      /* predicted kernel radius: 5x5 */
 #define EW_KPCN_TAPS 25
 #define EW_KPCN_HEAD 26   /* head outputs: 25 kernel logits + the blend logit (unused at the coarsest scale) */
@@ -44,7 +45,10 @@ EW_HD float *ew_kpcn_at(const ew_kpcn_tensor *t, int c, int y, int x) {
  * clamped radiance r (3; the kernels are applied to r, so the network sees
  * it, compressed), albedo clamped to [0, 1] (3), normal mapped by (n + 1)/2
  * (3), depth times depth_scale clamped to [0, 1] (1). A non-finite value
- * reads as 0.
+ * reads as 0. With noise_plane set, an 11th plane holds the frame's noise
+ * level (ew_kpcn_noise_feature), the same at every pixel: a 5x5 window of
+ * features cannot tell a converged frame's texture from 1-spp noise, which
+ * the frame-wide level can.
  */
 typedef struct ew_kpcn_input_args {
     int width, height;
@@ -52,7 +56,17 @@ typedef struct ew_kpcn_input_args {
     float depth_scale;
     float *dst; /* plane 0, row 0, x = 0 */
     long rs, ps;
+    int noise_plane; /* 1: write plane 10 = noise */
+    float noise;
 } ew_kpcn_input_args;
+
+/* The noise plane's value from the mean |HH| of the frame's compressed
+ * demodulated radiance (kernels/reduce.h EW_REDUCE_NOISE): log-scaled into
+ * [0, 1], 1e-4 (converged) -> 0, 1 -> 1; each 4x the samples lowers it by
+ * about 0.075. */
+EW_HD float ew_kpcn_noise_feature(double mean_abs_hh) {
+    return ew_clampf(1.0f + 0.25f * log10f((float)mean_abs_hh + 1e-4f), 0.0f, 1.0f);
+}
 
 EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
     const long j = (long)y * a->width + x;
@@ -64,6 +78,7 @@ EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
         d[(6 + k) * a->ps] = ew_clampf(0.5f * (ew_feature_or_zero(a->normal[j * 3 + k]) + 1.0f), 0.0f, 1.0f);
     }
     d[9 * a->ps] = ew_clampf(ew_feature_or_zero(a->depth[j]) * a->depth_scale, 0.0f, 1.0f);
+    if (a->noise_plane) d[10 * a->ps] = a->noise;
 }
 
 /* ---- 2x2 average pooling ------------------------------------------------

@@ -14,11 +14,24 @@
 
 enum {
     EW_REDUCE_LUM_SUM = 0,  /* out: sum of the finite, positive luminances of the row; their count */
-    EW_REDUCE_DEPTH_MAX = 1 /* out: largest finite depth below 1e9 of the row (0 if none); 0 */
+    EW_REDUCE_DEPTH_MAX = 1, /* out: largest finite depth below 1e9 of the row (0 if none); 0 */
+    EW_REDUCE_NOISE = 2      /* out: sum of |HH| over rows y - 1, y (see below); their count */
 };
 
-/* Row y of a width-pixel image: src holds 3 floats a pixel for LUM_SUM, 1
- * for DEPTH_MAX. Writes out[2 * y] and out[2 * y + 1]. */
+/* Compressed luminance l / (1 + l) of an RGB pixel (negative as 0). */
+EW_HD float ew_reduce_clum(const float *rgb) {
+    float l = ew_maxf(ew_luminance(rgb), 0.0f);
+    return l / (1.0f + l);
+}
+
+/* Row y of a width-pixel image: src holds 3 floats a pixel for LUM_SUM and
+ * NOISE, 1 for DEPTH_MAX. Writes out[2 * y] and out[2 * y + 1].
+ * NOISE is the frame's noise level the way wavelet denoisers measure it:
+ * the diagonal (HH) Haar detail (a - b - c + d) / 2 of each 2x2 block of
+ * compressed luminance in rows y - 1 and y (row 0 gives nothing). Pixel
+ * noise independent between pixels passes into HH unchanged, while edges
+ * along rows or columns cancel in it; the mean |HH| over the frame falls
+ * as 1/sqrt(samples). */
 EW_HD void ew_reduce_row(int op, int y, int width, const float *EW_RESTRICT src, double *EW_RESTRICT out) {
     double a = 0.0, b = 0.0;
     if (op == EW_REDUCE_LUM_SUM) {
@@ -28,6 +41,18 @@ EW_HD void ew_reduce_row(int op, int y, int width, const float *EW_RESTRICT src,
             if (ew_finitef(l) && l > 0.0f) {
                 a += (double)l;
                 b += 1.0;
+            }
+        }
+    } else if (op == EW_REDUCE_NOISE) {
+        if (y > 0) {
+            const float *r0 = src + (long)(y - 1) * width * 3, *r1 = src + (long)y * width * 3;
+            for (int x = 0; x + 1 < width; x++) {
+                float hh = 0.5f * (ew_reduce_clum(r0 + x * 3) - ew_reduce_clum(r0 + x * 3 + 3) -
+                                   ew_reduce_clum(r1 + x * 3) + ew_reduce_clum(r1 + x * 3 + 3));
+                if (ew_finitef(hh)) {
+                    a += (double)(hh < 0.0f ? -hh : hh);
+                    b += 1.0;
+                }
             }
         }
     } else {

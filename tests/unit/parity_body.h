@@ -726,6 +726,9 @@ TEST(kpcn_input_pool_up_filter) {
     const int cw = ew_kpcn_half(W), ch = ew_kpcn_half(H);
     const size_t NC = (size_t)cw * ch;
     ew_kpcn_input_args h;
+    memset(&h, 0, sizeof h);
+    h.noise_plane = 1; /* the "-noise" models' 11th plane too */
+    h.noise = 0.375f;
     h.width = W;
     h.height = H;
     h.radiance = hrand(N * 3, 0.0f, 4.0f, 23);
@@ -733,7 +736,7 @@ TEST(kpcn_input_pool_up_filter) {
     h.normal = hrand(N * 3, -1.0f, 1.0f, 0);
     h.depth = hrand(N, 0.0f, 10.0f, 0);
     h.depth_scale = 0.1f;
-    h.dst = hnan(N * EW_KPCN_INPUTS);
+    h.dst = hnan(N * EW_KPCN_MAX_INPUTS);
     h.rs = W;
     h.ps = (long)N;
     ew_kpcn_input_args d = h;
@@ -741,10 +744,10 @@ TEST(kpcn_input_pool_up_filter) {
     d.albedo = dup_to(p.dut, h.albedo, N * 3);
     d.normal = dup_to(p.dut, h.normal, N * 3);
     d.depth = dup_to(p.dut, h.depth, N);
-    d.dst = dnan(p.dut, N * EW_KPCN_INPUTS);
+    d.dst = dnan(p.dut, N * EW_KPCN_MAX_INPUTS);
     ew_cpu_backend.kpcn_input(p.cpu, &h);
     p.dut->backend->kpcn_input(p.dut, &d);
-    int ok = match(back(p.dut, d.dst, N * EW_KPCN_INPUTS), h.dst, N * EW_KPCN_INPUTS, "kpcn inputs");
+    int ok = match(back(p.dut, d.dst, N * EW_KPCN_MAX_INPUTS), h.dst, N * EW_KPCN_MAX_INPUTS, "kpcn inputs");
 
     /* pooling packed RGB (odd sizes: partial blocks) into planes */
     float *rad = hrand(N * 3, 0.0f, 3.0f, 0), *drad = dup_to(p.dut, rad, N * 3);
@@ -819,9 +822,14 @@ TEST(reduce_rows_both_kinds) {
     ok = ok && match_doubles(back(p.dut, (float *)(void *)d, nd * 2), h, nd, "depth row maxima");
     double mx = 0.0;
     for (int y = 0; y < H; y++) mx = h[2 * y] > mx ? h[2 * y] : mx;
+    ew_cpu_backend.reduce_rows(p.cpu, EW_REDUCE_NOISE, W, H, rgb, h);
+    p.dut->backend->reduce_rows(p.dut, EW_REDUCE_NOISE, W, H, dup_to(p.dut, rgb, N * 3), d);
+    ok = ok && match_doubles(back(p.dut, (float *)(void *)d, nd * 2), h, nd, "noise row sums");
+    const int noise_row_zero_empty = h[0] == 0.0 && h[1] == 0.0 && h[3] > 0.0 && h[3] <= (double)(W - 1);
     close_pair(&p);
     CHECK(ok);
     CHECK(mx < 1e9 && mx > 40.0); /* the background depth is left out */
+    CHECK(noise_row_zero_empty);  /* HH of rows y - 1, y: row 0 has none, row 1 up to W - 1 blocks */
     CHECK_NO_MISUSE();
 }
 

@@ -71,6 +71,8 @@ static const char usage[] =
     "       train_kpcn --emit-c MODELDIR > core/algorithms/kpcn_weights_data.c\n"
     "       train_kpcn --bench W H THREADS   (time the built-in models)\n"
     "  --seed N              initialisation and patch sampling (default 1)\n"
+    "  --init WEIGHTS.ewm    start from another kpcn's weights (a warm start: its overlapping layers copied,\n"
+    "                        the rest zero; kpcn-c16 -> kpcn-c16-noise keeps its output until trained)\n"
     "  --steps N             Adam steps, the schedule's length (default 6000)\n"
     "  --batch N             patches per step (default 8)\n"
     "  --patch N             patch side, a multiple of 4 (default 64)\n"
@@ -88,7 +90,7 @@ static const char usage[] =
     "  --time-limit MIN      checkpoint and stop after MIN minutes\n";
 
 typedef struct {
-    const char *arch, *out, *eval, *shared, *loss_name;
+    const char *arch, *out, *eval, *shared, *loss_name, *init;
     const char *train[MAX_DIRS], *val[MAX_DIRS];
     int ntrain_dirs, nval_dirs;
     char checkpoint[1024], csv[1024];
@@ -116,6 +118,7 @@ static int parse(int argc, char **argv, options *o) {
         if (!strcmp(a, "--arch")) { VAL(); o->arch = v; }
         else if (!strcmp(a, "--out")) { VAL(); o->out = v; }
         else if (!strcmp(a, "--eval")) { VAL(); o->eval = v; }
+        else if (!strcmp(a, "--init")) { VAL(); o->init = v; }
         else if (!strcmp(a, "--train")) { VAL(); if (o->ntrain_dirs < MAX_DIRS) o->train[o->ntrain_dirs++] = v; }
         else if (!strcmp(a, "--val")) { VAL(); if (o->nval_dirs < MAX_DIRS) o->val[o->nval_dirs++] = v; }
         else if (!strcmp(a, "--shared")) { VAL(); o->shared = v; }
@@ -791,11 +794,34 @@ int main(int argc, char **argv) {
                     (float *)calloc(net.nparams, sizeof(float))};
     ew_kpcn_random(&net, o.seed, params);
     long step = 0;
+    int resumed = 0;
     if (o.resume) {
         int r = load_checkpoint(o.checkpoint, &net, params, &adam, &step);
         if (r == 2) return 1;
+        resumed = r == 0;
         printf(r == 0 ? "resumed from %s at step %ld\n" : "no checkpoint at %s: from scratch (step %ld)\n",
                o.checkpoint, step);
+    }
+    if (o.init && !resumed) {
+        size_t size = 0;
+        void *bytes = read_file(o.init, &size);
+        ew_weights w;
+        ew_kpcn_net src;
+        float *sp = NULL;
+        if (!bytes || ew_weights_parse(bytes, size, &w, err, sizeof err) != 0) {
+            fprintf(stderr, "train_kpcn: --init %s: %s\n", o.init, bytes ? err : "cannot read");
+            return 1;
+        }
+        free(bytes);
+        int bad = ew_kpcn_from_weights(&src, &w, &sp, err, sizeof err);
+        ew_weights_free(&w);
+        if (bad) {
+            fprintf(stderr, "train_kpcn: --init %s: %s\n", o.init, err);
+            return 1;
+        }
+        ew_kpcn_params_from(&net, params, &src, sp);
+        free(sp);
+        printf("initialised from %s (%s)\n", o.init, src.arch);
     }
     double t0 = now_s();
     printf("scenes:\n");
