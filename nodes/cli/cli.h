@@ -106,4 +106,20 @@ FILE *cli_fopen_regular(const char *path, const char **why);
  * extension and is not a device or FIFO, and cli_check_writable passes. */
 int cli_check_image_output(const char *path);
 
+/* cli_timings.c: --timings[=N] (any command, taken off the command line
+ * like --max-memory) prints where the run's time went on stderr at exit:
+ * start-up (process creation to main), read, compute, write, total; with N,
+ * the method runs N more times warm and the fastest is printed too. The
+ * commands add their phases' seconds (cli_seconds) to cli_timing. */
+typedef struct cli_timings {
+    int enabled, warm_runs;
+    double t_main, startup;     /* seconds: main's entry; from process creation to it */
+    double read, compute, write;
+    double warm;                /* fastest warm run, < 0 when none ran */
+} cli_timings;
+extern cli_timings cli_timing;
+double cli_seconds(void);
+int cli_take_timings(int *argc, char **argv);
+void cli_print_timings(void);
+
 #endif

@@ -389,6 +389,7 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         }
     }
 
+    const double t_read = cli_seconds();
     int nc = (int)strlen(lp->color_comps);
     float *orig = (float *)malloc((size_t)w * h * nc * sizeof(float));
     if (!orig) return cli_fail("out of memory");
@@ -421,8 +422,13 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     cli_progress_init(&prog, what, 1, j->o->quiet);
     spec.progress = cli_progress_cb;
     spec.progress_user = &prog;
-    double ms = 0.0;
+    double ms = 0.0, warm_ms = -1.0;
+    spec.warm_runs = cli_timing.warm_runs;
+    spec.warm_ms = &warm_ms;
+    cli_timing.read += cli_seconds() - t_read;
     int bad = ew_method_run(j->dev, &spec, &in, j->out, &ms, j->err, sizeof j->err);
+    cli_timing.compute += ms * 1e-3;
+    if (warm_ms >= 0.0) cli_timing.warm = warm_ms * 1e-3;
     cli_progress_end(&prog);
     const int guided = in.albedo != NULL;
     const int has_nd = in.normal && in.depth, has_n = in.normal != NULL, has_d = in.depth != NULL;
@@ -494,10 +500,12 @@ int cmd_denoise(int argc, char **argv) {
     job j;
     memset(&j, 0, sizeof j);
     j.o = &o;
+    const double t_read = cli_seconds();
     if (ewio_read(o.in, &j.f, j.err, sizeof j.err) != 0) {
         cli_view_free(&o.view);
         return cli_fail("%s", j.err);
     }
+    cli_timing.read += cli_seconds() - t_read;
     int rc = EW_EXIT_FAIL;
     const size_t n = (size_t)ewio_width(j.f) * (size_t)ewio_height(j.f);
     float *noisy_first = NULL;
@@ -542,10 +550,12 @@ int cmd_denoise(int argc, char **argv) {
     ewio_set_attribute(j.f, "edgewise.version", ew_version_string());
     /* PNG/TIFF take only one pass: the first denoised layer's colour */
     const char *wpass = first.layer[0] ? "Combined" : first.color;
+    const double t_write = cli_seconds();
     if (cli_write(j.f, o.out, o.type, first.layer, wpass, &o.view, o.quiet, j.err, sizeof j.err) != 0) {
         cli_fail("%s", j.err);
         goto done;
     }
+    cli_timing.write += cli_seconds() - t_write;
     if (!o.quiet) fprintf(stderr, "edgewise: wrote %s\n", o.out);
     rc = 0;
 done:

@@ -46,6 +46,10 @@ typedef struct {
     int frame;
     char path[4096];
     char layer[256]; /* the layer read this frame (a write keeping the source writes into it) */
+    /* a write downstream keeps the source file (keep_source): the frame's
+     * file stays in memory after the read and that write takes it, instead
+     * of reading and decoding the same file a second time */
+    int keep_file;
 } read_state;
 
 static void read_release(ew_gnode *n) {
@@ -277,9 +281,12 @@ static ew_result read_execute(ew_gnode *n, ew_run *r) {
         if (res == EW_OK && ewio_get_pass(s->file, layer, m.pass[o], m.comps[o], (float *)v.data, err, sizeof err) != 0)
             res = ew_node_fail(n, EW_ERR_IO, "'%s': %s", path, err);
     }
-    /* One frame's file in memory at a time. */
-    ewio_free(s->file);
-    s->file = NULL;
+    /* One frame's file in memory at a time: kept for a write that keeps the
+     * source, else freed now. */
+    if (!s->keep_file || res != EW_OK) {
+        ewio_free(s->file);
+        s->file = NULL;
+    }
     return res;
 }
 
@@ -373,10 +380,16 @@ static ew_result write_check_files(ew_gnode *n) {
     if (access(dir, W_OK) != 0)
         return ew_node_fail(n, EW_ERR_IO, "parameter 'path': cannot write '%s': directory '%s' is not writable", path,
                             dir);
-    if (ew_node_num(n, "keep_source") != 0.0 && !upstream_read(n, 0))
-        return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT,
-                            "parameter 'keep_source': input 'image' does not come from a read node, so there is no "
-                            "source file to keep");
+    if (ew_node_num(n, "keep_source") != 0.0) {
+        ew_gnode *rn = upstream_read(n, 0);
+        if (!rn)
+            return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT,
+                                "parameter 'keep_source': input 'image' does not come from a read node, so there is no "
+                                "source file to keep");
+        read_state *rs = read_state_get(rn);
+        if (!rs) return ew_node_fail(n, EW_ERR_OUT_OF_MEMORY, "out of memory");
+        rs->keep_file = 1;
+    }
     const char *ext = strrchr(path, '.');
     if (!ext || (strcasecmp(ext, ".exr") && strcasecmp(ext, ".png") && strcasecmp(ext, ".tif") &&
                  strcasecmp(ext, ".tiff") && strcasecmp(ext, ".jpg") && strcasecmp(ext, ".jpeg")))
@@ -391,11 +404,16 @@ static ew_result keep_source_open(ew_gnode *n, ew_run *r, const ew_image *im, ew
     ew_gnode *rn = upstream_read(n, 0);
     if (!rn || !rn->state)
         return ew_node_fail(n, EW_ERR_INVALID_STATE, "parameter 'keep_source': no read node upstream ran");
-    const read_state *rs = (const read_state *)rn->state;
+    read_state *rs = (read_state *)rn->state;
     char src[4096], err[1024];
     if (!ew_frame_path(ew_node_str(rn, "path"), r->frame, src, sizeof src))
         return ew_node_fail(n, EW_ERR_INVALID_ARGUMENT, "parameter 'path': too long");
-    if (ewio_read(src, f, err, sizeof err) != 0) return ew_node_fail(n, EW_ERR_IO, "keep_source: %s", err);
+    if (rs->file && rs->frame == r->frame && !strcmp(rs->path, src)) { /* the read kept it: take it */
+        *f = rs->file;
+        rs->file = NULL;
+    } else if (ewio_read(src, f, err, sizeof err) != 0) {
+        return ew_node_fail(n, EW_ERR_IO, "keep_source: %s", err);
+    }
     if (ewio_width(*f) != im->width || ewio_height(*f) != im->height) {
         const int fw = ewio_width(*f), fh = ewio_height(*f);
         ewio_free(*f);

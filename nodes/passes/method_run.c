@@ -164,6 +164,15 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     if (r == EW_OK) r = ew_op_commit(op);
     if (r == EW_OK) r = ew_op_execute(op);
     *ms = now_ms() - t0;
+    if (r == EW_OK && spec->warm_ms && spec->warm_runs > 0 && color != out) {
+        ew_op_set_progress(op, NULL, NULL);
+        for (int k = 0; r == EW_OK && k < spec->warm_runs; k++) {
+            double tw = now_ms();
+            r = ew_op_execute(op);
+            tw = now_ms() - tw;
+            if (k == 0 || tw < *spec->warm_ms) *spec->warm_ms = tw;
+        }
+    }
     if (r == EW_OK && spec->chosen && spec->chosen_len) {
         const char *what = ew_op_describe(op);
         snprintf(spec->chosen, spec->chosen_len, "%s", what ? what : spec->name);

@@ -32,6 +32,12 @@ typedef struct ew_method_spec {
     /* optional: the method's progress (ew_*_set_progress) */
     ew_progress_fn progress;
     void *progress_user;
+    /* optional: after the timed run, execute the committed op this many
+     * more times (the same inputs give the same output; not when the colour
+     * is demodulated in place) and store the fastest in *warm_ms: the
+     * in-process time of the same work */
+    int warm_runs;
+    double *warm_ms;
 } ew_method_spec;
 
 /* Inputs of one layer, read once, reused across methods. */
