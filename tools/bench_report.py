@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Charts, tables and an HTML page from `edgewise bench` results.
 
-usage: tools/bench_report.py OUT_DIR
+usage: tools/bench_report.py OUT_DIR [--oidn ANCHOR.md]
 
 Reads OUT_DIR/results.csv and writes
   psnr_vs_ms.png, ssim_vs_ms.png   quality against time, one point per method
@@ -12,6 +12,11 @@ Reads OUT_DIR/results.csv and writes
                                    (when the bench ran with --images; every image is
                                    checked to decode in headless Chromium by
                                    tests/report, ctest -L browser)
+--oidn: Intel Open Image Denoise's PSNR per scene and spp from an anchor
+table (../shared/anchors/oidn-shared-test.md: | scene | 1 spp noisy | 1 spp
+OIDN | ...), averaged over the scenes and spp of results.csv, drawn on the
+PSNR chart as a red line per spp (it has no time measured in this run) and
+added to summary.md as the gap of every method to it.
 and, from OUT_DIR/temporal.csv (edgewise bench --temporal),
   temporal.md, temporal_psnr_vs_flicker.png
 Uses Debian's python3-matplotlib.
@@ -47,6 +52,41 @@ def means(rows):
         for k in ("psnr", "ssim", "relmse", "smape", "ms"):
             a[k].append(min(r[k], 100.0) if k == "psnr" else r[k])
     return {key: {k: sum(v) / len(v) for k, v in a.items()} | {"n": len(a["psnr"])} for key, a in acc.items()}
+
+
+def load_oidn(path, rows):
+    """spp -> OIDN's mean PSNR over the scenes of rows that the anchor table has
+    at that spp, and the number of those scenes; only spp where every scene
+    of rows is in the table (a partial mean would not compare)."""
+    table = {}
+    with open(path) as f:
+        for line in f:
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if len(cells) < 3 or not cells[0] or cells[0] in ("scene", "mean") or set(cells[0]) <= set("-: "):
+                continue
+            table[cells[0]] = cells[1:]
+    with open(path) as f:
+        header = next((l for l in f if l.startswith("| scene")), "")
+    cols = [c.strip() for c in header.strip().strip("|").split("|")][1:]
+    out = {}
+    for spp in sorted({r["spp"] for r in rows}):
+        try:
+            ci = cols.index(f"{spp} spp OIDN")
+        except ValueError:
+            continue
+        scenes = {r["scene"] for r in rows if r["spp"] == spp}
+        vals = []
+        for sc in scenes:
+            key = next((k for k in table if sc == k or sc.startswith(k + "_")), None)
+            v = table[key][ci] if key is not None and ci < len(table[key]) else ""
+            try:
+                vals.append(float(v.strip("*")))
+            except ValueError:
+                vals = None
+                break
+        if vals:
+            out[spp] = (sum(vals) / len(vals), len(vals))
+    return out
 
 
 def pareto(points):
@@ -90,7 +130,7 @@ def chart_layout(m, metric):
     return points, lines
 
 
-def chart(m, metric, ylabel, path):
+def chart(m, metric, ylabel, path, oidn=None):
     points, lines = chart_layout(m, metric)
     spps = sorted({k[1] for k in m})
     fig, ax = plt.subplots(figsize=(10, 5.5))
@@ -110,11 +150,16 @@ def chart(m, metric, ylabel, path):
         ax.axhline(val, color="0.65", lw=1.8, ls=dash, zorder=1)
         ax.annotate(f"input {spp} spp", (0.005, val), xycoords=("axes fraction", "data"), textcoords="offset points",
                     xytext=(0, 2), fontsize=7, color="0.3")
+    for si, spp in enumerate(sorted(oidn or {})):
+        val = oidn[spp][0]
+        ax.axhline(val, color="#d62728", lw=1.2, ls=(0, (6, 3)), zorder=1, alpha=0.8)
+        ax.annotate(f"OIDN {spp} spp (anchor)", (0.995, val), xycoords=("axes fraction", "data"),
+                    textcoords="offset points", xytext=(0, 2), fontsize=7, color="#d62728", ha="right")
     ax.set_xscale("log")
     ax.set_xlabel("time per frame (ms, log scale; fastest of repeated runs)")
     ax.set_ylabel(ylabel)
     ax.set_title(f"{ylabel} against time (mean over scenes); dashed: Pareto front per spp; "
-                 "lines: the noisy input", fontsize=10)
+                 "lines: the noisy input" + ("; red: OIDN" if oidn else ""), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     handles, labels = ax.get_legend_handles_labels()
     for si, spp in enumerate(spps):
@@ -126,13 +171,22 @@ def chart(m, metric, ylabel, path):
     plt.close(fig)
 
 
-def write_summary(m, path):
+def write_summary(m, path, oidn=None):
+    gap = bool(oidn)
     with open(path, "w") as f:
-        f.write("| method | spp | scenes | PSNR dB | SSIM | relMSE | SMAPE | ms/frame |\n")
-        f.write("|---|---:|---:|---:|---:|---:|---:|---:|\n")
+        f.write("| method | spp | scenes | PSNR dB | SSIM | relMSE | SMAPE | ms/frame |" +
+                (" PSNR - OIDN |\n" if gap else "\n"))
+        f.write("|---|---:|---:|---:|---:|---:|---:|---:|" + ("---:|\n" if gap else "\n"))
         for (meth, spp), v in sorted(m.items(), key=lambda kv: (kv[0][1], kv[1]["ms"])):
             f.write(f"| {meth} | {spp} | {v['n']} | {v['psnr']:.2f} | {v['ssim']:.4f} | {v['relmse']:.4g} | "
-                    f"{v['smape']:.4f} | {v['ms']:.2f} |\n")
+                    f"{v['smape']:.4f} | {v['ms']:.2f} |")
+            if gap:
+                o = oidn.get(spp)
+                f.write(f" {v['psnr'] - o[0]:+.2f} |" if o and o[1] == v["n"] else " |")
+            f.write("\n")
+        if gap:
+            f.write("\nOIDN (anchor, not run here): " +
+                    ", ".join(f"{spp} spp {o[0]:.2f} dB ({o[1]} scenes)" for spp, o in sorted(oidn.items())) + "\n")
 
 
 def write_scenes(rows, path):
@@ -245,9 +299,23 @@ def write_temporal(out):
 
 
 def main(argv):
-    if len(argv) != 2 or argv[1] in ("-h", "--help"):
+    if len(argv) < 2 or argv[1] in ("-h", "--help"):
         print(__doc__.strip())
         return 0 if len(argv) == 2 else 2
+    oidn_path = None
+    if "--oidn" in argv:
+        i = argv.index("--oidn")
+        if i + 1 >= len(argv):
+            print("bench_report: --oidn needs the anchor file", file=sys.stderr)
+            return 2
+        oidn_path = argv[i + 1]
+        argv = argv[:i] + argv[i + 2:]
+        if not os.path.isfile(oidn_path):
+            print(f"bench_report: no anchor file {oidn_path}", file=sys.stderr)
+            return 1
+    if len(argv) != 2:
+        print(__doc__.strip(), file=sys.stderr)
+        return 2
     out = argv[1]
     if write_temporal(out) and not os.path.isfile(os.path.join(out, "results.csv")):
         return 0  # a --temporal run only
@@ -260,9 +328,10 @@ def main(argv):
         print(f"bench_report: {path} has no rows", file=sys.stderr)
         return 1
     m = means(rows)
-    chart(m, "psnr", "PSNR (dB)", os.path.join(out, "psnr_vs_ms.png"))
+    oidn = load_oidn(oidn_path, rows) if oidn_path else None
+    chart(m, "psnr", "PSNR (dB)", os.path.join(out, "psnr_vs_ms.png"), oidn)
     chart(m, "ssim", "SSIM", os.path.join(out, "ssim_vs_ms.png"))
-    write_summary(m, os.path.join(out, "summary.md"))
+    write_summary(m, os.path.join(out, "summary.md"), oidn)
     write_scenes(rows, os.path.join(out, "scenes.md"))
     page = write_html(rows, out)
     print(f"bench_report: wrote charts and tables to {out}" + (" and index.html" if page else ""))

@@ -52,5 +52,44 @@ class TestChart(unittest.TestCase):
             self.assertGreater(os.path.getsize(path), 1000)
 
 
+ANCHOR = """# OIDN
+| scene | 1 spp noisy | 1 spp OIDN | 4 spp noisy | 4 spp OIDN |
+|---|---:|---:|---:|---:|
+| a_cornell_119 | 15.32 | 33.00 | 21.23 | 38.00 |
+| b_glossy_112 | 15.80 | 31.00 | 30.55 | – |
+| c_glass_113 | 19.94 | 20.00 | 24.38 | 30.00 |
+| mean | 18.51 | **32.19** | 26.43 | **36.14** |
+"""
+
+
+class TestOidnAnchor(unittest.TestCase):
+    def rows(self, scenes, spps):
+        return [{"scene": sc + "_256x256", "spp": spp} for sc in scenes for spp in spps]
+
+    def test_mean_over_the_scenes_benched(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "anchor.md")
+            with open(path, "w") as f:
+                f.write(ANCHOR)
+            # c_glass is in the table but not benched: left out of the mean
+            o = br.load_oidn(path, self.rows(["a_cornell_119", "b_glossy_112"], [1]))
+            self.assertEqual(o, {1: (32.0, 2)})
+            # a scene without a figure at that spp: no mean rather than a partial one
+            o = br.load_oidn(path, self.rows(["a_cornell_119", "b_glossy_112"], [1, 4]))
+            self.assertEqual(set(o), {1})
+            # a scene the table does not have: no mean either
+            self.assertEqual(br.load_oidn(path, self.rows(["a_cornell_119", "z_new_1"], [1])), {})
+
+    def test_summary_gives_the_gap(self):
+        with tempfile.TemporaryDirectory() as d:
+            m = {("kpcn", 1): {"psnr": 30.5, "ssim": 0.9, "ms": 3.0, "relmse": 0.1, "smape": 0.1, "n": 2}}
+            path = os.path.join(d, "s.md")
+            br.write_summary(m, path, {1: (32.0, 2)})
+            with open(path) as f:
+                text = f.read()
+            self.assertIn("| -1.50 |", text)
+            br.chart(m, "psnr", "PSNR (dB)", os.path.join(d, "c.png"), {1: (32.0, 2)})
+
+
 if __name__ == "__main__":
     unittest.main()
