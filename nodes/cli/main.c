@@ -1,13 +1,20 @@
 /*
- * edgewise — the command-line front end. Subcommands live in cmd_*.c; this
- * file dispatches and owns --help / --version.
+ * edgewise — the command-line program. It is small on purpose: --version,
+ * --help and a bare `edgewise` are answered here, by a process that loads
+ * only libedgewise; every command is in libedgewise_cli.so (cli_main.c),
+ * loaded when one is run. That library brings OpenImageIO, OpenColorIO and
+ * the ~260 shared libraries they pull in, whose loading and relocation is
+ * most of a command's start-up (measured with --timings).
  */
-#include <malloc.h>
+#include <dlfcn.h>
 #include <stdio.h>
 #include <string.h>
 
-#include "cli.h"
 #include "edgewise/edgewise.h"
+
+/* Exit codes as cli.h: 1 the work failed, 2 the command line was wrong. */
+#define EXIT_FAIL 1
+#define EXIT_USAGE 2
 
 static const char usage[] =
     "usage: edgewise <command> [options]\n"
@@ -33,52 +40,33 @@ static const char usage[] =
     "                              compute, write; =N: also the fastest of N warm runs)\n"
     "  edgewise --version          library version\n";
 
-static int dispatch(int argc, char **argv) {
+
+typedef int (*cli_main_fn)(int argc, char **argv, const char *usage);
+
+int main(int argc, char **argv) {
     if (argc < 2) {
         fputs(usage, stderr);
-        return EW_EXIT_USAGE;
+        return EXIT_USAGE;
     }
-    const char *cmd = argv[1];
-    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+    if (argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help"))) {
         fputs(usage, stdout);
         return 0;
     }
-    if (!strcmp(cmd, "--version")) {
+    if (argc == 2 && !strcmp(argv[1], "--version")) {
         printf("edgewise %s\n", ew_version_string());
         return 0;
     }
-    if (!strcmp(cmd, "denoise")) return cmd_denoise(argc - 1, argv + 1);
-    if (!strcmp(cmd, "info")) return cmd_info(argc - 1, argv + 1);
-    if (!strcmp(cmd, "compare")) return cmd_compare(argc - 1, argv + 1);
-    if (!strcmp(cmd, "filter")) return cmd_filter(argc - 1, argv + 1);
-    if (!strcmp(cmd, "dof")) return cmd_dof(argc - 1, argv + 1);
-    if (!strcmp(cmd, "bench")) return cmd_bench(argc - 1, argv + 1);
-    if (!strcmp(cmd, "train")) return cmd_train(argc - 1, argv + 1);
-    if (!strcmp(cmd, "graph")) return cmd_graph(argc - 1, argv + 1);
-    if (!strcmp(cmd, "nodes")) return cmd_nodes(argc - 1, argv + 1);
-    fprintf(stderr, "edgewise: unknown command '%s' (try 'edgewise --help')\n", cmd);
-    return EW_EXIT_USAGE;
-}
-
-/* Freed memory stays with the process for the next buffer. glibc serves
- * blocks above its mmap threshold (at most 32 MiB) with mmap and unmaps them
- * on free, so every image-sized buffer of every op, every file band and
- * every frame of a graph run came back as fresh page faults (and the kernel
- * zeroing the pages). From the heap, a freed buffer is reused as it is; the
- * process is short-lived or runs frame after frame of the same sizes, so
- * holding its peak costs nothing. The library itself sets nothing global:
- * this is the program's choice. */
-static void keep_freed_memory(void) {
-    mallopt(M_MMAP_MAX, 0);
-    mallopt(M_TRIM_THRESHOLD, 1 << 30);
-}
-
-int main(int argc, char **argv) {
-    keep_freed_memory();
-    if (!cli_take_timings(&argc, argv)) return EW_EXIT_USAGE;
-    cli_install_signal_handlers();
-    if (!cli_take_limits(&argc, argv)) return EW_EXIT_USAGE;
-    int rc = dispatch(argc, argv);
-    cli_print_timings();
-    return rc;
+    /* found by this program's RUNPATH ($ORIGIN/../lib), like libedgewise */
+    void *lib = dlopen("libedgewise_cli.so", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        fprintf(stderr, "edgewise: cannot load the commands: %s\n", dlerror());
+        return EXIT_FAIL;
+    }
+    cli_main_fn cli_main = NULL;
+    *(void **)&cli_main = dlsym(lib, "ew_cli_main");
+    if (!cli_main) {
+        fprintf(stderr, "edgewise: libedgewise_cli.so has no ew_cli_main: %s\n", dlerror());
+        return EXIT_FAIL;
+    }
+    return cli_main(argc, argv, usage);
 }
