@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "kernels/atrous.h"
 #include "src/backend.h"
 
 int ew_atrous_iterations_for(int radius) {
@@ -33,7 +34,7 @@ void ew_atrous_run(ew_device *dev, int w, int h, int C, int iterations, const fl
         a.sigma_l = sigma_l / (float)(1 << i);
         a.sigma_n = sigma_n;
         a.sigma_z = sigma_z;
-        dev->backend->atrous_pass(dev, &a);
+        (void)EW_RUN(dev, atrous, &a);
         src = dst;
         dst = dst == out ? tmp : out;
     }

@@ -212,12 +212,12 @@ static void conv(ew_device *dev, const state *s, int l) {
 
 static void pool(ew_device *dev, const ew_gn_planes *f, int fp, const ew_gn_planes *c, int cp, int nplanes) {
     ew_kpcn_pool_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(f, fp), planes_t(c, cp)};
-    dev->backend->kpcn_pool(dev, &a);
+    (void)EW_RUN(dev, kpcn_pool, &a);
 }
 
 static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes *f, int fp, int nplanes) {
     ew_kpcn_up_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(c, cp), planes_t(f, fp)};
-    dev->backend->kpcn_up(dev, &a);
+    (void)EW_RUN(dev, kpcn_up, &a);
 }
 
 static ew_result execute(ew_op *op) {
@@ -259,7 +259,7 @@ static ew_result execute(ew_op *op) {
     }
     ew_kpcn_input_args ia = {w, h, radiance, b->albedo, b->normal, b->depth, b->depth_scale,
                              ew_gn_plane_row(&s->sb[0], 0, 0), s->sb[0].rs, s->sb[0].ps, net->noise, noise};
-    dev->backend->kpcn_input(dev, &ia);
+    (void)EW_RUN(dev, kpcn_input, &ia);
     if (!ew_op_report(op, 0.05)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the network (algorithms/kpcn.h's layer list) */
     conv(dev, s, 0);
@@ -284,7 +284,7 @@ static ew_result execute(ew_op *op) {
     for (int sc = 1; sc < EW_KPCN_SCALES; sc++) {
         ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
                                 flat_t(s->rad[sc], s->sw[sc], s->sh[sc])};
-        dev->backend->kpcn_pool(dev, &pa);
+        (void)EW_RUN(dev, kpcn_pool, &pa);
         prev = pa.dst;
     }
     for (int sc = EW_KPCN_SCALES - 1; sc >= 0; sc--) {
@@ -305,7 +305,7 @@ static ew_result execute(ew_op *op) {
         } else {
             fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
         }
-        dev->backend->kpcn_filter(dev, &fa);
+        (void)EW_RUN(dev, kpcn_filter, &fa);
     }
     dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
     return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);

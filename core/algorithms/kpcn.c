@@ -666,41 +666,6 @@ double ew_kpcn_trainer_gradient(ew_kpcn_trainer *t, const float *params, const e
     return loss / t->batch;
 }
 
-/* ---- CPU backend entries: rows of the per-pixel functions on the device's threads ---- */
-typedef struct {
-    const void *a;
-    int width, kind;
-} kpcn_rows_job;
-
-static void kpcn_rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const kpcn_rows_job *j = (const kpcn_rows_job *)ctx;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < j->width; x++) switch (j->kind) {
-            case 0: ew_kpcn_input_px(x, (int)y, (const ew_kpcn_input_args *)j->a); break;
-            case 1: ew_kpcn_pool_px(x, (int)y, (const ew_kpcn_pool_args *)j->a); break;
-            case 2: ew_kpcn_up_px(x, (int)y, (const ew_kpcn_up_args *)j->a); break;
-            default: ew_kpcn_filter_px(x, (int)y, (const ew_kpcn_filter_args *)j->a); break;
-            }
-}
-
-void ew_cpu_kpcn_input(ew_device *dev, const ew_kpcn_input_args *a) {
-    kpcn_rows_job j = {a, a->width, 0};
-    ew_pool_run(dev->pool, a->height, 0, kpcn_rows, &j);
-}
-void ew_cpu_kpcn_pool(ew_device *dev, const ew_kpcn_pool_args *a) {
-    kpcn_rows_job j = {a, a->cw, 1};
-    ew_pool_run(dev->pool, a->ch, 0, kpcn_rows, &j);
-}
-void ew_cpu_kpcn_up(ew_device *dev, const ew_kpcn_up_args *a) {
-    kpcn_rows_job j = {a, a->fw, 2};
-    ew_pool_run(dev->pool, a->fh, 0, kpcn_rows, &j);
-}
-void ew_cpu_kpcn_filter(ew_device *dev, const ew_kpcn_filter_args *a) {
-    kpcn_rows_job j = {a, a->width, 3};
-    ew_pool_run(dev->pool, a->height, 0, kpcn_rows, &j);
-}
-
 /* ---- built-in models (kpcn_weights_data.c) ---------------------------------- */
 extern const unsigned char ew_kpcn_weights_large[], ew_kpcn_weights_small[];
 extern const size_t ew_kpcn_weights_large_size, ew_kpcn_weights_small_size;

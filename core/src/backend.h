@@ -13,14 +13,12 @@
 #include "kernels/outlier.h"
 #include "kernels/temporal.h"
 /* edge-aware filters */
-#include "kernels/atrous.h"
 #include "kernels/dof.h"
 #include "kernels/pyramid.h"
 /* neural bilateral grid */
 #include "kernels/conv.h"
 #include "kernels/guidenet.h"
-/* kernel-predicting denoiser */
-#include "kernels/kpcn.h"
+#include "kernels/kernel_ids.h"
 /* device memory and the CUDA module */
 #include <stddef.h>
 #include "edgewise/edgewise.h"
@@ -62,8 +60,6 @@ typedef struct ew_backend {
     /* pyramid filter: one downsampling / upsampling pass */
     void (*pyr_down)(ew_device *dev, const ew_pyr_down_args *a);
     void (*pyr_up)(ew_device *dev, const ew_pyr_up_args *a);
-    /* one iteration of the edge-avoiding a-trous filter */
-    void (*atrous_pass)(ew_device *dev, const ew_atrous_args *a);
     /* depth of field: CoC and (D, C) attributes from depth */
     void (*dof_attributes)(ew_device *dev, const ew_dof_args *a);
 
@@ -77,15 +73,11 @@ typedef struct ew_backend {
     /* blend one sliced grid into the running sum */
     void (*nbg_blend)(ew_device *dev, const ew_nbg_blend_args *a);
 
-    /* ---- kernel-predicting denoiser: core/algorithms/kpcn.c (kernels/kpcn.h) ---- */
-    /* input features of every pixel */
-    void (*kpcn_input)(ew_device *dev, const ew_kpcn_input_args *a);
-    /* 2x2 average pooling of planes (one thread per coarse pixel) */
-    void (*kpcn_pool)(ew_device *dev, const ew_kpcn_pool_args *a);
-    /* 2x bilinear upsampling of planes (one thread per fine pixel) */
-    void (*kpcn_up)(ew_device *dev, const ew_kpcn_up_args *a);
-    /* one scale's predicted-kernel filter and blend with the coarser scale */
-    void (*kpcn_filter)(ew_device *dev, const ew_kpcn_filter_args *a);
+    /* ---- every kernel of EW_KERNEL_LIST (kernels/kernel_ids.h) ---- */
+    /* kernel `id` over its whole domain; args: its argument struct, of
+     * args_size bytes (EW_RUN passes both). EW_ERR_INVALID_ARGUMENT, with
+     * nothing run, for an unknown id or a size that is not its struct's. */
+    ew_result (*run)(ew_device *dev, int id, const void *args, size_t args_size);
 
     /* ---- device memory: CPU in core/backends/cpu/cpu_memory.c,
      * CUDA in core/backends/cuda/. Keep this block last. Every buffer an
@@ -125,7 +117,6 @@ void ew_cpu_bf_brute(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *
 void ew_cpu_bf_separable(ew_device *dev, const ew_bf_model *m, int axis, const ew_bf_buffers *b);
 void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a);
 void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a);
-void ew_cpu_atrous_pass(ew_device *dev, const ew_atrous_args *a);
 void ew_cpu_dof_attributes(ew_device *dev, const ew_dof_args *a);
 
 /* CPU implementations of the neural bilateral grid entries */
@@ -134,11 +125,8 @@ void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a);
 void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs);
 void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a);
 
-/* CPU implementations of the kernel-predicting denoiser's entries (kpcn.c) */
-void ew_cpu_kpcn_input(ew_device *dev, const ew_kpcn_input_args *a);
-void ew_cpu_kpcn_pool(ew_device *dev, const ew_kpcn_pool_args *a);
-void ew_cpu_kpcn_up(ew_device *dev, const ew_kpcn_up_args *a);
-void ew_cpu_kpcn_filter(ew_device *dev, const ew_kpcn_filter_args *a);
+/* The CPU backend's run (cpu_kernels.c). */
+ew_result ew_cpu_run(ew_device *dev, int id, const void *args, size_t args_size);
 
 /* ---- device memory ---------------------------------------------
  * CPU implementations of the memory entries (cpu_memory.c). */
@@ -167,11 +155,15 @@ size_t ew_dev_stage_floats(const ew_device *dev, size_t n, int c);
  * that is 0. get waits for the result unless the view is on the device. */
 ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst, float *stage);
 ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage);
+/* Launch kernel NAME of EW_KERNEL_LIST with *a, its argument struct (any
+ * other struct is a compile error, and the loader refuses a CUDA module
+ * built with another list, so callers need not check the result). */
+#define EW_RUN(dev, NAME, a) ((dev)->backend->run((dev), EW_K_##NAME, ew_kargs_##NAME(a), sizeof *(a)))
 
 /* The CUDA module's entry point (libedgewise_cuda.so, loaded by
  * backend_loader.c). Sizes are checked at load so a module built from
  * another tree is refused instead of crashing. */
-#define EW_MODULE_ABI 1
+#define EW_MODULE_ABI 2
 #define EW_CUDA_MODULE_FILE "libedgewise_cuda.so"
 #define EW_CUDA_MODULE_ENTRY "ew_cuda_module_v1"
 typedef struct ew_module_api {
@@ -185,6 +177,7 @@ typedef struct ew_module_api {
     /* Set up dev->backend_ctx on device `ordinal`, queueing on `stream`
      * (a cudaStream_t, NULL: a stream of its own). */
     ew_result (*device_init)(ew_device *dev, int ordinal, void *stream, char *why, size_t len);
+    const char *kernels; /* EW_KERNEL_NAMES: what each id of backend->run launches */
 } ew_module_api;
 typedef const ew_module_api *(*ew_module_entry_fn)(void);
 /* The loaded module when a GPU is usable, else NULL (backend_loader.c;

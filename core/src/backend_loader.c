@@ -96,9 +96,10 @@ static void probe_cuda(void) {
                  EW_CUDA_MODULE_ENTRY);
     } else if (api->abi != EW_MODULE_ABI || api->sizeof_backend != sizeof(ew_backend) ||
                api->sizeof_device != sizeof(struct ew_device) || !api->version ||
-               strcmp(api->version, ew_version_string()) != 0) {
+               strcmp(api->version, ew_version_string()) != 0 || !api->kernels ||
+               strcmp(api->kernels, EW_KERNEL_NAMES) != 0) {
         say(cuda_why, sizeof cuda_why,
-                 "%s was built for another libedgewise (version %s, module ABI %u, tables %u/%u bytes; "
+                 "%s was built for another libedgewise (version %s, module ABI %u, tables %u/%u bytes or other kernels; "
                  "this library: %s, ABI %d, %u/%u bytes): rebuild it from the same tree",
                  path, api->version ? api->version : "?", api->abi, api->sizeof_backend, api->sizeof_device,
                  ew_version_string(), EW_MODULE_ABI, (unsigned)sizeof(ew_backend), (unsigned)sizeof(struct ew_device));

@@ -23,6 +23,7 @@
 #include "algorithms/bgrid.h"
 #include "algorithms/guidenet.h"
 #include "algorithms/pyramid.h"
+#include "kernels/kernel_list.h"
 #include "src/backend.h"
 #include "src/internal.h"
 #include "src/op.h"
@@ -567,8 +568,8 @@ TEST(atrous_pass) {
     d.out = dnan(p.dut, N * EW_BF_CH);
     d.normal = dup_to(p.dut, h.normal, N * EW_BF_CH);
     d.depth = dup_to(p.dut, h.depth, N);
-    ew_cpu_backend.atrous_pass(p.cpu, &h);
-    p.dut->backend->atrous_pass(p.dut, &d);
+    (void)EW_RUN(p.cpu, atrous, &h);
+    (void)EW_RUN(p.dut, atrous, &d);
     const int ok = match(back(p.dut, d.out, N * EW_BF_CH), h.out, N * EW_BF_CH, "a-trous");
     close_pair(&p);
     CHECK(ok);
@@ -745,8 +746,8 @@ TEST(kpcn_input_pool_up_filter) {
     d.normal = dup_to(p.dut, h.normal, N * 3);
     d.depth = dup_to(p.dut, h.depth, N);
     d.dst = dnan(p.dut, N * EW_KPCN_MAX_INPUTS);
-    ew_cpu_backend.kpcn_input(p.cpu, &h);
-    p.dut->backend->kpcn_input(p.dut, &d);
+    (void)EW_RUN(p.cpu, kpcn_input, &h);
+    (void)EW_RUN(p.dut, kpcn_input, &d);
     int ok = match(back(p.dut, d.dst, N * EW_KPCN_MAX_INPUTS), h.dst, N * EW_KPCN_MAX_INPUTS, "kpcn inputs");
 
     /* pooling packed RGB (odd sizes: partial blocks) into planes */
@@ -754,15 +755,15 @@ TEST(kpcn_input_pool_up_filter) {
     float *pooled = hnan(NC * 3), *dpooled = dnan(p.dut, NC * 3);
     ew_kpcn_pool_args hp = {W, H, cw, ch, 3, {rad, 3, 3L * W, 1}, {pooled, 1, cw, (long)NC}};
     ew_kpcn_pool_args dp = {W, H, cw, ch, 3, {drad, 3, 3L * W, 1}, {dpooled, 1, cw, (long)NC}};
-    ew_cpu_backend.kpcn_pool(p.cpu, &hp);
-    p.dut->backend->kpcn_pool(p.dut, &dp);
+    (void)EW_RUN(p.cpu, kpcn_pool, &hp);
+    (void)EW_RUN(p.dut, kpcn_pool, &dp);
     ok = ok && match(back(p.dut, dpooled, NC * 3), pooled, NC * 3, "kpcn pool");
 
     float *upd = hnan(N * 3), *dupd = dnan(p.dut, N * 3);
     ew_kpcn_up_args hu = {W, H, cw, ch, 3, {pooled, 1, cw, (long)NC}, {upd, 1, W, (long)N}};
     ew_kpcn_up_args du = {W, H, cw, ch, 3, {dpooled, 1, cw, (long)NC}, {dupd, 1, W, (long)N}};
-    ew_cpu_backend.kpcn_up(p.cpu, &hu);
-    p.dut->backend->kpcn_up(p.dut, &du);
+    (void)EW_RUN(p.cpu, kpcn_up, &hu);
+    (void)EW_RUN(p.dut, kpcn_up, &du);
     ok = ok && match(back(p.dut, dupd, N * 3), upd, N * 3, "kpcn up");
 
     /* the filter with and without a coarser scale, into packed RGB */
@@ -798,8 +799,8 @@ TEST(kpcn_input_pool_up_filter) {
         df.radiance.data = drad;
         df.coarse.data = with_coarse ? dpooled : NULL;
         df.out.data = dout;
-        ew_cpu_backend.kpcn_filter(p.cpu, &hf);
-        p.dut->backend->kpcn_filter(p.dut, &df);
+        (void)EW_RUN(p.cpu, kpcn_filter, &hf);
+        (void)EW_RUN(p.dut, kpcn_filter, &df);
         ok = match(back(p.dut, dout, N * 3), out, N * 3, "kpcn filter");
     }
     close_pair(&p);

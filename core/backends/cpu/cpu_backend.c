@@ -123,18 +123,14 @@ const ew_backend ew_cpu_backend = {
     .pyr_down = ew_cpu_pyr_down,
     .pyr_up = ew_cpu_pyr_up,
     .pyr_row_hooks = 1,
-    .atrous_pass = ew_cpu_atrous_pass,
     .dof_attributes = ew_cpu_dof_attributes,
     /* neural bilateral grid (core/algorithms/guidenet_cpu.c, nbg.c) */
     .conv5 = ew_cpu_conv5,
     .gn_input = ew_cpu_gn_input,
     .nbg_guides = ew_cpu_nbg_guides,
     .nbg_blend = ew_cpu_nbg_blend,
-    /* kernel-predicting denoiser (core/algorithms/kpcn.c) */
-    .kpcn_input = ew_cpu_kpcn_input,
-    .kpcn_pool = ew_cpu_kpcn_pool,
-    .kpcn_up = ew_cpu_kpcn_up,
-    .kpcn_filter = ew_cpu_kpcn_filter,
+    /* every kernel of EW_KERNEL_LIST (cpu_kernels.c) */
+    .run = ew_cpu_run,
     /* device memory (cpu_memory.c) */
     .mem_alloc = ew_cpu_mem_alloc,
     .mem_free = ew_cpu_mem_free,

@@ -313,17 +313,6 @@ void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     ew_pool_run(dev->pool, a->h, 0, up_rows(a->m->kind), (void *)a);
 }
 
-static EW_ROW_FN void atrous_rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const ew_atrous_args *a = (const ew_atrous_args *)ctx;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < a->w; x++) ew_atrous_px(x, (int)y, a);
-}
-
-void ew_cpu_atrous_pass(ew_device *dev, const ew_atrous_args *a) {
-    ew_pool_run(dev->pool, a->h, 0, atrous_rows, (void *)a);
-}
-
 typedef struct {
     const ew_dof_args *a;
     int step;

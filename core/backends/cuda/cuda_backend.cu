@@ -139,10 +139,6 @@ EW_KERNEL k_pyr_up(ew_pyr_up_args a, ew_bf_model m, ew_pyr_wrow row) {
     const ew_thread t = ew_thread_self();
     ew_kb_pyr_up(&t, &a, &m, &row);
 }
-EW_KERNEL k_atrous(ew_atrous_args a) {
-    const ew_thread t = ew_thread_self();
-    ew_kb_atrous(&t, &a);
-}
 EW_KERNEL k_dof(ew_dof_args a, int step) {
     const ew_thread t = ew_thread_self();
     ew_kb_dof(&t, &a, step);
@@ -163,22 +159,13 @@ EW_KERNEL k_nbg_blend(ew_nbg_blend_args a) {
     const ew_thread t = ew_thread_self();
     ew_kb_nbg_blend(&t, &a);
 }
-EW_KERNEL k_kpcn_input(ew_kpcn_input_args a) {
-    const ew_thread t = ew_thread_self();
-    ew_kb_kpcn_input(&t, &a);
-}
-EW_KERNEL k_kpcn_pool(ew_kpcn_pool_args a) {
-    const ew_thread t = ew_thread_self();
-    ew_kb_kpcn_pool(&t, &a);
-}
-EW_KERNEL k_kpcn_up(ew_kpcn_up_args a) {
-    const ew_thread t = ew_thread_self();
-    ew_kb_kpcn_up(&t, &a);
-}
-EW_KERNEL k_kpcn_filter(ew_kpcn_filter_args a) {
-    const ew_thread t = ew_thread_self();
-    ew_kb_kpcn_filter(&t, &a);
-}
+#define EW_KGLOBAL_(NAME, ARGS, PX, W, H, VEC) \
+    EW_KERNEL k_##NAME(ARGS a) {                  \
+        const ew_thread t = ew_thread_self();     \
+        ew_kb_##NAME(&t, &a);                     \
+    }
+EW_KERNEL_LIST(EW_KGLOBAL_)
+#undef EW_KGLOBAL_
 EW_KERNEL k_reduce_rows(int op, int width, int height, const float *__restrict__ src, double *__restrict__ out) {
     const ew_thread t = ew_thread_self();
     ew_kb_reduce_rows(&t, op, width, height, src, out);
@@ -232,7 +219,6 @@ void cu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     else memset(&row, 0, sizeof row); /* unused: the weights come from a->lut */
     EW_LAUNCH(dev, ew_kl_pyr_up(a), k_pyr_up, *a, *a->m, row);
 }
-void cu_atrous_pass(ew_device *dev, const ew_atrous_args *a) { EW_LAUNCH(dev, ew_kl_atrous(a), k_atrous, *a); }
 void cu_dof_attributes(ew_device *dev, const ew_dof_args *a) {
     for (int step = 0; step < EW_DOF_STEPS; step++) EW_LAUNCH(dev, ew_kl_dof(a, step), k_dof, *a, step);
 }
@@ -242,11 +228,23 @@ void cu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs) {
     EW_LAUNCH(dev, ew_kl_nbg_px(n), k_nbg_guides, n, ngrids, outputs);
 }
 void cu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) { EW_LAUNCH(dev, ew_kl_nbg_px(a->n), k_nbg_blend, *a); }
-void cu_kpcn_input(ew_device *dev, const ew_kpcn_input_args *a) { EW_LAUNCH(dev, ew_kl_kpcn_input(a), k_kpcn_input, *a); }
-void cu_kpcn_pool(ew_device *dev, const ew_kpcn_pool_args *a) { EW_LAUNCH(dev, ew_kl_kpcn_pool(a), k_kpcn_pool, *a); }
-void cu_kpcn_up(ew_device *dev, const ew_kpcn_up_args *a) { EW_LAUNCH(dev, ew_kl_kpcn_up(a), k_kpcn_up, *a); }
-void cu_kpcn_filter(ew_device *dev, const ew_kpcn_filter_args *a) {
-    EW_LAUNCH(dev, ew_kl_kpcn_filter(a), k_kpcn_filter, *a);
+ew_result cu_run(ew_device *dev, int id, const void *args, size_t args_size) {
+    switch (id) {
+#define EW_KLAUNCH_(NAME, ARGS, PX, W, H, VEC)                                        \
+    case EW_K_##NAME: {                                                               \
+        if (args_size != sizeof(ARGS)) break;                                         \
+        const ARGS *a = static_cast<const ARGS *>(args);                              \
+        EW_LAUNCH(dev, ew_kl_##NAME(a), k_##NAME, *a);                                \
+        return EW_OK;                                                                 \
+    }
+        EW_KERNEL_LIST(EW_KLAUNCH_)
+#undef EW_KLAUNCH_
+    default: break;
+    }
+    char msg[EW_ERROR_MAX];
+    snprintf(msg, sizeof msg, "CUDA backend: no kernel %d taking %zu bytes of arguments", id, args_size);
+    dev->set_error(dev, msg);
+    return EW_ERR_INVALID_ARGUMENT;
 }
 void cu_reduce_rows(ew_device *dev, int op, int width, int height, const float *src, double *out) {
     EW_LAUNCH(dev, ew_kl_reduce_rows(height), k_reduce_rows, op, width, height, src, out);
@@ -338,16 +336,12 @@ ew_backend make_table() {
     b.bf_separable = cu_bf_separable;
     b.pyr_down = cu_pyr_down;
     b.pyr_up = cu_pyr_up;
-    b.atrous_pass = cu_atrous_pass;
     b.dof_attributes = cu_dof_attributes;
     b.conv5 = cu_conv5;
     b.gn_input = cu_gn_input;
     b.nbg_guides = cu_nbg_guides;
     b.nbg_blend = cu_nbg_blend;
-    b.kpcn_input = cu_kpcn_input;
-    b.kpcn_pool = cu_kpcn_pool;
-    b.kpcn_up = cu_kpcn_up;
-    b.kpcn_filter = cu_kpcn_filter;
+    b.run = cu_run;
     b.mem_alloc = cu_mem_alloc;
     b.mem_free = cu_mem_free;
     b.mem_upload = cu_mem_upload;
@@ -438,6 +432,7 @@ extern "C" __attribute__((visibility("default"))) const ew_module_api *ew_cuda_m
         &table,
         probe,
         device_init,
+        EW_KERNEL_NAMES,
     };
     return &api;
 }

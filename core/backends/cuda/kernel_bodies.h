@@ -8,7 +8,8 @@
  * nothing but fetch their ew_thread and call the body; the CPU harness
  * (tests/unit/test_launch_grid.c) calls the same bodies over the same
  * grids (launch_grid.h). One body per backend entry (per launch for entries
- * that launch several).
+ * that launch several); the kernels of EW_KERNEL_LIST get theirs from the
+ * list.
  *
  * Arguments: buffers (every float/double array) are device pointers.
  * Parameter structs that an args struct points to (the model ew_bf_model,
@@ -20,14 +21,13 @@
 #define EW_BACKENDS_CUDA_KERNEL_BODIES_H
 
 #include "backends/launch_grid.h"
-#include "kernels/atrous.h"
 #include "kernels/bgrid.h"
 #include "kernels/bilateral.h"
 #include "kernels/conv.h"
 #include "kernels/denoise_px.h"
 #include "kernels/dof.h"
 #include "kernels/guidenet.h"
-#include "kernels/kpcn.h"
+#include "kernels/kernel_list.h"
 #include "kernels/outlier.h"
 #include "kernels/pyramid.h"
 #include "kernels/reduce.h"
@@ -137,14 +137,6 @@ EW_HD void ew_kb_pyr_up(const ew_thread *t, const ew_pyr_up_args *args, const ew
     ew_pyr_up_px(x, y, &a);
 }
 
-/* ---- edge-avoiding a-trous ----------------------------------------------- */
-EW_HD ew_launch ew_kl_atrous(const ew_atrous_args *a) { return ew_launch_2d(a->w, a->h); }
-EW_HD void ew_kb_atrous(const ew_thread *t, const ew_atrous_args *a) {
-    const int x = ew_tx(t), y = ew_ty(t);
-    if (x >= a->w || y >= a->h) return;
-    ew_atrous_px(x, y, a);
-}
-
 /* ---- depth of field attributes: five launches in stream order ------------
  * step 0: CoC per pixel; 1: near-field max per tile; 2, 3: the separable
  * scatter-max over tiles along x then y; 4: (D, C) per pixel. */
@@ -204,31 +196,18 @@ EW_HD void ew_kb_nbg_blend(const ew_thread *t, const ew_nbg_blend_args *a) {
     ew_nbg_blend_px(j, a->s, a->ngrids, a->outputs, a->n, a->sliced, a->acc);
 }
 
-/* ---- kernel-predicting denoiser: one thread per pixel of the output ------- */
-EW_HD ew_launch ew_kl_kpcn_input(const ew_kpcn_input_args *a) { return ew_launch_2d(a->width, a->height); }
-EW_HD void ew_kb_kpcn_input(const ew_thread *t, const ew_kpcn_input_args *a) {
-    const int x = ew_tx(t), y = ew_ty(t);
-    if (x >= a->width || y >= a->height) return;
-    ew_kpcn_input_px(x, y, a);
-}
-EW_HD ew_launch ew_kl_kpcn_pool(const ew_kpcn_pool_args *a) { return ew_launch_2d(a->cw, a->ch); }
-EW_HD void ew_kb_kpcn_pool(const ew_thread *t, const ew_kpcn_pool_args *a) {
-    const int x = ew_tx(t), y = ew_ty(t);
-    if (x >= a->cw || y >= a->ch) return;
-    ew_kpcn_pool_px(x, y, a);
-}
-EW_HD ew_launch ew_kl_kpcn_up(const ew_kpcn_up_args *a) { return ew_launch_2d(a->fw, a->fh); }
-EW_HD void ew_kb_kpcn_up(const ew_thread *t, const ew_kpcn_up_args *a) {
-    const int x = ew_tx(t), y = ew_ty(t);
-    if (x >= a->fw || y >= a->fh) return;
-    ew_kpcn_up_px(x, y, a);
-}
-EW_HD ew_launch ew_kl_kpcn_filter(const ew_kpcn_filter_args *a) { return ew_launch_2d(a->width, a->height); }
-EW_HD void ew_kb_kpcn_filter(const ew_thread *t, const ew_kpcn_filter_args *a) {
-    const int x = ew_tx(t), y = ew_ty(t);
-    if (x >= a->width || y >= a->height) return;
-    ew_kpcn_filter_px(x, y, a);
-}
+/* ---- every kernel of EW_KERNEL_LIST (kernels/kernel_ids.h) --------------
+ * One thread per (x, y) of the domain the list names; ew_kl_NAME gives the
+ * grid, ew_kb_NAME the body. */
+#define EW_KBODY_(NAME, ARGS, PX, W, H, VEC)                                           \
+    EW_HD ew_launch ew_kl_##NAME(const ARGS *a) { return ew_launch_2d(a->W, a->H); }   \
+    EW_HD void ew_kb_##NAME(const ew_thread *t, const ARGS *a) {                       \
+        const int x = ew_tx(t), y = ew_ty(t);                                          \
+        if (x >= a->W || y >= a->H) return;                                            \
+        PX(x, y, a);                                                                   \
+    }
+EW_KERNEL_LIST(EW_KBODY_)
+#undef EW_KBODY_
 
 /* ---- memory helpers ------------------------------------------------------ */
 EW_HD ew_launch ew_kl_reduce_rows(int height) { return ew_launch_1d(height); }
