@@ -16,9 +16,9 @@
  *
  * The "quality" parameter says how far up the ladder it may climb: fast is
  * the table above and the default; balanced runs the kernel-predicting
- * network kpcn at level 2, where it measured better; high also at level 1,
- * where it tied (levels below). The default stays fast while kpcn's margin
- * is this thin (+0.23 dB on 5 validation scenes): docs/kpcn.md.
+ * network kpcn at levels 1 and 2, where it measured better by 0.4-0.5 dB;
+ * high also at level 3, where it measured level (the rows below). The
+ * default stays fast: kpcn takes about three times nbg's time.
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
  * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
@@ -59,8 +59,8 @@ static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 16777216.0f, "samples per pixel of the render (0: unknown, estimate the noise)"},
     {"quality", EW_PARAM_INT, 0.0f, 0.0f, 2.0f,
      "how far up the ladder auto may climb: fast (the default: grids and nbg only), balanced (kpcn where it "
-     "measured better on the validation scenes, 9-32 spp), high (kpcn also where it tied, 3-32 spp); kpcn needs "
-     "albedo, normal and depth"},
+     "measured better on the validation scenes, 3-32 spp, about 3x the time), high (kpcn also where it measured "
+     "level, 3 spp and up); kpcn needs albedo, normal and depth"},
 };
 
 static const char *const quality_names[] = {"fast", "balanced", "high", NULL};
@@ -83,17 +83,17 @@ typedef struct {
 #define KPCN_LARGE 0 /* kpcn's built-in model (algorithms/kpcn.h) */
 
 /* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md):
- * on the held-out validation scenes kpcn beat the fast rungs at 9-32 spp
- * (16 spp: 33.07 dB against the fine grid's 32.84) and tied nbg at 4 spp
- * (29.31 against 29.32); at 1-2 spp nbg-1spp (25.54 against 24.48) and at
- * 33+ spp the finest grid (36.05 against 34.87) stay better, so no quality
- * climbs there. kpcn-small did not beat the fast rungs at any level, so no
- * row uses it yet. */
+ * on the 12 held-out validation scenes the noise-aware kpcn beat the fast
+ * rungs at 4 spp (32.84 dB against nbg's 32.35) and 16 spp (37.28 against
+ * the fine grid's 36.88), was level at 64 spp (40.01 against the finest
+ * grid's 39.83), and lost at 1 spp (28.07 against nbg-1spp's 28.42), so no
+ * quality climbs there. kpcn-small is not used: it did not beat the fast
+ * rungs at any level. */
 static const level_choice levels[] = {
     {-1, -1, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
-    {-1, KPCN_LARGE, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
+    {KPCN_LARGE, KPCN_LARGE, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
     {KPCN_LARGE, KPCN_LARGE, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
-    {-1, -1, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
+    {-1, KPCN_LARGE, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
 };
 
 /* Noise-estimate thresholds between the levels: the geometric means of the
