@@ -8,6 +8,11 @@ Reads OUT_DIR/results.csv and writes
                                    per spp (mean over scenes), Pareto front per spp
   summary.md                       per method and spp: mean PSNR/SSIM/relMSE/SMAPE/ms
   scenes.md                        per scene table
+  harm.md                          do no harm, per method: the worst and mean output
+                                   minus input (dB) per spp over the scenes, and on
+                                   the firefly scenes (d_firefly*) the output's mean
+                                   luminance over the reference's and the peak (largest
+                                   output / the reference's local maximum); also printed
   index.html                       input / outputs / reference / error maps per frame
                                    (when the bench ran with --images; every image is
                                    checked to decode in headless Chromium by
@@ -39,6 +44,8 @@ def load(path):
     for r in rows:
         for k in ("psnr", "ssim", "relmse", "smape", "ms"):
             r[k] = float(r[k])
+        for k in ("lum_ratio", "peak"):  # columns added later: older files lack them
+            r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
         r["spp"] = int(r["spp"])
         r["frame"] = int(r["frame"])
     return rows
@@ -196,6 +203,33 @@ def write_scenes(rows, path):
             f.write(f"| {r['scene']} | {r['spp']} | {r['method']} | {r['psnr']:.2f} | {r['ssim']:.4f} | {r['ms']:.2f} |\n")
 
 
+def harm_table(rows):
+    """Markdown: per method and spp, output minus input (worst, mean, scenes
+    below the input) and, on firefly scenes, luminance ratio and peak."""
+    inp = {(r["scene"], r["frame"], r["spp"]): r["psnr"] for r in rows if r["method"] == "input"}
+    acc = defaultdict(list)
+    ff = defaultdict(list)
+    for r in rows:
+        key = (r["scene"], r["frame"], r["spp"])
+        if r["method"] == "input" or key not in inp:
+            continue
+        acc[(r["method"], r["spp"])].append((r["psnr"] - inp[key], r["scene"]))
+        if "firefly" in r["scene"]:
+            ff[(r["method"], r["spp"])].append((r["lum_ratio"], r["peak"]))
+    lines = ["| method | spp | worst out - in dB | scene | mean out - in dB | below input | "
+             "firefly lum ratio | firefly peak |",
+             "|---|---:|---:|---|---:|---:|---:|---:|"]
+    for (meth, spp), v in sorted(acc.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        worst = min(v)
+        below = sum(1 for d, _ in v if d < 0)
+        f = ff.get((meth, spp), [])
+        lum = ", ".join(f"{a:.2f}" for a, _ in f) or "-"
+        peak = ", ".join(f"{b:.1f}" for _, b in f) or "-"
+        lines.append(f"| {meth} | {spp} | {worst[0]:+.2f} | {worst[1]} | {sum(d for d, _ in v) / len(v):+.2f} | "
+                     f"{below}/{len(v)} | {lum} | {peak} |")
+    return "\n".join(lines) + "\n"
+
+
 def write_html(rows, out):
     img = os.path.join(out, "img")
     if not os.path.isdir(img):
@@ -333,6 +367,10 @@ def main(argv):
     chart(m, "ssim", "SSIM", os.path.join(out, "ssim_vs_ms.png"))
     write_summary(m, os.path.join(out, "summary.md"), oidn)
     write_scenes(rows, os.path.join(out, "scenes.md"))
+    harm = harm_table(rows)
+    with open(os.path.join(out, "harm.md"), "w") as f:
+        f.write(harm)
+    print(harm, end="")
     page = write_html(rows, out)
     print(f"bench_report: wrote charts and tables to {out}" + (" and index.html" if page else ""))
     return 0

@@ -149,6 +149,7 @@ static ew_result bind(ew_op *op, state *s, const char *name) {
     ew_op_destroy(s->inner);
     s->inner = NULL;
     ew_result r = ew_op_create_kind(op->dev, "denoiser", name, &s->inner);
+    if (r == EW_OK) ew_harm_forward(op, s->inner); /* the method runs the do-no-harm stage */
     for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
         r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));
     return r;
@@ -243,6 +244,7 @@ const ew_op_type ew_denoise_auto = {
     .execute = execute,
     .release = release,
     .describe = describe,
+    .stage_in_inner = 1,
     /* it runs whatever its inner op runs on (bgrid and nbg are ported),
      * and reads the views only through the device (frame_noise) */
     .device_memory = 1,

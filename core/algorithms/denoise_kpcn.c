@@ -242,7 +242,10 @@ static ew_result execute(ew_op *op) {
     const float k = ew_op_param(op, "firefly_k");
     float *radiance = b->radiance;
     if (k > 0.0f) {
-        dev->backend->outlier_clamp(dev, w, h, 2, k, b->radiance, s->clamped);
+        /* the shared outlier definition (kernels/outlier.h), plain statistics */
+        const ew_outlier_params fp = ew_outlier_plain_params(w, h, 2, k);
+        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3};
+        dev->backend->outlier_guided(dev, &fp, &fb);
         radiance = s->clamped;
     }
     float noise = 0.0f;

@@ -236,7 +236,11 @@ static ew_result execute(ew_op *op) {
     const float k = ew_op_param(op, "firefly_k");
     const float *radiance = b->radiance;
     if (k > 0.0f) {
-        dev->backend->outlier_clamp(dev, b->width, b->height, 2, k, b->radiance, s->clamped);
+        /* the shared outlier definition (kernels/outlier.h) with the
+         * statistics this clamp always had: mean and standard deviation */
+        const ew_outlier_params fp = ew_outlier_plain_params(b->width, b->height, 2, k);
+        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3};
+        dev->backend->outlier_guided(dev, &fp, &fb);
         radiance = s->clamped;
     }
     if (!ew_op_report(op, 0.05)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");

@@ -98,4 +98,5 @@ const ew_op_type ew_filter_atrous = {
     /* zero iterations */
     .noop_at_zero = (const char *const[]){"radius", "iterations", NULL},
     .flags = EW_METHOD_HOST,
+    .denoises = 1,
 };

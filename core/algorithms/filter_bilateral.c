@@ -23,4 +23,5 @@ const ew_op_type ew_filter_bilateral = {
     .pixel_params = EW_BF_OP_PIXEL_PARAMS,
     .choices = (const ew_param_choices[]){EW_BF_MODEL_CHOICES, {NULL, NULL}},
     .inplace_inputs = EW_BF_OP_INPLACE,
+    .denoises = 1,
 };

@@ -1,6 +1,7 @@
 /*
  * filter "outlier": firefly / outlier suppression with albedo and normal
- * similarity (kernels/outlier.h, ew_outlier_guided_px). A pixel far brighter
+ * similarity (kernels/outlier.h, ew_outlier_guided_px: the one definition
+ * the denoisers' clamps use too). A pixel far brighter
  * than the neighbours of its own surface is scaled down to their bound;
  * NaN/Inf samples are rebuilt from them. Meant before a spatial denoiser or
  * filter on low-sample renders (measured in docs/temporal.md).
@@ -29,6 +30,10 @@ static const ew_param_desc params[] = {
      "neighbours whose normal has a smaller cosine to the pixel's are not compared (-1: ignore normals)"},
     {"sigma_floor", EW_PARAM_FLOAT, 0.1f, 0.0f, 10.0f,
      "smallest standard deviation as a fraction of the neighbours' mean: noise within k * this is never clamped"},
+    {"robust", EW_PARAM_BOOL, 0.0f, 0.0f, 1.0f,
+     "1: median and 1.4826 x median absolute deviation of the similar neighbours instead of mean and standard "
+     "deviation (a second firefly or an emitter in the window cannot hide a firefly; radius at most 3), as the "
+     "denoisers' outlier_k rejection"},
 };
 
 /* Every buffer in one device allocation (commit), reused by each execute:
@@ -96,11 +101,10 @@ static ew_result execute(ew_op *op) {
     if (r == EW_OK && b->albedo) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
     if (r == EW_OK && b->normal) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
     if (r != EW_OK) return r;
-    ew_outlier_params p;
-    p.width = s->w;
-    p.height = s->h;
-    p.radius = (int)ew_op_param(op, "radius");
-    p.k = ew_op_param(op, "k");
+    ew_outlier_params p = ew_outlier_plain_params(s->w, s->h, (int)ew_op_param(op, "radius"), ew_op_param(op, "k"));
+    p.shift = 1;
+    p.repair = 1;
+    p.robust = ew_op_param(op, "robust") != 0.0f;
     p.albedo_tol = ew_op_param(op, "albedo_tol");
     p.normal_cos = ew_op_param(op, "normal_cos");
     p.sigma_floor = ew_op_param(op, "sigma_floor");

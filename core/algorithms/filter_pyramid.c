@@ -30,4 +30,5 @@ const ew_op_type ew_filter_pyramid = {
     .noop_at_zero = (const char *const[]){"radius", NULL},
     .data_params = (const char *const[]){"weights", "weights", NULL},
     .flags = EW_METHOD_HOST,
+    .denoises = 1,
 };

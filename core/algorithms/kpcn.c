@@ -271,10 +271,12 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
     b.radiance = raw;
     b.guide = raw + n * 3;
     for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, &b);
+    const ew_outlier_params fp = ew_outlier_plain_params(width, height, 2, firefly_k);
+    const ew_outlier_buffers fb = {raw, NULL, NULL, f->radiance, 3};
     for (int y = 0; y < height; y++)
         for (int x = 0; x < width; x++) {
             if (firefly_k > 0.0f)
-                ew_outlier_clamp_px(x, y, width, height, 2, firefly_k, raw, f->radiance);
+                ew_outlier_guided_px(x, y, &fp, &fb);
             else
                 memcpy(f->radiance + ((long)y * width + x) * 3, raw + ((long)y * width + x) * 3, 3 * sizeof(float));
         }

@@ -1,82 +1,65 @@
 /*
- * outlier.h — firefly suppression: a pixel whose luminance lies more than
- * k standard deviations above the mean of its (2r+1)^2 neighbourhood (itself
- * excluded, so one firefly cannot hide itself) is scaled down to that bound.
- * Low-sample path tracing has heavy-tailed noise; a few such samples would
- * otherwise be spread by any smoothing filter into visible blotches.
- * Non-finite neighbours are ignored; a non-finite pixel is left as it is
- * (later stages treat it as missing).
+ * outlier.h — the one per-pixel definition of outlier (firefly) rejection.
+ * Every clamp of the library calls ew_outlier_px: the filter "outlier", the
+ * denoisers' own firefly_k clamp, and the extreme-outlier rejection that the
+ * op layer runs before every denoiser (src/harm_stage.c). They differ only
+ * in the parameters below.
+ *
+ * A pixel whose luminance lies more than k spreads above the centre of its
+ * (2r+1)^2 neighbourhood (itself excluded, so one firefly cannot hide
+ * itself) is scaled down to that bound. Low-sample path tracing has
+ * heavy-tailed noise; a few such samples would otherwise be spread by any
+ * smoothing filter into visible blotches.
+ *   - centre and spread: the mean and standard deviation of the neighbours'
+ *     luminance, or (robust) their median and 1.4826 x median absolute
+ *     deviation: a second firefly, or an emitter in the window, moves the
+ *     mean and inflates the standard deviation enough to let a 300x sample
+ *     through, while the median ignores up to half the window;
+ *   - only neighbours that look like the same surface count: albedo within
+ *     albedo_tol (every channel, absolute) and normal within normal_cos
+ *     (cosine) of the pixel's own. A bright pixel at the border of a bright
+ *     material, or a small emitter, is then compared with its own kind and
+ *     kept; a firefly inside a surface is compared with that surface;
+ *   - the spread is at least sigma_floor * |centre| and abs_floor, so plain
+ *     noise of a smooth surface is never touched (a few neighbours can look
+ *     much tighter than the noise is; a dark, flat region has a spread of 0,
+ *     and at 1-2 spp most of its light arrives as sparse bright samples that
+ *     carry the region's energy);
+ *   - shift: the mean statistics are of luminance differences to the first
+ *     similar neighbour's (no cancellation next to a 6e4 firefly, and a
+ *     constant image stays exactly constant); 0 sums plain luminances, as
+ *     the clamp the shipped NBG models were trained with did;
+ *   - a pixel with fewer than EW_OUTLIER_MIN_SIMILAR similar finite
+ *     neighbours is not judged (kept as it is);
+ *   - repair: a non-finite pixel (NaN/Inf in any channel) becomes the mean
+ *     colour of its similar finite neighbours, else of all finite
+ *     neighbours, else 0; without it, it is left as it is (later stages
+ *     treat it as missing). k <= 0 only repairs;
+ *   - a feature pass that is NULL, or non-finite at the pixel, is not used.
  */
 #ifndef EW_KERNELS_OUTLIER_H
 #define EW_KERNELS_OUTLIER_H
 
 #include "kernels/color.h"
 
-/* in/out: width*height*3 floats (out must not alias in). */
-EW_HD void ew_outlier_clamp_px(int x, int y, int width, int height, int radius, float k,
-                               const float *EW_RESTRICT in, float *EW_RESTRICT out) {
-    const long j = (long)y * width + x;
-    const float *p = in + j * 3;
-    float *o = out + j * 3;
-    o[0] = p[0];
-    o[1] = p[1];
-    o[2] = p[2];
-    float lum = ew_luminance(p);
-    if (!ew_finitef(lum) || lum <= 0.0f) return;
-    float sum = 0.0f, sum2 = 0.0f;
-    int n = 0;
-    for (int yy = ew_maxi(y - radius, 0); yy <= ew_mini(y + radius, height - 1); yy++)
-        for (int xx = ew_maxi(x - radius, 0); xx <= ew_mini(x + radius, width - 1); xx++) {
-            if (xx == x && yy == y) continue;
-            float l = ew_luminance(in + ((long)yy * width + xx) * 3);
-            if (!ew_finitef(l)) continue;
-            sum += l;
-            sum2 += l * l;
-            n++;
-        }
-    if (n < 3) return;
-    float mean = sum / (float)n;
-    float var = ew_maxf(sum2 / (float)n - mean * mean, 0.0f);
-    float bound = mean + k * sqrtf(var);
-    if (lum > bound) {
-        float s = ew_maxf(bound, 0.0f) / lum;
-        o[0] = p[0] * s;
-        o[1] = p[1] * s;
-        o[2] = p[2] * s;
-    }
-}
-
-/*
- * Feature-aware outlier suppression (filter "outlier"). The same
- * test as above, but the neighbourhood statistics only count neighbours
- * that look like the same surface: albedo within albedo_tol (every channel,
- * absolute) and normal within normal_cos (cosine) of the pixel's own. A
- * bright pixel at the border of a bright material, or a small bright object
- * of its own albedo, is then compared with its own kind and kept; a firefly
- * inside a surface is compared with that surface and clamped.
- *   - the standard deviation is at least sigma_floor * |mean|, so plain
- *     noise within k * sigma_floor of a smooth surface's mean is never
- *     touched (a few neighbours can otherwise look much tighter than the
- *     noise is);
- *   - the statistics are of luminance differences to the first similar
- *     neighbour's (shifted data: no cancellation next to a 6e4 firefly, and a
- *     constant image stays exactly constant);
- *   - a pixel with fewer than EW_OUTLIER_MIN_SIMILAR similar finite
- *     neighbours is not judged (kept as it is);
- *   - a non-finite pixel (NaN/Inf in any channel) becomes the mean colour of
- *     its similar finite neighbours, else of all finite neighbours, else 0;
- *   - k <= 0 only repairs non-finite pixels;
- *   - a feature pass that is NULL, or non-finite at the pixel, is not used.
- */
 #define EW_OUTLIER_MIN_SIMILAR 3
+/* The robust statistics sort the window in a per-thread array: radius 3
+ * (48 neighbours) at most; a larger radius is treated as 3. */
+#define EW_OUTLIER_ROBUST_RADIUS 3
+#define EW_OUTLIER_ROBUST_CAP 48
+#define EW_OUTLIER_MAD_SCALE 1.4826f /* MAD -> standard deviation of a normal distribution */
 
 typedef struct ew_outlier_params {
     int width, height;
-    int radius;       /* window (2r+1)^2 */
-    float k;          /* bound = mean + k * standard deviation of the similar neighbours' luminance */
-    float albedo_tol; /* neighbours whose albedo differs by more in any channel are not counted */
-    float normal_cos; /* neighbours whose normal has a smaller cosine to the pixel's are not counted */
-    float sigma_floor; /* smallest standard deviation, relative to the mean */
+    int radius;        /* window (2r+1)^2 */
+    float k;           /* bound = centre + k * spread of the similar neighbours' luminance */
+    float albedo_tol;  /* neighbours whose albedo differs by more in any channel are not counted */
+    float normal_cos;  /* neighbours whose normal has a smaller cosine to the pixel's are not counted */
+    float sigma_floor; /* smallest spread, relative to the centre */
+    float abs_floor;   /* smallest spread, in luminance units (0: none) */
+    int robust;        /* 1: median and MAD; 0: mean and standard deviation */
+    int shift;         /* mean statistics of differences to the first similar neighbour */
+    int repair;        /* rebuild non-finite pixels from their neighbours */
 } ew_outlier_params;
 
 typedef struct ew_outlier_buffers {
@@ -86,6 +69,24 @@ typedef struct ew_outlier_buffers {
     float *out;          /* channels per pixel; must not alias color */
     int channels;        /* floats per pixel of color and out, >= 3: the ones past RGB (alpha) are copied */
 } ew_outlier_buffers;
+
+/* The parameters of the denoisers' own firefly_k clamp (bgrid, nbg): mean
+ * and standard deviation of the whole 5x5 window, nothing else. */
+EW_HD ew_outlier_params ew_outlier_plain_params(int width, int height, int radius, float k) {
+    ew_outlier_params p;
+    p.width = width;
+    p.height = height;
+    p.radius = radius;
+    p.k = k;
+    p.albedo_tol = 0.0f;
+    p.normal_cos = -1.0f;
+    p.sigma_floor = 0.0f;
+    p.abs_floor = 0.0f;
+    p.robust = 0;
+    p.shift = 0;
+    p.repair = 0;
+    return p;
+}
 
 EW_HD int ew_outlier_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
 
@@ -110,6 +111,34 @@ EW_HD int ew_outlier_similar(const ew_outlier_params *p, const ew_outlier_buffer
     return 1;
 }
 
+/* The k-th smallest of v[0..n) (Hoare's selection; reorders v). The values
+ * are finite. */
+EW_HD float ew_outlier_select(float *v, int n, int k) {
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+        const float pivot = v[(lo + hi) / 2];
+        int i = lo, j = hi;
+        while (i <= j) {
+            while (v[i] < pivot) i++;
+            while (v[j] > pivot) j--;
+            if (i <= j) {
+                const float t = v[i];
+                v[i] = v[j];
+                v[j] = t;
+                i++;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            break;
+    }
+    return v[k];
+}
+
 EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     const long j = (long)y * p->width + x, cc = b->channels;
     const float *c0 = b->color + j * cc;
@@ -118,12 +147,16 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     const float lum = finite ? ew_luminance(c0) : 0.0f;
     for (int c = 0; c < cc; c++) o[c] = c0[c];
     if (finite && (p->k <= 0.0f || lum <= 0.0f)) return; /* nothing to judge */
+    if (!finite && !p->repair) return;
     const int use_a = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
     const int use_n = b->normal != 0 && ew_outlier_finite3(b->normal + j * 3);
+    const int robust = p->robust && finite;
+    const int r = robust ? ew_mini(p->radius, EW_OUTLIER_ROBUST_RADIUS) : p->radius;
     float shift = 0.0f, sum = 0.0f, sum2 = 0.0f, rgb[3] = {0.0f, 0.0f, 0.0f}, any_rgb[3] = {0.0f, 0.0f, 0.0f};
+    float window[EW_OUTLIER_ROBUST_CAP];
     int n = 0, any = 0;
-    for (int yy = ew_maxi(y - p->radius, 0); yy <= ew_mini(y + p->radius, p->height - 1); yy++)
-        for (int xx = ew_maxi(x - p->radius, 0); xx <= ew_mini(x + p->radius, p->width - 1); xx++) {
+    for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, p->height - 1); yy++)
+        for (int xx = ew_maxi(x - r, 0); xx <= ew_mini(x + r, p->width - 1); xx++) {
             if (xx == x && yy == y) continue;
             const long k = (long)yy * p->width + xx;
             const float *c1 = b->color + k * cc;
@@ -132,7 +165,11 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
                 for (int c = 0; c < 3; c++) any_rgb[c] += c1[c];
             any++;
             if (!ew_outlier_similar(p, b, j, k, use_a, use_n)) continue;
-            if (n == 0) shift = ew_luminance(c1);
+            if (robust) {
+                window[n++] = ew_luminance(c1);
+                continue;
+            }
+            if (n == 0 && p->shift) shift = ew_luminance(c1);
             const float l = ew_luminance(c1) - shift;
             sum += l;
             sum2 += l * l;
@@ -146,10 +183,18 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
         return;
     }
     if (n < EW_OUTLIER_MIN_SIMILAR) return;
-    const float mean_d = sum / (float)n; /* mean - shift */
-    const float var = ew_maxf(sum2 / (float)n - mean_d * mean_d, 0.0f);
-    const float mean = shift + mean_d;
-    const float bound = mean + p->k * ew_maxf(sqrtf(var), p->sigma_floor * fabsf(mean));
+    float centre, spread;
+    if (robust) {
+        centre = ew_outlier_select(window, n, (n - 1) / 2);
+        for (int i = 0; i < n; i++) window[i] = fabsf(window[i] - centre);
+        spread = EW_OUTLIER_MAD_SCALE * ew_outlier_select(window, n, (n - 1) / 2);
+    } else {
+        const float mean_d = sum / (float)n; /* mean - shift */
+        spread = sqrtf(ew_maxf(sum2 / (float)n - mean_d * mean_d, 0.0f));
+        centre = shift + mean_d;
+    }
+    spread = ew_maxf(ew_maxf(spread, p->sigma_floor * fabsf(centre)), p->abs_floor);
+    const float bound = centre + p->k * spread;
     if (lum > bound) {
         const float s = ew_maxf(bound, 0.0f) / lum;
         o[0] = c0[0] * s;

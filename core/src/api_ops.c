@@ -60,7 +60,7 @@ ew_result ew_method_get(const char *kind, int32_t index, const char **name, cons
     if (name) *name = t->name;
     if (summary) *summary = t->summary;
     if (num_images) *num_images = t->num_images;
-    if (num_params) *num_params = t->num_params;
+    if (num_params) *num_params = ew_op_type_num_params(t);
     return EW_OK;
 }
 
@@ -73,16 +73,16 @@ ew_result ew_method_image(const char *kind, const char *name, int32_t index, ew_
 
 ew_result ew_method_param(const char *kind, const char *name, int32_t index, ew_param_info *out) {
     const ew_op_type *t = ew_op_type_find(kind, name);
-    if (!t || !out || index < 0 || index >= t->num_params) return EW_ERR_INVALID_ARGUMENT;
-    *out = t->params[index];
+    if (!t || !out || index < 0 || index >= ew_op_type_num_params(t)) return EW_ERR_INVALID_ARGUMENT;
+    *out = *ew_op_type_param(t, index);
     return EW_OK;
 }
 
 int32_t ew_method_param_is_pixels(const char *kind, const char *name, int32_t index) {
     const ew_op_type *t = ew_op_type_find(kind, name);
-    if (!t || index < 0 || index >= t->num_params) return -1;
+    if (!t || index < 0 || index >= ew_op_type_num_params(t)) return -1;
     for (const char *const *p = t->pixel_params; p && *p; p++)
-        if (!strcmp(*p, t->params[index].name)) return 1;
+        if (!strcmp(*p, ew_op_type_param(t, index)->name)) return 1;
     return 0;
 }
 
@@ -109,13 +109,13 @@ ew_result ew_method_image_flags(const char *kind, const char *name, int32_t inde
 
 static const char *const *choices_of(const ew_op_type *t, int32_t index) {
     for (const ew_param_choices *c = t->choices; c && c->param; c++)
-        if (!strcmp(c->param, t->params[index].name)) return c->names;
+        if (!strcmp(c->param, ew_op_type_param(t, index)->name)) return c->names;
     return NULL;
 }
 
 int32_t ew_method_param_num_choices(const char *kind, const char *name, int32_t index) {
     const ew_op_type *t = ew_op_type_find(kind, name);
-    if (!t || index < 0 || index >= t->num_params) return -1;
+    if (!t || index < 0 || index >= ew_op_type_num_params(t)) return -1;
     int32_t n = 0;
     for (const char *const *c = choices_of(t, index); c && c[n];) n++;
     return n;
@@ -136,18 +136,18 @@ int32_t ew_method_param_choice_index(const char *kind, const char *name, int32_t
 
 ew_result ew_method_param_flags(const char *kind, const char *name, int32_t index, uint32_t *flags) {
     const ew_op_type *t = ew_op_type_find(kind, name);
-    if (!t || !flags || index < 0 || index >= t->num_params) return EW_ERR_INVALID_ARGUMENT;
+    if (!t || !flags || index < 0 || index >= ew_op_type_num_params(t)) return EW_ERR_INVALID_ARGUMENT;
     *flags = 0;
-    if (listed(t->pixel_params, t->params[index].name)) *flags |= EW_PARAM_PIXELS;
-    if (listed(t->noop_at_zero, t->params[index].name)) *flags |= EW_PARAM_NOOP_AT_ZERO;
+    if (listed(t->pixel_params, ew_op_type_param(t, index)->name)) *flags |= EW_PARAM_PIXELS;
+    if (listed(t->noop_at_zero, ew_op_type_param(t, index)->name)) *flags |= EW_PARAM_NOOP_AT_ZERO;
     return EW_OK;
 }
 
 const char *ew_method_param_data(const char *kind, const char *name, int32_t index) {
     const ew_op_type *t = ew_op_type_find(kind, name);
-    if (!t || index < 0 || index >= t->num_params) return NULL;
+    if (!t || index < 0 || index >= ew_op_type_num_params(t)) return NULL;
     for (const char *const *p = t->data_params; p && p[0] && p[1]; p += 2)
-        if (!strcmp(p[0], t->params[index].name)) return p[1];
+        if (!strcmp(p[0], ew_op_type_param(t, index)->name)) return p[1];
     return NULL;
 }
 

@@ -26,6 +26,9 @@
 #include "kernels/view.h"
 
 typedef struct ew_device ew_device;
+/* kernels/harm.h: only the files that run the stage include it, so that
+ * tuning it does not rebuild every backend file */
+typedef struct ew_harm_args ew_harm_args;
 
 typedef struct ew_backend {
     /* Flags, before the name: every member after it is an entry that must
@@ -45,10 +48,11 @@ typedef struct ew_backend {
     void (*denoise_finish)(ew_device *dev, const ew_denoise_buffers *b);
     /* second-pass guide from the first pass's b->sliced */
     void (*denoise_refine_guide)(ew_device *dev, const ew_denoise_buffers *b, float mean_lum, float color_weight);
-    /* firefly suppression of an RGB image (out must not alias in) */
-    void (*outlier_clamp)(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out);
-    /* the "outlier" filter: ew_outlier_guided_px over the image */
+    /* outlier rejection, ew_outlier_guided_px over the image: the filter
+     * "outlier", the denoisers' firefly clamp and the op layer's rejection */
     void (*outlier_guided)(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b);
+    /* one step (EW_HARM_*) of the do-no-harm stage over every pixel (kernels/harm.h) */
+    void (*harm)(ew_device *dev, int step, const ew_harm_args *a);
     /* temporal accumulation of one frame into b->out_* */
     void (*temporal)(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b);
 

@@ -43,7 +43,7 @@ ew_result ew_op_create_kind(ew_device *dev, const char *kind, const char *name, 
     op->type = t;
     op->dev = dev;
     ew__device_retain(dev); /* the device outlives its ops whatever the destroy order */
-    for (int i = 0; i < t->num_params; i++) op->params[i] = t->params[i].default_value;
+    for (int i = 0; i < ew_op_type_num_params(t); i++) op->params[i] = ew_op_type_param(t, i)->default_value;
     *out = op;
     return EW_OK;
 }
@@ -53,6 +53,7 @@ ew_result ew_op_create(ew_device *dev, const char *method, ew_op **out) {
 }
 
 static void release(ew_op *op) {
+    ew_harm_release(op);
     if (op->state && op->type->release) op->type->release(op);
     op->state = NULL;
     op->committed = 0;
@@ -110,9 +111,9 @@ static int op_leave(ew_op *op) {
 static void list_slots(const ew_op_type *t, char *buf, size_t len, int images) {
     size_t used = 0;
     buf[0] = '\0';
-    int n = images ? t->num_images : t->num_params;
+    int n = images ? t->num_images : ew_op_type_num_params(t);
     for (int i = 0; i < n; i++) {
-        const char *nm = images ? t->images[i].name : t->params[i].name;
+        const char *nm = images ? t->images[i].name : ew_op_type_param(t, i)->name;
         int k = snprintf(buf + used, len - used, "%s%s", i ? ", " : "", nm);
         if (k < 0 || (size_t)k >= len - used) break;
         used += (size_t)k;
@@ -150,8 +151,8 @@ ew_result ew_op_set_param(ew_op *op, const char *name, float value, int is_int) 
     ew__clear_error(op->dev);
     EW_OP_NOT_BUSY(op, "set_param");
     const ew_op_type *t = op->type;
-    for (int i = 0; name && i < t->num_params; i++) {
-        const ew_param_desc *p = &t->params[i];
+    for (int i = 0; name && i < ew_op_type_num_params(t); i++) {
+        const ew_param_desc *p = ew_op_type_param(t, i);
         if (strcmp(name, p->name) != 0) continue;
         if (p->type != EW_PARAM_FLOAT && !is_int)
             return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "parameter '%s' of %s '%s' is an integer: use set_int",
@@ -175,8 +176,8 @@ ew_result ew_op_set_float(ew_op *op, const char *name, float value) { return ew_
 /* The slot of a parameter for the get calls, failing with the known names. */
 static int param_slot(const ew_op *op, const char *name) {
     const ew_op_type *t = op->type;
-    for (int i = 0; name && i < t->num_params; i++)
-        if (!strcmp(name, t->params[i].name)) return i;
+    for (int i = 0; name && i < ew_op_type_num_params(t); i++)
+        if (!strcmp(name, ew_op_type_param(t, i)->name)) return i;
     char names[256];
     list_slots(t, names, sizeof names, 0);
     ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "unknown parameter '%s' for %s '%s' (%s)", name ? name : "(null)",
@@ -198,7 +199,7 @@ ew_result ew_op_get_int(const ew_op *op, const char *name, int32_t *out) {
     ew__clear_error(op->dev);
     int i = param_slot(op, name);
     if (i < 0) return EW_ERR_INVALID_ARGUMENT;
-    if (op->type->params[i].type == EW_PARAM_FLOAT)
+    if (ew_op_type_param(op->type, i)->type == EW_PARAM_FLOAT)
         return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "parameter '%s' of %s '%s' is a float: use get_float", name,
                         op->type->kind, op->type->name);
     *out = (int32_t)op->params[i];
@@ -242,14 +243,14 @@ const ew_image *ew_op_image(const ew_op *op, const char *name) {
 }
 
 float ew_op_param(const ew_op *op, const char *name) {
-    for (int i = 0; i < op->type->num_params; i++)
-        if (!strcmp(op->type->params[i].name, name)) return op->params[i];
+    for (int i = 0; i < ew_op_type_num_params(op->type); i++)
+        if (!strcmp(ew_op_type_param(op->type, i)->name, name)) return op->params[i];
     return 0.0f;
 }
 
 void ew_op_param_put(ew_op *op, const char *name, float value) {
-    for (int i = 0; i < op->type->num_params; i++)
-        if (!strcmp(op->type->params[i].name, name)) op->params[i] = value;
+    for (int i = 0; i < ew_op_type_num_params(op->type); i++)
+        if (!strcmp(ew_op_type_param(op->type, i)->name, name)) op->params[i] = value;
 }
 
 int ew_op_report(ew_op *op, double fraction) {
@@ -279,6 +280,7 @@ static ew_result commit_checked(ew_op *op) {
     }
     op->committed = 0;
     ew_result r = t->commit(op);
+    if (r == EW_OK) r = ew_harm_commit(op);
     if (r == EW_OK) op->committed = 1;
     return r;
 }
@@ -303,7 +305,7 @@ ew_result ew_op_execute(ew_op *op) {
     else if (!ew_op_report(op, 0.0))
         r = ew__fail(op->dev, EW_ERR_CANCELLED, "cancelled");
     else {
-        r = op->type->execute(op);
+        r = op->harm ? ew_harm_execute(op) : op->type->execute(op);
         if (r == EW_OK && !strcmp(op->type->kind, "filter"))
             ew__finite_fallback(op->dev, ew_op_image(op, "output"), ew_op_image(op, "color"));
         if (r == EW_OK) ew_op_report(op, 1.0);

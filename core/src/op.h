@@ -78,6 +78,13 @@ typedef struct ew_op_type {
     const char *const *data_params;
     /* EW_METHOD_* bits (ew_method_flags). */
     uint32_t flags;
+    /* A filter whose output is a denoised version of its colour (à-trous,
+     * the bilateral family): it gets the do-no-harm stage's parameters,
+     * off by default (src/harm_stage.c). Denoisers always have them, on. */
+    int denoises;
+    /* 1: the op runs another op that has the stage (auto): it forwards the
+     * stage's parameters (ew_harm_forward) instead of running it twice. */
+    int stage_in_inner;
 } ew_op_type;
 
 struct ew_op {
@@ -96,6 +103,7 @@ struct ew_op {
     int destroy_pending;
     void *state;
     void *data_state;
+    void *harm; /* the do-no-harm stage's buffers (src/harm_stage.c), or NULL */
 };
 
 /* Registry of every method, by kind. NULL-terminated. */
@@ -116,6 +124,19 @@ float ew_op_param(const ew_op *op, const char *name);
 /* Overwrite a parameter from inside the op (e.g. a one-shot trigger). */
 void ew_op_param_put(ew_op *op, const char *name, float value);
 int ew_op_report(ew_op *op, double fraction);
+
+/* A type's parameters: its own, then the do-no-harm stage's when it has
+ * the stage (src/harm_stage.c). Every front lists them through these. */
+int ew_op_type_num_params(const ew_op_type *t);
+const ew_param_desc *ew_op_type_param(const ew_op_type *t, int i);
+
+/* The do-no-harm stage (src/harm_stage.c): commit sizes its buffers (or
+ * frees them when it has nothing to do), execute runs the op inside it. */
+ew_result ew_harm_commit(ew_op *op);
+ew_result ew_harm_execute(ew_op *op);
+void ew_harm_release(ew_op *op);
+/* Copy the stage's parameters of one op to another (auto -> its method). */
+void ew_harm_forward(const ew_op *from, ew_op *to);
 
 /* Pack the first c channels of a view into a dense buffer, and back. */
 void ew_view_pack(const ew_image *img, int c, float *dst);

@@ -23,7 +23,9 @@ static const char help[] =
     "fNNNN_sppSSSS.exr inputs and an fNNNN_refRRRR.exr reference, as written by\n"
     "tools/blender/render_scene.py) and write OUT_DIR/results.csv with scene, spp,\n"
     "method, PSNR, SSIM (tone-mapped), relMSE, SMAPE (linear) and ms per frame\n"
-    "(the fastest of --repeat runs, file I/O excluded). Then run\n"
+    "(the fastest of --repeat runs, file I/O excluded), lum_ratio (the output's\n"
+    "mean luminance over the reference's) and peak (the largest ratio of an\n"
+    "output pixel's luminance to the reference's largest within 5 pixels). Then run\n"
     "tools/bench_report.py OUT_DIR for the charts and the HTML page.\n"
     "\n"
     "options:\n"
@@ -37,6 +39,8 @@ static const char help[] =
     "  --images             also write PNGs (input, outputs, reference, error maps)\n"
     "  --temporal           sequences instead of frames: OUT_DIR/temporal.csv (see below)\n"
     "  --list               print the methods and exit\n"
+    "  --no-harm            every method without the do-no-harm stage (do_no_harm 0,\n"
+    "                       outlier_k 0: the methods' own outputs, for before/after)\n"
     "\n"
     "Methods named 'outlier+M' run the library's filter 'outlier' (firefly\n"
     "suppression with albedo/normal similarity) on the colour first, then M;\n"
@@ -166,6 +170,50 @@ static void build_specs(void) {
             prefilter[n_specs++] = chains[c].blind ? &outlier_blind_spec : &outlier_spec;
         }
     }
+}
+
+/* --no-harm: every method without the do-no-harm stage (src/harm_stage.c) */
+static void strip_stage(void) {
+    for (int m = 0; m < n_specs; m++) {
+        ew_param_info p;
+        int has = 0;
+        for (int32_t k = 0; specs[m].kind && ew_method_param(specs[m].kind, specs[m].name, k, &p) == EW_OK; k++)
+            has |= !strcmp(p.name, "do_no_harm");
+        if (!has) continue;
+        param(&specs[m], "do_no_harm", 0.0f);
+        param(&specs[m], "outlier_k", 0.0f);
+    }
+}
+
+static double frame_lum(const float *c, size_t n) {
+    double s = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const double l = 0.2126 * c[i * 3] + 0.7152 * c[i * 3 + 1] + 0.0722 * c[i * 3 + 2];
+        if (isfinite(l)) s += l;
+    }
+    return s / (double)n;
+}
+
+/* The largest ratio of an output pixel's luminance to the reference's
+ * largest within r pixels (floored at 1e-3 of the reference's mean): an
+ * extreme sample that survived, spread or not, shows as a large ratio. */
+static double peak_ratio(const float *out, const float *ref, int w, int h, int r) {
+    const double floor_l = 1e-3 * frame_lum(ref, (size_t)w * h);
+    double worst = 0.0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const float *o = out + ((size_t)y * w + x) * 3;
+            const double l = 0.2126 * o[0] + 0.7152 * o[1] + 0.0722 * o[2];
+            double mx = floor_l;
+            for (int yy = y - r < 0 ? 0 : y - r; yy <= (y + r < h ? y + r : h - 1); yy++)
+                for (int xx = x - r < 0 ? 0 : x - r; xx <= (x + r < w ? x + r : w - 1); xx++) {
+                    const float *q = ref + ((size_t)yy * w + xx) * 3;
+                    const double lq = 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
+                    if (lq > mx) mx = lq;
+                }
+            if (l / mx > worst) worst = l / mx;
+        }
+    return worst;
 }
 
 /* specs[m] on the layer, after its pre-filter if it has one. */
@@ -482,13 +530,14 @@ static int bench_temporal(ew_device *dev, const char *data, char **names, int n_
 
 int cmd_bench(int argc, char **argv) {
     const char *data = NULL, *outdir = NULL, *spp_list = "1,4,16,64", *scenes = NULL, *methods = NULL;
-    int repeat = 3, threads = 0, images = 0, list = 0, frames = 1, temporal = 0, spp_given = 0;
+    int repeat = 3, threads = 0, images = 0, list = 0, frames = 1, temporal = 0, spp_given = 0, no_harm = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(help, stdout); return 0; }
         else if (!strcmp(a, "--images")) images = 1;
         else if (!strcmp(a, "--list")) list = 1;
         else if (!strcmp(a, "--temporal")) temporal = 1;
+        else if (!strcmp(a, "--no-harm")) no_harm = 1;
         else if (!v && a[0] == '-') { fprintf(stderr, "edgewise: %s needs a value\n", a); return EW_EXIT_USAGE; }
         else if (!strcmp(a, "-o") || !strcmp(a, "--output")) outdir = argv[++i];
         else if (!strcmp(a, "--spp")) { spp_list = argv[++i]; spp_given = 1; }
@@ -502,6 +551,7 @@ int cmd_bench(int argc, char **argv) {
         else { fprintf(stderr, "edgewise: unexpected argument '%s'\n", a); return EW_EXIT_USAGE; }
     }
     build_specs();
+    if (no_harm) strip_stage();
     if (list) {
         for (int m = 0; m < n_specs; m++) printf("%s\n", specs[m].label);
         return 0;
@@ -536,7 +586,7 @@ int cmd_bench(int argc, char **argv) {
     fmt_path(path, sizeof path, "%s/results.csv", outdir);
     FILE *csv = fopen(path, "w");
     if (!csv) return cli_fail("cannot write '%s': %s", path, strerror(errno));
-    fprintf(csv, "scene,frame,spp,method,psnr,ssim,relmse,smape,ms,width,height,threads\n");
+    fprintf(csv, "scene,frame,spp,method,psnr,ssim,relmse,smape,ms,width,height,threads,lum_ratio,peak\n");
     ew_device *dev = cli_device(threads);
     if (!dev) { fclose(csv); return EW_EXIT_FAIL; }
     int rows = 0, failures = 0;
@@ -597,8 +647,10 @@ int cmd_bench(int argc, char **argv) {
                     ew_image_ssim(dev, &vo, &vr, &ssim);
                     ew_image_relmse(dev, &vo, &vr, &rel);
                     ew_image_smape(dev, &vo, &vr, &smape);
-                    fprintf(csv, "%s,%d,%d,%s,%.4f,%.5f,%.6g,%.6g,%.3f,%d,%d,%d\n", names[s], frame, spp, specs[m].label,
-                            psnr, ssim, rel, smape, specs[m].kind ? best : 0.0, w, h, ew_device_get_num_threads(dev));
+                    const double lum_ratio = frame_lum(out, (size_t)w * h) / frame_lum(ref, (size_t)w * h);
+                    fprintf(csv, "%s,%d,%d,%s,%.4f,%.5f,%.6g,%.6g,%.3f,%d,%d,%d,%.4f,%.3f\n", names[s], frame, spp,
+                            specs[m].label, psnr, ssim, rel, smape, specs[m].kind ? best : 0.0, w, h,
+                            ew_device_get_num_threads(dev), lum_ratio, peak_ratio(out, ref, w, h, 5));
                     fflush(csv);
                     rows++;
                     fprintf(stderr, "[%d/%d] %-28s %3d spp %-16s PSNR %6.2f SSIM %.4f %8.2f ms\n", s + 1, n_names,

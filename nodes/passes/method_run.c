@@ -98,6 +98,18 @@ static ew_result set_number(ew_op *op, const ew_method_spec *spec, const char *n
     return ew_op_set_float(op, name, v);
 }
 
+/* The default of a parameter of the denoisers (the first one listed), or
+ * `fallback`: what a filter used as a denoiser gets for the do-no-harm
+ * stage's parameters. */
+static float denoiser_default(const char *name, float fallback) {
+    const char *d;
+    ew_param_info p;
+    if (ew_method_get("denoiser", 0, &d, NULL, NULL, NULL) != EW_OK) return fallback;
+    for (int32_t k = 0; ew_method_param("denoiser", d, k, &p) == EW_OK; k++)
+        if (!strcmp(p.name, name)) return p.default_value;
+    return fallback;
+}
+
 int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_data *in, float *out, double *ms,
                   char *err, size_t errlen) {
     const int w = in->width, h = in->height;
@@ -149,6 +161,14 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
         }
         views[i] = ew_image_packed(buf, w, h, ch);
         r = ew_op_set_image(op, info.name, &views[i]);
+    }
+    /* A filter on demodulated colour is a filter used as a denoiser: it
+     * runs with the denoisers' do-no-harm stage (the filter's own default
+     * is off: it may smooth on purpose). The spec's parameters still win. */
+    ew_param_info hp;
+    if (r == EW_OK && demod && find_param(spec, "do_no_harm", &hp)) {
+        r = ew_op_set_int(op, "do_no_harm", (int32_t)denoiser_default("do_no_harm", 1.0f));
+        if (r == EW_OK) r = ew_op_set_float(op, "outlier_k", denoiser_default("outlier_k", 0.0f));
     }
     int samples_set = 0;
     for (int k = 0; r == EW_OK && k < spec->num_params; k++) {

@@ -105,7 +105,11 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     /* firefly clamp and a-trous */
     float *clamped = scratch + 3584;
     for (int y = 0; y < EW_PH; y++)
-        for (int x = 0; x < EW_PW; x++) ew_outlier_clamp_px(x, y, EW_PW, EW_PH, 2, 1.0f, image, clamped);
+        for (int x = 0; x < EW_PW; x++) {
+            const ew_outlier_params fp = ew_outlier_plain_params(EW_PW, EW_PH, 2, 1.0f);
+            const ew_outlier_buffers fb = {image, NULL, NULL, clamped, 3};
+            ew_outlier_guided_px(x, y, &fp, &fb);
+        }
     for (int i = 0; i < EW_PN * 3; i++) out[o++] = clamped[i];
     ew_atrous_args aa;
     aa.w = EW_PW;

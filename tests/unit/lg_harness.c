@@ -197,11 +197,17 @@ static void lg_denoise_refine_guide(ew_device *dev, const ew_denoise_buffers *b,
     const ew_denoise_buffers bv = *b;
     WALK(ew_kl_denoise_px(&bv), ew_kb_denoise_refine_guide(&t, &bv, mean_lum, color_weight));
 }
-static void lg_outlier_clamp(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out) {
+static void lg_harm(ew_device *dev, int step, const ew_harm_args *a) {
     (void)dev;
-    DEV(in);
-    DEV(out);
-    WALK(ew_kl_outlier_clamp(width, height), ew_kb_outlier_clamp(&t, width, height, radius, k, in, out));
+    DEV(a->color);
+    DEV(a->albedo);
+    DEV(a->radiance);
+    DEV(a->rejected);
+    DEV(a->clamped);
+    DEV(a->out);
+    DEV(a->stats);
+    const ew_harm_args av = *a;
+    WALK(ew_kl_harm(&av), ew_kb_harm(&t, step, &av));
 }
 static void lg_outlier_guided(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     (void)dev;
@@ -384,8 +390,8 @@ const ew_backend lg_backend = {
     .denoise_prepare = lg_denoise_prepare,
     .denoise_finish = lg_denoise_finish,
     .denoise_refine_guide = lg_denoise_refine_guide,
-    .outlier_clamp = lg_outlier_clamp,
     .outlier_guided = lg_outlier_guided,
+    .harm = lg_harm,
     .temporal = lg_temporal,
     .bf_brute = lg_bf_brute,
     .bf_separable = lg_bf_separable,

@@ -23,6 +23,7 @@
 #include "algorithms/bgrid.h"
 #include "algorithms/guidenet.h"
 #include "algorithms/pyramid.h"
+#include "kernels/harm.h"
 #include "kernels/kernel_list.h"
 #include "src/backend.h"
 #include "src/internal.h"
@@ -278,13 +279,82 @@ TEST(denoise_prepare_refine_finish) {
 }
 
 TEST(outlier_clamp) {
+    /* the denoisers' firefly clamp (plain statistics) and the op layer's
+     * rejection (robust, with features and floors): one kernel, two uses */
     OPEN_PAIR(p, 0);
     float *in = hrand(N * 3, 0.0f, 1.0f, 29);
     for (size_t i = 5; i < N * 3; i += 97) in[i] = 500.0f; /* fireflies */
+    float *albedo = hrand(N * 3, 0.0f, 1.0f, 0), *normal = hrand(N * 3, -1.0f, 1.0f, 0);
+    for (size_t i = 0; i < N * 3; i++) albedo[i] = albedo[i] < 0.5f ? 0.2f : 0.8f;
     float *out = hnan(N * 3), *dout = dnan(p.dut, N * 3);
-    ew_cpu_backend.outlier_clamp(p.cpu, W, H, 2, 3.0f, in, out);
-    p.dut->backend->outlier_clamp(p.dut, W, H, 2, 3.0f, dup_to(p.dut, in, N * 3), dout);
-    const int ok = match(back(p.dut, dout, N * 3), out, N * 3, "clamped");
+    ew_outlier_params op = ew_outlier_plain_params(W, H, 2, 3.0f);
+    ew_outlier_buffers h = {in, NULL, NULL, out, 3}, d = {dup_to(p.dut, in, N * 3), NULL, NULL, dout, 3};
+    ew_cpu_backend.outlier_guided(p.cpu, &op, &h);
+    p.dut->backend->outlier_guided(p.dut, &op, &d);
+    int ok = match(back(p.dut, dout, N * 3), out, N * 3, "clamped");
+    op.robust = 1;
+    op.radius = 5; /* beyond EW_OUTLIER_ROBUST_RADIUS: treated as 3 */
+    op.k = 4.0f;
+    op.albedo_tol = 0.1f;
+    op.normal_cos = 0.5f;
+    op.sigma_floor = 0.5f;
+    op.abs_floor = 0.05f;
+    h.albedo = albedo;
+    h.normal = normal;
+    d.albedo = dup_to(p.dut, albedo, N * 3);
+    d.normal = dup_to(p.dut, normal, N * 3);
+    ew_cpu_backend.outlier_guided(p.cpu, &op, &h);
+    p.dut->backend->outlier_guided(p.dut, &op, &d);
+    ok = ok && match(back(p.dut, dout, N * 3), out, N * 3, "rejected (robust)");
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
+TEST(harm_stage_steps) {
+    /* every step of the do-no-harm stage, with alpha, NaN/Inf and a firefly */
+    OPEN_PAIR(p, 0);
+    float *color = hrand(N * 4, 0.0f, 2.0f, 31), *albedo = hrand(N * 3, 0.0f, 1.0f, 37);
+    float *rejected = hrand(N * 3, 0.0f, 2.0f, 0), *out = hrand(N * 3, 0.0f, 2.0f, 0);
+    color[4 * 11] = 3e4f;
+    ew_harm_args h;
+    memset(&h, 0, sizeof h);
+    h.width = W;
+    h.height = H;
+    h.channels = 4;
+    h.radius = 3;
+    h.strength = 1.0f;
+    h.color = color;
+    h.albedo = albedo;
+    h.radiance = hnan(N * 3);
+    h.rejected = rejected;
+    h.clamped = hnan(N * 4);
+    h.out = out;
+    h.stats = hnan(N * 3);
+    h.z = 1.0f;
+    h.theta = 0.4f;
+    ew_harm_args d = h;
+    d.color = dup_to(p.dut, color, N * 4);
+    d.albedo = dup_to(p.dut, albedo, N * 3);
+    d.radiance = dnan(p.dut, N * 3);
+    d.rejected = dup_to(p.dut, rejected, N * 3);
+    d.clamped = dnan(p.dut, N * 4);
+    d.out = dup_to(p.dut, out, N * 3);
+    d.stats = dnan(p.dut, N * 3);
+    /* the rejection keeps most pixels: the radiance itself, then a few changed */
+    for (int step = EW_HARM_DEMOD; step <= EW_HARM_BLEND; step++) {
+        if (step == EW_HARM_REMOD) {
+            for (size_t i = 0; i < N * 3; i++) rejected[i] = h.radiance[i] * (i % 17 == 3 ? 0.5f : 1.0f);
+            h.rejected = rejected;
+            d.rejected = dup_to(p.dut, rejected, N * 3);
+        }
+        ew_cpu_backend.harm(p.cpu, step, &h);
+        p.dut->backend->harm(p.dut, step, &d);
+    }
+    int ok = match(back(p.dut, d.radiance, N * 3), h.radiance, N * 3, "demodulated");
+    ok = ok && match(back(p.dut, d.clamped, N * 4), h.clamped, N * 4, "remodulated");
+    ok = ok && match(back(p.dut, d.stats, N * 3), h.stats, N * 3, "residual statistics");
+    ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended");
     close_pair(&p);
     CHECK(ok);
     CHECK_NO_MISUSE();
@@ -299,7 +369,7 @@ TEST(outlier_guided_with_alpha_and_holes) {
     for (size_t i = 0; i < N; i += 13) color[i * 4 + 1] = 800.0f;
     for (size_t i = 0; i < N * 3; i++)
         if (isfinite(albedo[i])) albedo[i] = albedo[i] < 0.5f ? 0.2f : 0.8f;
-    const ew_outlier_params op = {W, H, 2, 3.0f, 0.1f, 0.5f, 0.1f};
+    const ew_outlier_params op = {W, H, 2, 3.0f, 0.1f, 0.5f, 0.1f, 0.0f, 0, 1, 1};
     ew_outlier_buffers h = {color, albedo, normal, hnan(N * 4), 4}, d = h;
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);

@@ -55,7 +55,7 @@ TEST(is_listed_with_its_parameters) {
         if (strcmp(nm, "outlier")) continue;
         found = 1;
         CHECK_EQ_INT(ni, 4);
-        CHECK_EQ_INT(np, 5);
+        CHECK_EQ_INT(np, 6);
         ew_param_info p;
         CHECK_EQ_INT(ew_method_param("filter", "outlier", 1, &p), EW_OK);
         CHECK(!strcmp(p.name, "k"));

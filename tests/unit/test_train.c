@@ -283,6 +283,9 @@ TEST(training_forward_equals_the_op) {
     ew_image nn = ew_image_packed(sc.normal, 48, 48, 3), dp = ew_image_packed(sc.depth, 48, 48, 1);
     ew_image o = ew_image_packed(op_out, 48, 48, 3);
     CHECK_EQ_INT(ew_denoiser_create(dev, "nbg", &d), EW_OK);
+    /* the method itself, as training sees it: without the op layer's do-no-harm stage */
+    CHECK_EQ_INT(ew_denoiser_set_int(d, "do_no_harm", 0), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_set_float(d, "outlier_k", 0.0f), EW_OK);
     CHECK_EQ_INT(ew_denoiser_set_data(d, "weights", bytes, size), EW_OK);
     ew_denoiser_set_image(d, "color", &c);
     ew_denoiser_set_image(d, "albedo", &a);

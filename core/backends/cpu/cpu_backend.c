@@ -3,6 +3,7 @@
  * the device's thread pool; each item calls the shared per-pixel function.
  */
 #include "backends/cpu/cpu_bgrid.h"
+#include "kernels/harm.h"
 #include "src/backend.h"
 #include "src/internal.h"
 
@@ -55,25 +56,6 @@ static void cpu_denoise_refine_guide(ew_device *dev, const ew_denoise_buffers *b
 }
 
 typedef struct {
-    int width, height, radius;
-    float k;
-    const float *in;
-    float *out;
-} outlier_job;
-
-static void outlier_rows(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const outlier_job *j = (const outlier_job *)ctx;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < j->width; x++) ew_outlier_clamp_px(x, (int)y, j->width, j->height, j->radius, j->k, j->in, j->out);
-}
-
-static void cpu_outlier_clamp(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out) {
-    outlier_job j = {width, height, radius, k, in, out};
-    ew_pool_run(dev->pool, height, 0, outlier_rows, &j);
-}
-
-typedef struct {
     const ew_outlier_params *p;
     const ew_outlier_buffers *b;
 } outlier_guided_job;
@@ -88,6 +70,32 @@ static void outlier_guided_rows(void *ctx, int64_t begin, int64_t end, int tid) 
 static void cpu_outlier_guided(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     outlier_guided_job j = {p, b};
     ew_pool_run(dev->pool, p->height, 0, outlier_guided_rows, &j);
+}
+
+typedef struct {
+    int step;
+    const ew_harm_args *a;
+} harm_job;
+
+static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const harm_job *h = (const harm_job *)ctx;
+    const ew_harm_args *a = h->a;
+    for (int64_t y = begin; y < end; y++)
+        for (int x = 0; x < a->width; x++) {
+            const long j = (long)y * a->width + x;
+            switch (h->step) {
+            case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
+            case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
+            case EW_HARM_STATS: ew_harm_stats_px(x, (int)y, a); break;
+            default: ew_harm_blend_px(x, (int)y, a); break;
+            }
+        }
+}
+
+static void cpu_harm(ew_device *dev, int step, const ew_harm_args *a) {
+    harm_job h = {step, a};
+    ew_pool_run(dev->pool, a->height, 0, harm_rows, &h);
 }
 
 typedef struct {
@@ -114,8 +122,8 @@ const ew_backend ew_cpu_backend = {
     .denoise_prepare = cpu_denoise_prepare,
     .denoise_finish = cpu_denoise_finish,
     .denoise_refine_guide = cpu_denoise_refine_guide,
-    .outlier_clamp = cpu_outlier_clamp,
     .outlier_guided = cpu_outlier_guided,
+    .harm = cpu_harm,
     .temporal = cpu_temporal,
     /* edge-aware filters (cpu_filters.c) */
     .bf_brute = ew_cpu_bf_brute,

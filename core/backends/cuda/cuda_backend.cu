@@ -110,14 +110,13 @@ EW_KERNEL k_denoise_refine_guide(ew_denoise_buffers b, float mean_lum, float col
     const ew_thread t = ew_thread_self();
     ew_kb_denoise_refine_guide(&t, &b, mean_lum, color_weight);
 }
-EW_KERNEL k_outlier_clamp(int width, int height, int radius, float k, const float *__restrict__ in,
-                          float *__restrict__ out) {
-    const ew_thread t = ew_thread_self();
-    ew_kb_outlier_clamp(&t, width, height, radius, k, in, out);
-}
 EW_KERNEL k_outlier_guided(ew_outlier_params p, ew_outlier_buffers b) {
     const ew_thread t = ew_thread_self();
     ew_kb_outlier_guided(&t, &p, &b);
+}
+EW_KERNEL k_harm(int step, ew_harm_args a) {
+    const ew_thread t = ew_thread_self();
+    ew_kb_harm(&t, step, &a);
 }
 EW_KERNEL k_temporal(ew_temporal_params p, ew_temporal_buffers b) {
     const ew_thread t = ew_thread_self();
@@ -195,11 +194,11 @@ void cu_denoise_finish(ew_device *dev, const ew_denoise_buffers *b) {
 void cu_denoise_refine_guide(ew_device *dev, const ew_denoise_buffers *b, float mean_lum, float color_weight) {
     EW_LAUNCH(dev, ew_kl_denoise_px(b), k_denoise_refine_guide, *b, mean_lum, color_weight);
 }
-void cu_outlier_clamp(ew_device *dev, int width, int height, int radius, float k, const float *in, float *out) {
-    EW_LAUNCH(dev, ew_kl_outlier_clamp(width, height), k_outlier_clamp, width, height, radius, k, in, out);
-}
 void cu_outlier_guided(ew_device *dev, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     EW_LAUNCH(dev, ew_kl_outlier_guided(p), k_outlier_guided, *p, *b);
+}
+void cu_harm(ew_device *dev, int step, const ew_harm_args *a) {
+    EW_LAUNCH(dev, ew_kl_harm(a), k_harm, step, *a);
 }
 void cu_temporal(ew_device *dev, const ew_temporal_params *p, const ew_temporal_buffers *b) {
     EW_LAUNCH(dev, ew_kl_temporal(p), k_temporal, *p, *b);
@@ -329,8 +328,8 @@ ew_backend make_table() {
     b.denoise_prepare = cu_denoise_prepare;
     b.denoise_finish = cu_denoise_finish;
     b.denoise_refine_guide = cu_denoise_refine_guide;
-    b.outlier_clamp = cu_outlier_clamp;
     b.outlier_guided = cu_outlier_guided;
+    b.harm = cu_harm;
     b.temporal = cu_temporal;
     b.bf_brute = cu_bf_brute;
     b.bf_separable = cu_bf_separable;

@@ -27,6 +27,7 @@
 #include "kernels/denoise_px.h"
 #include "kernels/dof.h"
 #include "kernels/guidenet.h"
+#include "kernels/harm.h"
 #include "kernels/kernel_list.h"
 #include "kernels/outlier.h"
 #include "kernels/pyramid.h"
@@ -74,19 +75,25 @@ EW_HD void ew_kb_denoise_refine_guide(const ew_thread *t, const ew_denoise_buffe
 }
 
 /* ---- firefly suppression ------------------------------------------------- */
-EW_HD ew_launch ew_kl_outlier_clamp(int width, int height) { return ew_launch_2d(width, height); }
-EW_HD void ew_kb_outlier_clamp(const ew_thread *t, int width, int height, int radius, float k,
-                               const float *EW_RESTRICT in, float *EW_RESTRICT out) {
-    const int x = ew_tx(t), y = ew_ty(t);
-    if (x >= width || y >= height) return;
-    ew_outlier_clamp_px(x, y, width, height, radius, k, in, out);
-}
-
 EW_HD ew_launch ew_kl_outlier_guided(const ew_outlier_params *p) { return ew_launch_2d(p->width, p->height); }
 EW_HD void ew_kb_outlier_guided(const ew_thread *t, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     const int x = ew_tx(t), y = ew_ty(t);
     if (x >= p->width || y >= p->height) return;
     ew_outlier_guided_px(x, y, p, b);
+}
+
+/* ---- do-no-harm stage: one thread per pixel, every step ---------------- */
+EW_HD ew_launch ew_kl_harm(const ew_harm_args *a) { return ew_launch_2d(a->width, a->height); }
+EW_HD void ew_kb_harm(const ew_thread *t, int step, const ew_harm_args *a) {
+    const int x = ew_tx(t), y = ew_ty(t);
+    if (x >= a->width || y >= a->height) return;
+    const long j = (long)y * a->width + x;
+    switch (step) {
+    case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
+    case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
+    case EW_HARM_STATS: ew_harm_stats_px(x, y, a); break;
+    default: ew_harm_blend_px(x, y, a); break;
+    }
 }
 
 /* ---- temporal accumulation ---------------------------------------------- */

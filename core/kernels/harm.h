@@ -1,0 +1,137 @@
+/*
+ * harm.h — the per-pixel steps of the do-no-harm stage that the op layer
+ * runs around every denoiser (src/harm_stage.c):
+ *
+ *   before the method   DEMOD: radiance = colour / (albedo + eps), where the
+ *                       extreme-outlier rejection (kernels/outlier.h) judges
+ *                       samples; REMOD: the colour handed to the method, the
+ *                       caller's own pixel wherever nothing was rejected.
+ *   after the method    STATS, then BLEND: output = input + alpha (output -
+ *                       input), with alpha from the residual r = T(input) -
+ *                       T(output) over a (2 radius + 1)^2 window.
+ *
+ * Why this alpha. Write input = x + n (Monte Carlo noise, independent from
+ * pixel to pixel: every sample lands in one pixel) and output = x + e (the
+ * method's error). For a blend a output + (1 - a) input the expected error
+ * is a^2 E[e^2] + (1 - a)^2 E[n^2], least at a = N / (N + D) with N = E[n^2]
+ * and D = E[e^2]. Neither is known, but the residual r = n - e gives both:
+ * R = mean r_p^2 ~ N + D, and C = mean r_p r_q over neighbouring pairs ~ D,
+ * because the noise of neighbours is uncorrelated while what a method
+ * removes wrongly (detail, shading, a blurred edge) is smooth at the scale
+ * of one pixel. So a = (R - C) / R = 1 - C / R: 1 where the method removed
+ * only noise, towards 0 where what it removed is structure the noise cannot
+ * explain — a converged frame's reflections, motion blur, bokeh. No sample
+ * count, no noise model. Three corrections, chosen on training scenes:
+ * C counts only above z of its own standard deviations (sqrt of the sum of
+ * the squared products: at 1-4 spp products of pure noise would pull alpha
+ * below 1 at random); `strength` scales C / R up (C under-counts D: part
+ * of the method's error is the input's own noise, anti-correlated with the
+ * residual); and alpha stays 1 until strength C / R exceeds theta, so the
+ * stage only steps in where the method's error is a large share of the
+ * residual: at 1-2 spp, where N dwarfs D, mixing noisy input back in cost
+ * more than the Wiener weight predicts.
+ *
+ * T compresses like the display (gamma 1/2.2 below 1, logarithmic above,
+ * continuous with slope 1/2.2 at 1), so the window statistics are not
+ * swamped by one bright sample and measure what a viewer sees.
+ */
+#ifndef EW_KERNELS_HARM_H
+#define EW_KERNELS_HARM_H
+
+#include "kernels/color.h"
+
+#define EW_HARM_ALBEDO_EPS 0.01f /* as kernels/denoise_px.h's EW_ALBEDO_EPS */
+
+enum { EW_HARM_DEMOD = 0, EW_HARM_REMOD = 1, EW_HARM_STATS = 2, EW_HARM_BLEND = 3 };
+
+typedef struct ew_harm_args {
+    int width, height;
+    int channels;           /* floats per pixel of color and clamped (>= 3; the ones past RGB are copied) */
+    const float *color;     /* the caller's colour, packed */
+    const float *albedo;    /* 3 per pixel, or NULL: no demodulation */
+    float *radiance;        /* 3 per pixel: DEMOD writes it */
+    const float *rejected;  /* 3 per pixel: radiance after the outlier rejection (REMOD reads it) */
+    float *clamped;         /* channels per pixel: REMOD writes it (the method's input, and the blend's) */
+    float *out;             /* 3 per pixel: the method's output; BLEND rewrites it in place */
+    float *stats;           /* 3 per pixel: STATS writes r^2, the neighbour product and its square */
+    int radius;             /* BLEND window */
+    float strength;         /* BLEND: alpha = 1 - strength * max(C - z sd(C), 0) / R */
+    float z;
+    float theta;            /* alpha stays 1 while strength * C / R <= theta */
+} ew_harm_args;
+
+EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
+
+EW_HD float ew_harm_albedo(const ew_harm_args *a, long j, int c) {
+    if (!a->albedo) return 1.0f;
+    const float v = a->albedo[j * 3 + c];
+    return (ew_finitef(v) && v > 0.0f ? v : 0.0f) + EW_HARM_ALBEDO_EPS;
+}
+
+/* display-like compression (see above); non-finite and negative: 0 */
+EW_HD float ew_harm_tone(float v) {
+    if (!(v > 0.0f)) return 0.0f;
+    if (v < 1.0f) return powf(v, 1.0f / 2.2f);
+    return ew_finitef(v) ? 1.0f + logf(v) * (1.0f / 2.2f) : 0.0f;
+}
+
+EW_HD float ew_harm_residual(const ew_harm_args *a, long j, int c) {
+    const float d = ew_harm_tone(a->clamped[j * a->channels + c]) - ew_harm_tone(a->out[j * 3 + c]);
+    return ew_finitef(d) ? d : 0.0f;
+}
+
+EW_HD void ew_harm_demod_px(long j, const ew_harm_args *a) {
+    for (int c = 0; c < 3; c++) a->radiance[j * 3 + c] = a->color[j * a->channels + c] / ew_harm_albedo(a, j, c);
+}
+
+/* The caller's own pixel where the rejection kept the radiance (no
+ * rounding through / and *), else the rejected radiance remodulated. */
+EW_HD void ew_harm_remod_px(long j, const ew_harm_args *a) {
+    const long cc = a->channels;
+    const float *r0 = a->radiance + j * 3, *r1 = a->rejected + j * 3;
+    const int same = (r0[0] == r1[0] && r0[1] == r1[1] && r0[2] == r1[2]) || !ew_harm_finite3(r1);
+    for (long c = 0; c < cc; c++)
+        a->clamped[j * cc + c] = same || c >= 3 ? a->color[j * cc + c] : r1[c] * ew_harm_albedo(a, j, (int)c);
+}
+
+EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
+    const long j = (long)y * a->width + x;
+    float sq = 0.0f, cross = 0.0f;
+    int pairs = 0;
+    for (int c = 0; c < 3; c++) {
+        const float r = ew_harm_residual(a, j, c);
+        sq += r * r;
+        if (x + 1 < a->width) cross += r * ew_harm_residual(a, j + 1, c);
+        if (y + 1 < a->height) cross += r * ew_harm_residual(a, j + a->width, c);
+    }
+    pairs = (x + 1 < a->width) + (y + 1 < a->height);
+    cross = pairs ? cross / (float)pairs : 0.0f;
+    a->stats[j * 3] = sq;
+    a->stats[j * 3 + 1] = cross;
+    a->stats[j * 3 + 2] = cross * cross;
+}
+
+EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
+    const long j = (long)y * a->width + x;
+    float sq = 0.0f, cross = 0.0f, cross2 = 0.0f;
+    for (int yy = ew_maxi(y - a->radius, 0); yy <= ew_mini(y + a->radius, a->height - 1); yy++)
+        for (int xx = ew_maxi(x - a->radius, 0); xx <= ew_mini(x + a->radius, a->width - 1); xx++) {
+            const long k = (long)yy * a->width + xx;
+            sq += a->stats[k * 3];
+            cross += a->stats[k * 3 + 1];
+            cross2 += a->stats[k * 3 + 2];
+        }
+    /* C is a sum of products of noisy residuals: only what stands z of its
+     * own standard deviations above 0 counts as structure (at 1-4 spp the
+     * products of pure noise would otherwise pull alpha below 1 at random) */
+    const float excess = ew_maxf(cross - a->z * sqrtf(cross2), 0.0f);
+    const float q = sq > 0.0f ? a->strength * excess / sq : 0.0f;
+    const float alpha = ew_clampf(1.0f - ew_maxf(q - a->theta, 0.0f) / (1.0f - a->theta), 0.0f, 1.0f);
+    const float *in = a->clamped + j * a->channels;
+    float *o = a->out + j * 3;
+    /* alpha 1: the method's output exactly; a missing sample: the method's reconstruction */
+    if (alpha >= 1.0f || !ew_harm_finite3(in)) return;
+    for (int c = 0; c < 3; c++) o[c] = in[c] + alpha * (o[c] - in[c]);
+}
+
+#endif

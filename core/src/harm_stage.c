@@ -1,0 +1,227 @@
+/*
+ * harm_stage.c — the do-no-harm stage the op layer runs around every
+ * denoiser (and every filter a caller uses as one), so that a method never
+ * hands back a frame clearly worse than the one it was given, and a new
+ * method gets it without a line of its own:
+ *
+ *   1. extreme-outlier rejection before the method (parameter outlier_k):
+ *      in albedo-demodulated radiance, a sample far above the median of the
+ *      neighbours of its own surface (median + k x 1.4826 MAD, kernels/
+ *      outlier.h) is scaled down to that bound. The spread has two floors:
+ *      a share of the median (ordinary noise of a smooth surface is never
+ *      touched) and a share of the frame's mean radiance (a dark, flat
+ *      region at 1-2 spp gets most of its light as sparse bright samples:
+ *      they carry its energy and stay). What is left to clamp is the rare
+ *      sample hundreds of times brighter than everything around it, whose
+ *      energy the frame would otherwise over-represent by orders of
+ *      magnitude (one such sample at 4 spp lifted a frame's mean to 1.7x).
+ *   2. the do-no-harm blend after it (parameter do_no_harm): output = input
+ *      + alpha (output - input), alpha = 1 - C / R from the residual's
+ *      energy R and its neighbour correlation C over a window
+ *      (kernels/harm.h says why that estimates the blend of least error).
+ *      The input blended toward is the input after step 1, so a rejected
+ *      firefly does not come back.
+ *
+ * Both run on the op's device through the backend's `harm` and
+ * `outlier_guided` entries, in buffers allocated at commit. With both
+ * parameters at 0 the op runs exactly as it would without the stage.
+ */
+#include <string.h>
+
+#include "kernels/harm.h"
+#include "src/backend.h"
+#include "src/op.h"
+
+/* Chosen on the training scenes of BENCHMARKS.md (never the test scenes). */
+#include <stdlib.h>
+#define HARM_OUTLIER_K 8.0f       /* the parameter's default */
+#define HARM_OUTLIER_RADIUS 2     /* 5x5, as the denoisers' own clamp */
+#define HARM_SIGMA_FLOOR 0.5f     /* spread >= this x the neighbours' median */
+#define HARM_MEAN_FLOOR 2.0f      /* spread >= this x the frame's mean radiance */
+#define HARM_ALBEDO_TOL 0.1f      /* as the "outlier" filter */
+#define HARM_NORMAL_COS 0.9f
+#define HARM_BLEND_RADIUS 4       /* 9x9 window of residual statistics */
+#define HARM_BLEND_STRENGTH 2.0f  /* C under-counts D (kernels/harm.h) */
+#define HARM_BLEND_Z 1.0f         /* C counts above 1 standard deviation of its own */
+#define HARM_BLEND_THETA 0.4f     /* no blend while D is below 0.4 of N + D */
+
+static const ew_param_desc stage_on[] = {
+    {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
+     "blend the result toward the input where it differs from the input by more than the input's noise "
+     "explains (detail a converged frame already had); 0: the method's output as it is"},
+    {"outlier_k", EW_PARAM_FLOAT, HARM_OUTLIER_K, 0.0f, 1000.0f,
+     "before the method, scale isolated extreme samples (fireflies) down to the median + k spreads of the "
+     "neighbours of their own surface, in albedo-demodulated radiance; 0 turns it off"},
+};
+/* Filters smooth on purpose (depth of field, a base layer): the stage is
+ * there for a caller that uses one as a denoiser, off by default. */
+static const ew_param_desc stage_off[] = {
+    {"do_no_harm", EW_PARAM_BOOL, 0.0f, 0.0f, 1.0f,
+     "when the filter is used as a denoiser: blend the result toward the input where it differs from the "
+     "input by more than the input's noise explains; 0 (default): the filter's output as it is"},
+    {"outlier_k", EW_PARAM_FLOAT, 0.0f, 0.0f, 1000.0f,
+     "when the filter is used as a denoiser: before it, scale isolated extreme samples (fireflies) down to "
+     "the median + k spreads of their neighbours (8 is the denoisers' default); 0 (default) turns it off"},
+};
+#define STAGE_PARAMS ((int)(sizeof stage_on / sizeof stage_on[0]))
+
+static int has_stage(const ew_op_type *t) { return !strcmp(t->kind, "denoiser") || t->denoises; }
+
+int ew_op_type_num_params(const ew_op_type *t) { return t->num_params + (has_stage(t) ? STAGE_PARAMS : 0); }
+
+const ew_param_desc *ew_op_type_param(const ew_op_type *t, int i) {
+    if (i < 0) return NULL;
+    if (i < t->num_params) return &t->params[i];
+    if (!has_stage(t) || i >= t->num_params + STAGE_PARAMS) return NULL;
+    return strcmp(t->kind, "denoiser") ? &stage_off[i - t->num_params] : &stage_on[i - t->num_params];
+}
+
+void ew_harm_forward(const ew_op *from, ew_op *to) {
+    for (int i = 0; i < STAGE_PARAMS; i++)
+        ew_op_param_put(to, stage_on[i].name, ew_op_param(from, stage_on[i].name));
+}
+
+typedef struct ew_harm_state {
+    int w, h, cc, has_a, has_n, pre;
+    void *dmem;
+    float *col, *alb, *nrm, *a, *b, *clamped;
+    double *row_out;
+    float *stage;   /* host staging for views, or NULL */
+    float *hclamp;  /* host copy of the clamped colour handed to a method on a device with memory of its own */
+    double *rows;   /* host: row sums */
+    double host[];  /* rows, stage, hclamp */
+} ew_harm_state;
+
+void ew_harm_release(ew_op *op) {
+    ew_harm_state *s = (ew_harm_state *)op->harm;
+    if (s) ew_dev_free(op->dev, s->dmem);
+    free(s);
+    op->harm = NULL;
+}
+
+static int slot(const ew_op *op, const char *name) {
+    for (int i = 0; i < op->type->num_images; i++)
+        if (!strcmp(op->type->images[i].name, name)) return op->has_image[i] ? i : -1;
+    return -1;
+}
+
+ew_result ew_harm_commit(ew_op *op) {
+    ew_device *dev = op->dev;
+    const int ci = slot(op, "color"), oi = slot(op, "output");
+    const int pre = ew_op_param(op, "outlier_k") > 0.0f, post = ew_op_param(op, "do_no_harm") != 0.0f;
+    if (!has_stage(op->type) || op->type->stage_in_inner || ci < 0 || oi < 0 || (!pre && !post) ||
+        op->images[ci].channels < 3 || op->images[oi].channels < 3) {
+        ew_harm_release(op);
+        return EW_OK;
+    }
+    const ew_image *c = &op->images[ci];
+    const int w = c->width, h = c->height, cc = c->channels;
+    const int has_a = slot(op, "albedo") >= 0 && op->images[slot(op, "albedo")].channels >= 3;
+    const int has_n = slot(op, "normal") >= 0 && op->images[slot(op, "normal")].channels >= 3;
+    ew_harm_state *s = (ew_harm_state *)op->harm;
+    if (s && s->w == w && s->h == h && s->cc == cc && s->has_a == has_a && s->has_n == has_n && s->pre == pre)
+        return EW_OK;
+    ew_harm_release(op);
+    const size_t n = (size_t)w * (size_t)h;
+    /* col (cc), albedo, normal, a (radiance, then the method's output), b
+     * (rejected radiance, then the residual statistics), clamped (cc) */
+    const size_t floats = n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 6 + (pre ? (size_t)cc : 0));
+    const size_t row_bytes = (size_t)h * 2 * sizeof(double);
+    const size_t stage = ew_dev_stage_floats(dev, n, cc);
+    const size_t hclamp = pre ? stage : 0;
+    s = (ew_harm_state *)calloc(1, sizeof *s + row_bytes + (stage + hclamp) * sizeof(float));
+    if (s) s->dmem = ew_dev_alloc(dev, row_bytes + floats * sizeof(float));
+    op->harm = s;
+    if (!s || !s->dmem)
+        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: the do-no-harm stage of %dx%d needs %.1f MiB", w,
+                        h, (double)(floats * sizeof(float) + row_bytes) / 1048576.0);
+    s->w = w;
+    s->h = h;
+    s->cc = cc;
+    s->has_a = has_a;
+    s->has_n = has_n;
+    s->pre = pre;
+    s->rows = s->host;
+    s->stage = stage ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
+    s->hclamp = hclamp ? s->stage + stage : NULL;
+    s->row_out = (double *)s->dmem;
+    float *m = (float *)(void *)((char *)s->dmem + row_bytes);
+    s->col = m; m += n * (size_t)cc;
+    s->alb = has_a ? m : NULL; m += has_a ? n * 3 : 0;
+    s->nrm = has_n ? m : NULL; m += has_n ? n * 3 : 0;
+    s->a = m; m += n * 3;
+    s->b = m; m += n * 3;
+    s->clamped = pre ? m : NULL;
+    return EW_OK;
+}
+
+/* Step 1 into s->clamped; returns the frame's mean demodulated luminance
+ * through the row reduction (the floor of the spread). */
+static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
+    ew_device *dev = op->dev;
+    dev->backend->harm(dev, EW_HARM_DEMOD, ha);
+    dev->backend->reduce_rows(dev, EW_REDUCE_LUM_SUM, s->w, s->h, s->a, s->row_out);
+    ew_result r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)s->h * 2 * sizeof(double));
+    if (r != EW_OK) return r;
+    double sum = 0.0;
+    for (int y = 0; y < s->h; y++) sum += s->rows[2 * y];
+    const double mean = sum / ((double)s->w * (double)s->h);
+    ew_outlier_params p = ew_outlier_plain_params(s->w, s->h, HARM_OUTLIER_RADIUS, ew_op_param(op, "outlier_k"));
+    p.robust = 1;
+    p.albedo_tol = HARM_ALBEDO_TOL;
+    p.normal_cos = HARM_NORMAL_COS;
+    p.sigma_floor = HARM_SIGMA_FLOOR;
+    p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
+    const ew_outlier_buffers ob = {s->a, s->alb, s->nrm, s->b, 3};
+    dev->backend->outlier_guided(dev, &p, &ob);
+    dev->backend->harm(dev, EW_HARM_REMOD, ha);
+    return EW_OK;
+}
+
+ew_result ew_harm_execute(ew_op *op) {
+    ew_harm_state *s = (ew_harm_state *)op->harm;
+    ew_device *dev = op->dev;
+    const int ci = slot(op, "color");
+    ew_result r = ew_dev_put_view(dev, &op->images[ci], s->cc, s->col, s->stage);
+    if (r == EW_OK && s->alb) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, s->alb, s->stage);
+    if (r == EW_OK && s->nrm) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, s->nrm, s->stage);
+    if (r != EW_OK) return r;
+    ew_harm_args ha;
+    memset(&ha, 0, sizeof ha);
+    ha.width = s->w;
+    ha.height = s->h;
+    ha.channels = s->cc;
+    ha.color = s->col;
+    ha.albedo = s->alb;
+    ha.radiance = s->a;
+    ha.rejected = s->b;
+    ha.clamped = s->pre ? s->clamped : s->col;
+    ha.radius = HARM_BLEND_RADIUS;
+    ha.strength = HARM_BLEND_STRENGTH;
+    ha.z = HARM_BLEND_Z;
+    ha.theta = HARM_BLEND_THETA;
+    const ew_image saved = op->images[ci];
+    if (s->pre) {
+        r = reject(op, s, &ha);
+        if (r != EW_OK) return r;
+        /* the method reads the clamped colour where it reads views from */
+        if (s->hclamp) {
+            r = dev->backend->mem_download(dev, s->hclamp, s->clamped, (size_t)s->w * s->h * s->cc * sizeof(float));
+            if (r != EW_OK) return r;
+            op->images[ci] = ew_image_packed(s->hclamp, s->w, s->h, s->cc);
+        } else {
+            op->images[ci] = ew_image_packed(s->clamped, s->w, s->h, s->cc);
+        }
+    }
+    r = op->type->execute(op);
+    op->images[ci] = saved;
+    if (r != EW_OK || ew_op_param(op, "do_no_harm") == 0.0f) return r;
+    const ew_image *out = ew_op_image(op, "output");
+    ha.out = s->a;
+    ha.stats = s->b;
+    r = ew_dev_put_view(dev, out, 3, s->a, s->stage);
+    if (r != EW_OK) return r;
+    dev->backend->harm(dev, EW_HARM_STATS, &ha);
+    dev->backend->harm(dev, EW_HARM_BLEND, &ha);
+    return ew_dev_get_view(dev, s->a, 3, out, s->stage);
+}
