@@ -4,7 +4,7 @@ the render window and the output files see it."""
 bl_info = {
     "name": "Edgewise Denoise",
     "author": "Edgewise",
-    "version": (0, 2, 0),
+    "version": (0, 3, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Render > Edgewise Denoise",
     "description": "Denoise Cycles renders with libedgewise, as Cycles' own Denoise does",

@@ -191,8 +191,37 @@ FALLBACK_METHODS = ("auto",)
 
 
 def readable(name):
-    """A label for a descriptor name that has none: "firefly_k" -> "Firefly K"."""
-    return " ".join(w[:1].upper() + w[1:] for w in name.replace("-", " ").replace("_", " ").split())
+    """A label for a descriptor name that has none: "firefly_k" -> "Firefly K";
+    a word without vowels is an abbreviation: "nbg" -> "NBG"."""
+    def word(w):
+        if w.isalpha() and not any(c in "aeiouy" for c in w.lower()):
+            return w.upper()
+        return w[:1].upper() + w[1:]
+    return " ".join(word(w) for w in name.replace("-", " ").replace("_", " ").split())
+
+
+def method_summaries(ew):
+    """{method: the library's one-line description} (ew_method_get), for
+    the Method list's tooltips; {} when the library cannot say."""
+    import ctypes
+    out = {}
+    try:
+        lib = sys.modules[ew.__name__ + "._lib"].libs()[0]
+        f = lib.ew_method_get
+        f.restype = ctypes.c_int32
+        f.argtypes = [ctypes.c_char_p, ctypes.c_int32, ctypes.POINTER(ctypes.c_char_p),
+                      ctypes.POINTER(ctypes.c_char_p), ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_int32)]
+        lib.ew_method_count.restype = ctypes.c_int32
+        lib.ew_method_count.argtypes = [ctypes.c_char_p]
+        for i in range(lib.ew_method_count(b"denoiser")):
+            name, summary = ctypes.c_char_p(), ctypes.c_char_p()
+            ni, np_ = ctypes.c_int32(), ctypes.c_int32()
+            if f(b"denoiser", i, ctypes.byref(name), ctypes.byref(summary), ctypes.byref(ni), ctypes.byref(np_)) == 0:
+                if name.value and summary.value:
+                    out[name.value.decode()] = summary.value.decode()
+    except (KeyError, AttributeError, OSError):
+        pass
+    return out
 
 
 def method_names(ew=None):
@@ -221,15 +250,36 @@ def method_items(ew=None):
                 labels = dict(zip(p.get("choices") or (), p.get("choice_labels") or p.get("choice_names") or ()))
     except (AddonLibraryError, KeyError):
         ew = None
+    summaries = method_summaries(ew) if ew is not None else {}
     for m in names:
-        summary = ""
-        if ew is not None and m != "auto":
-            try:
-                summary = ew.node_type("denoise", m).get("summary") or ""
-            except KeyError:
-                pass
+        summary = summaries.get(m, "")
         out.append((m, labels.get(m) or readable(m), summary or "Edgewise denoiser '%s'" % m))
     return out
+
+
+def param_label(p):
+    """The label shown for a descriptor parameter: its label when it is more
+    than the raw name ("Method"), else a readable form of the name
+    ("quality" -> "Quality", "firefly_k" -> "Firefly K")."""
+    label = p.get("label") or ""
+    return label if label and label != p["name"] else readable(p["name"])
+
+
+def stored_enum_index(stored, identifiers, default):
+    """The position in `identifiers` (the choices as the library lists them
+    now) of an enum setting saved in a .blend. The add-on stores the choice's
+    identifier (a string), so a library that reorders, adds or removes choices
+    keeps every saved choice that still exists. Files saved before stored the
+    position (an int, Blender's own enum storage): read as that position.
+    Anything else (unset, a choice this library lacks, a position out of
+    range) gives the default's position."""
+    ids = list(identifiers)
+    d = ids.index(default) if default in ids else 0
+    if isinstance(stored, str):
+        return ids.index(stored) if stored in ids else d
+    if isinstance(stored, int) and not isinstance(stored, bool) and 0 <= stored < len(ids):
+        return stored
+    return d
 
 
 def enum_items(p):

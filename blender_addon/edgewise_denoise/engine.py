@@ -22,6 +22,8 @@ from . import core
 
 state = {
     "last_error": "",       # the last failure, for the panel's red line
+    "last_warning": "",     # the last thing the user should change (the frame was still denoised)
+    "redraw": False,        # the panel's lines changed during a render: redraw it (handlers.py)
     "last_note": "",        # what the last denoise did (layer: method, time)
     "histories": {},        # (view layer, view) -> core.TemporalHistory during an animation
     "runs": 0,              # layers denoised since the add-on was enabled (tests read it)
@@ -104,14 +106,30 @@ def _find(passes, names, view):
     return None
 
 
-def report_error(engine, msg):
-    """Where Blender shows render errors: the report (status bar, Info
-    editor, console) and the panel's red line."""
-    state["last_error"] = msg
+def _report(engine, kind, msg):
+    state["redraw"] = True
     try:
-        engine.report({"ERROR"}, msg)
+        engine.report({kind}, msg)
     except Exception:
         print(msg)
+
+
+def report_error(engine, msg):
+    """Where Blender shows render errors: the report (status bar, Info
+    editor, console, the render window's header) and the panel's red line.
+    Blender stops an animation render at a frame whose engine reported an
+    error (that frame is not written): a failed denoise never leaves a
+    sequence of noisy files that look finished."""
+    state["last_error"] = msg
+    _report(engine, "ERROR", msg)
+
+
+def report_warning(engine, msg):
+    """Something the user should change while the frame is still denoised:
+    a warning (status bar, Info editor, the panel) that does not stop an
+    animation, as an error would."""
+    state["last_warning"] = msg
+    _report(engine, "WARNING", msg)
 
 
 def after_layer(engine, depsgraph):
@@ -175,6 +193,7 @@ def after_layer(engine, depsgraph):
         note = "%s: %s, %.2f s" % (where, ran, time.perf_counter() - t0)
         state["last_note"] = note
         engine.update_stats("", "Edgewise: denoised " + note)
+        _report(engine, "INFO", "Edgewise: denoised " + note)  # the status bar after F12 says what ran
         if s.use_temporal and engine.is_animation and passes.get("vector") is None:
-            report_error(engine, "Edgewise: temporal off for %s: no Vector pass (turn it on, and motion blur off; "
-                         "the panel's Enable Passes does both)" % where)
+            report_warning(engine, "Edgewise: temporal off for %s (each frame denoised alone): no Vector pass; "
+                           "the panel's Enable Passes turns it on and motion blur off" % where)

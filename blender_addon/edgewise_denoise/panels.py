@@ -31,8 +31,29 @@ def _wrapped(layout, text, width=70, alert=False, icon="NONE"):
         first = False
 
 
+def text_width(context):
+    """Characters that fit on one line of the panel (the Properties editor
+    can be narrow; a label Blender cuts in the middle says nothing)."""
+    region = getattr(context, "region", None)
+    try:
+        scale = bpy.context.preferences.system.ui_scale
+    except AttributeError:
+        scale = 1.0
+    if region is None or not getattr(region, "width", 0):
+        return 70
+    return max(20, int((region.width - 50) / (6.5 * scale)))
+
+
+def missing_text(labels):
+    """'Denoising Data' for the three passes one switch gives."""
+    data = [p for p in labels if p.startswith("Denoising ")]
+    rest = [p for p in labels if not p.startswith("Denoising ")]
+    return ", ".join((["Denoising Data"] if data else []) + rest)
+
+
 def draw_settings(layout, context):
     scene = context.scene
+    width = text_width(context)
     s = scene.edgewise
     if scene.render.engine != "CYCLES":
         layout.label(text="Edgewise denoises Cycles renders; %s renders are left alone" %
@@ -42,7 +63,7 @@ def draw_settings(layout, context):
     layout.prop(s, "enabled")
     if engine.cycles_denoise_fails(scene):
         _wrapped(layout, "Render > Denoise is on, but this Blender has no OpenImageDenoise: every render fails. "
-                 "Turn it off; Edgewise denoises instead.", alert=True, icon="ERROR")
+                 "Turn it off; Edgewise denoises instead.", width, alert=True, icon="ERROR")
         layout.operator("edgewise.cycles_denoise_off", icon="CANCEL")
     col = layout.column()
     col.prop(s, "method")
@@ -58,17 +79,26 @@ def draw_settings(layout, context):
     if ok:
         col.label(text=text, icon="CHECKMARK")
     else:
-        _wrapped(layout, text, alert=True, icon="ERROR")
+        _wrapped(layout, text, width, alert=True, icon="ERROR")
     missing = missing_by_layer(scene)
     if missing:
         box = layout.box()
         for layer, passes in missing.items():
-            box.label(text="%s: no %s (colour-guided; passes help)" % (layer, ", ".join(passes)), icon="INFO")
+            _wrapped(box, "%s: no %s" % (layer, missing_text(passes)), width, icon="INFO")
+        why = []
+        if any(p.startswith("Denoising ") for ps in missing.values() for p in ps):
+            why.append("without Denoising Data every method denoises colour-guided (less detail)")
+        if any("Vector" in ps for ps in missing.values()):
+            why.append("temporal needs the Vector pass")
+        _wrapped(box, "; ".join(why)[:1].upper() + "; ".join(why)[1:] + ".", width, icon="BLANK1")
         box.operator("edgewise.setup_passes")
     if engine.state["last_error"]:
-        _wrapped(layout, engine.state["last_error"], alert=True, icon="ERROR")
-    elif engine.state["last_note"]:
-        layout.label(text="Last: " + engine.state["last_note"], icon="INFO")
+        _wrapped(layout, engine.state["last_error"], width, alert=True, icon="ERROR")
+    else:
+        if engine.state["last_warning"]:
+            _wrapped(layout, engine.state["last_warning"], width, alert=True, icon="ERROR")
+        if engine.state["last_note"]:
+            _wrapped(layout, "Last: " + engine.state["last_note"], width, icon="INFO")
 
 
 class EDGEWISE_PT_render(bpy.types.Panel):

@@ -3,7 +3,15 @@ generated from the library's denoise-node descriptors (one property per
 method parameter, named <method>__<param>), with the descriptors' labels and
 choice names. The settings class is rebuilt when the library changes (the
 Library setting, Reload Library), so a library set after install brings its
-methods at once."""
+methods at once.
+
+Enum settings (the method, a method's model or quality) are saved in the
+.blend by the choice's identifier, not by its position in the list: the list
+comes from whichever library is loaded, and a library that orders its choices
+differently must not change a saved scene's choice. Blender's EnumProperty
+stores a position, so these enums read and write a string of their own
+(core.stored_enum_index says how a saved value is read, older files' positions
+included)."""
 import bpy
 
 from . import core
@@ -12,8 +20,23 @@ _generated = {}  # method -> [param dicts] the properties were made from
 _registered = {"cls": None}
 
 
-def _param_property(p):
-    label = p.get("label") or core.readable(p["name"])
+def enum_by_identifier(key, items, default, **kw):
+    """An EnumProperty over items whose value is saved as the chosen
+    identifier under the ID property `key` (the property's own name)."""
+    ids = [it[0] for it in items]
+    if default not in ids:
+        default = ids[0]
+
+    def get(self):
+        return core.stored_enum_index(self.get(key), ids, default)
+
+    def set(self, index):
+        self[key] = ids[index]
+    return bpy.props.EnumProperty(items=items, default=default, get=get, set=set, **kw)
+
+
+def _param_property(key, p):
+    label = core.param_label(p)
     desc = p.get("hint") or ""
     t = p["type"]
     if t == "bool":
@@ -25,8 +48,7 @@ def _param_property(p):
         return bpy.props.FloatProperty(name=label, description=desc, default=float(p["default"]),
                                        min=float(p["min"]), max=float(p["max"]))
     if t == "enum" and p.get("choices"):
-        return bpy.props.EnumProperty(name=label, description=desc, items=core.enum_items(p),
-                                      default=p["default"] if p.get("default") in p["choices"] else p["choices"][0])
+        return enum_by_identifier(key, core.enum_items(p), p.get("default"), name=label, description=desc)
     return None
 
 
@@ -52,8 +74,8 @@ def build_settings_class(library_path=""):
             name="Denoise Renders", default=False,
             description="Denoise every Cycles render (F12 and each animation frame) before the compositor, the "
                         "render window and the output file see it, as Cycles' own Denoise does"),
-        "method": bpy.props.EnumProperty(
-            name="Method", items=items, default=items[0][0], description="The library's denoiser"),
+        "method": enum_by_identifier("method", items, items[0][0], name="Method",
+                                     description="The library's denoiser"),
         "use_temporal": bpy.props.BoolProperty(
             name="Temporal (Animations)", default=False,
             description="In animation renders, accumulate each frame with its predecessors along the Vector pass "
@@ -75,9 +97,10 @@ def build_settings_class(library_path=""):
         for p in params:
             if p["name"] == "samples":
                 continue  # taken from the render's sample count
-            prop = _param_property(p)
+            key = "%s__%s" % (m, p["name"])
+            prop = _param_property(key, p)
             if prop is not None:
-                ann["%s__%s" % (m, p["name"])] = prop
+                ann[key] = prop
                 kept.append(p)
         _generated[m] = kept
     return type("EdgewiseSettings", (bpy.types.PropertyGroup,), {"__annotations__": ann})

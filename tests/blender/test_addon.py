@@ -80,6 +80,42 @@ def render(scene, path):
     return save_result(scene, path)
 
 
+def check_enums_saved_by_identifier(tmp):
+    """A .blend keeps its method and model when the library lists its choices
+    in another order (the enums are generated from whichever library is
+    loaded), and a file from before, which stored Blender's enum position,
+    still loads its choice."""
+    from edgewise_denoise import core, properties
+    s = bpy.context.scene.edgewise
+    s.method = "nbg"
+    s.nbg__model = "7layer-3grid"
+    check(s.get("method") == "nbg" and s.get("nbg__model") == "7layer-3grid",
+          "enum settings saved by identifier: %r %r" % (s.get("method"), s.get("nbg__model")))
+    path = os.path.join(tmp, "enums.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    items0, enum0 = core.method_items, core.enum_items
+    core.method_items = lambda ew=None: list(reversed(items0(ew)))   # a library that orders them otherwise
+    core.enum_items = lambda p: list(reversed(enum0(p)))
+    try:
+        properties.rebuild()
+        bpy.ops.wm.open_mainfile(filepath=path)
+        s = bpy.context.scene.edgewise
+        order = [e.identifier for e in s.bl_rna.properties["method"].enum_items]
+        check(order[0] != "auto", "the rebuilt Method list is in the other order: %s" % order)
+        check(s.method == "nbg" and s.nbg__model == "7layer-3grid",
+              "after a reorder the file still says nbg / 7layer-3grid: %s / %s" % (s.method, s.nbg__model))
+        # a file from before: Blender's EnumProperty stored the position
+        s["method"] = 1
+        check(s.method == order[1], "an old file's position is read as the choice at that position: %s" % s.method)
+        s.method = "auto"
+        check(s.get("method") == "auto", "writing converts it to the identifier")
+    finally:
+        core.method_items, core.enum_items = items0, enum0
+        properties.rebuild()
+    s = bpy.context.scene.edgewise
+    check(s.method == "auto" and s.nbg__model == "7layer-3grid", "back in the library's own order")
+
+
 def main():
     t_start = time.perf_counter()
     tmp = tempfile.mkdtemp(prefix="ewb_still_")
@@ -122,7 +158,9 @@ def main():
         ref = render(scene, os.path.join(tmp, "ref.exr"))
         scene.cycles.samples = SPP
         log = draw_panel(scene)
-        check(any(k == "label" and "colour-guided" in t for k, t in log), "panel: missing Denoising Data is advice")
+        check(any(k == "label" and "colour-guided" in t for k, t in log) and
+              any(k == "label" and "no Denoising Data" in t for k, t in log),
+              "panel: missing Denoising Data is advice: %s" % [t for k, t in log if k == "label"])
         bpy.ops.edgewise.setup_passes()
         check(all(vl.cycles.denoising_store_passes for vl in scene.view_layers), "Enable Passes turns on passes")
         noisy = render(scene, os.path.join(tmp, "noisy.exr"))
@@ -221,6 +259,9 @@ def main():
         check("left alone" in engine.state["last_note"] and engine.state["runs"] == runs and
               not engine.state["last_error"], "EEVEE render: note '%s', nothing denoised" % engine.state["last_note"])
         scene.render.engine = "CYCLES"
+
+        check_enums_saved_by_identifier(tmp)
+        scene = bpy.context.scene
 
         check(edgewise_temp_entries() == temp_before, "no temporary file left behind")
         if look:

@@ -35,7 +35,7 @@ def render_animation(scene, folder, fmt="OPEN_EXR_MULTILAYER"):
     scene.render.filepath = os.path.join(folder, "frame_####")
     bpy.ops.render.render(animation=True)
     ext = ".exr" if fmt.startswith("OPEN_EXR") else ".png"
-    return [os.path.join(folder, "frame_%04d%s" % (f, ext)) for f in range(1, FRAMES + 1)]
+    return [os.path.join(folder, "frame_%04d%s" % (f, ext)) for f in range(scene.frame_start, scene.frame_end + 1)]
 
 
 def read_pass(ew, path, name, layer="ViewLayer"):
@@ -124,6 +124,33 @@ def main():
             d_den, d_noisy = float(np.abs(got - want).mean()), float(np.abs(got - was).mean())
             check(d_den < 0.01 and d_noisy > 3 * d_den,
                   "PNG frame %d is the denoised frame (mean diff %.4f; to the noisy one %.4f)" % (f + 1, d_den, d_noisy))
+        # temporal on without a Vector pass: a warning, every frame still denoised and written
+        scene.frame_end = 2
+        s.use_temporal = True
+        for vl in scene.view_layers:
+            vl.use_pass_vector = False
+        novec = [os.path.join(tmp, "novec", "frame_%04d.png" % f) for f in (1, 2)]
+        try:
+            render_animation(scene, os.path.join(tmp, "novec"), fmt="PNG")
+            raised = ""
+        except RuntimeError as e:
+            raised = str(e)
+        check(not raised and all(os.path.isfile(p) for p in novec) and "no Vector pass" in
+              engine.state["last_warning"] and not engine.state["last_error"],
+              "temporal without Vector: warned (%s), both frames written %s" % (engine.state["last_warning"], raised))
+        # a failed denoise is an error: Blender stops the animation, no noisy frame is written as if done
+        bad = os.path.join(tmp, "emptylib")
+        os.makedirs(bad)
+        s.library_path = bad
+        failed = [os.path.join(tmp, "failed", "frame_%04d.png" % f) for f in (1, 2)]
+        try:
+            render_animation(scene, os.path.join(tmp, "failed"), fmt="PNG")
+            raised = ""
+        except RuntimeError as e:
+            raised = str(e)
+        check("refused" in raised and not any(os.path.exists(p) for p in failed),
+              "an error stops the animation before its frame is written: %s" % raised)
+        s.library_path = ""
         check(edgewise_temp_entries() == temp_before, "no temporary file left behind")
         if look:
             os.makedirs(look, exist_ok=True)

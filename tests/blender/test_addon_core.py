@@ -43,8 +43,30 @@ class PureLogic(unittest.TestCase):
     def test_readable_labels(self):
         self.assertEqual(core.readable("firefly_k"), "Firefly K")
         self.assertEqual(core.readable("bgrid-color"), "Bgrid Color")
+        self.assertEqual(core.readable("nbg"), "NBG")
         p = {"choices": ["a_b", "c"], "choice_labels": ["Alpha Beta", ""]}
         self.assertEqual(core.enum_items(p), [("a_b", "Alpha Beta", ""), ("c", "C", "")])
+
+    def test_param_labels(self):
+        self.assertEqual(core.param_label({"name": "quality", "label": "quality"}), "Quality")
+        self.assertEqual(core.param_label({"name": "firefly_k"}), "Firefly K")
+        self.assertEqual(core.param_label({"name": "method", "label": "Method"}), "Method")
+
+    def test_enum_saved_by_identifier(self):
+        ids = ["auto", "bgrid", "nbg", "kpcn"]
+        reordered = ["kpcn", "nbg", "auto", "bgrid"]
+        # a saved identifier keeps its choice whatever the library's order
+        self.assertEqual(ids[core.stored_enum_index("nbg", ids, "auto")], "nbg")
+        self.assertEqual(reordered[core.stored_enum_index("nbg", reordered, "auto")], "nbg")
+        # a choice the library no longer has, or nothing saved: the default
+        self.assertEqual(core.stored_enum_index("gone", reordered, "auto"), reordered.index("auto"))
+        self.assertEqual(core.stored_enum_index(None, reordered, "auto"), reordered.index("auto"))
+        self.assertEqual(core.stored_enum_index(None, ids, "missing-default"), 0)
+        # files saved before stored Blender's position: read as that position
+        self.assertEqual(core.stored_enum_index(2, ids, "auto"), 2)
+        self.assertEqual(core.stored_enum_index(9, ids, "auto"), 0)
+        self.assertEqual(core.stored_enum_index(-1, ids, "bgrid"), 1)
+        self.assertEqual(core.stored_enum_index(True, ids, "bgrid"), 1)
 
     def test_missing_passes(self):
         need = ["albedo", "normal", "depth", "vector"]
@@ -175,6 +197,10 @@ class WithLibrary(unittest.TestCase):
         for ident, label, desc in items:
             self.assertNotIn("_", label)
             self.assertTrue(desc)
+        # tooltips: each method's own description from the library (ew_method_get)
+        descs = dict((i[0], i[2]) for i in items)
+        self.assertIn("bilateral grid", descs["nbg"])
+        self.assertNotEqual(descs["nbg"], descs["bgrid"])
         for m in names:
             self.assertNotIn("method", [p["name"] for p in core.method_params(m)])
 
