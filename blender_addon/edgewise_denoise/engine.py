@@ -126,9 +126,11 @@ def report_error(engine, msg):
 
 def report_warning(engine, msg):
     """Something the user should change while the frame is still denoised:
-    a warning (status bar, Info editor, the panel) that does not stop an
-    animation, as an error would."""
+    a warning that does not stop an animation, as an error would. Blender
+    3.4 shows only a render engine's errors in the status bar, so the panel's
+    red line and the console carry it."""
     state["last_warning"] = msg
+    print(msg)
     _report(engine, "WARNING", msg)
 
 
@@ -193,7 +195,8 @@ def after_layer(engine, depsgraph):
         note = "%s: %s, %.2f s" % (where, ran, time.perf_counter() - t0)
         state["last_note"] = note
         engine.update_stats("", "Edgewise: denoised " + note)
-        _report(engine, "INFO", "Edgewise: denoised " + note)  # the status bar after F12 says what ran
+        state["redraw"] = True  # the panel's Last line (Blender shows no engine info in the status bar)
+        print("Edgewise: denoised " + note)  # beside Cycles' own lines in the console (blender -b -a)
         if s.use_temporal and engine.is_animation and passes.get("vector") is None:
             report_warning(engine, "Edgewise: temporal off for %s (each frame denoised alone): no Vector pass; "
                            "the panel's Enable Passes turns it on and motion blur off" % where)

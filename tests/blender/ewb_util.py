@@ -56,11 +56,16 @@ def material(name, color, checker=False):
     return m
 
 
-def build_scene(frames=1, camera_motion=(0.0, 0.0), sphere_motion=(0.0, 0.0)):
+def build_scene(frames=1, camera_motion=(0.0, 0.0), sphere_motion=(0.0, 0.0), reset=True):
     """A checker floor, a cube, a sphere, an area light and a world colour.
     camera_motion / sphere_motion: (x, z) travel in metres over the frames
-    (linear), so the image moves by a known few pixels a frame."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    (linear), so the image moves by a known few pixels a frame. reset=False
+    keeps the open file and its windows (the GUI test) and only removes its objects."""
+    if reset:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+    else:
+        for obj in list(bpy.data.objects):
+            bpy.data.objects.remove(obj)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
