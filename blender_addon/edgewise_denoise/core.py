@@ -414,53 +414,65 @@ def denoise_arrays(passes, settings, progress=None, ew=None):
 
 
 class TemporalHistory(object):
-    """The library's temporal filter for one view layer across the frames of
-    an animation render: the history lives in the filter between frames.
-    Frames must come in order; a gap or a new size starts over."""
+    """The library's temporal filters for one view layer across the frames of
+    an animation render: the history lives in the filters between frames.
+    Each stream (a name) is a filter of its own. Frames must come in order;
+    a gap or a new size starts a stream over."""
 
     def __init__(self, ew, threads=0):
         self.ew = ew
-        self.filter = ew.Filter("temporal", _device(ew, threads))
-        self.frame = None
-        self.shape = None
+        self.threads = threads
+        self.filters = {}
+        self.frames = {}
 
-    def accumulate(self, frame, color, normal, depth, vector, **params):
+    def accumulate(self, frame, color, normal, depth, vector, stream="main", **params):
         """color (H, W, 3), normal (H, W, 3) or None, depth (H, W[, 1]) or None,
         vector (H, W, 2..4: Blender's Vector pass, rows top first). Returns the
         accumulated colour (H, W, 3)."""
         import numpy as np
-        if self.frame is None or frame != self.frame + 1 or color.shape != self.shape:
-            self.filter.set("reset", 1)
-        self.frame, self.shape = frame, color.shape
+        f = self.filters.get(stream)
+        if f is None:
+            f = self.filters[stream] = self.ew.Filter("temporal", _device(self.ew, self.threads))
+        last = self.frames.get(stream)
+        if last is None or frame != last[0] + 1 or color.shape != last[1]:
+            f.set("reset", 1)
+        self.frames[stream] = (frame, color.shape)
         for k, v in params.items():
-            self.filter.set(k, v)
+            f.set(k, v)
         out = np.empty(color.shape[:2] + (3,), np.float32)
         c = lambda a: None if a is None else np.ascontiguousarray(a, np.float32)  # noqa: E731
-        self.filter.run(color=c(color[:, :, :3]), normal=c(normal), depth=c(depth),
-                        vector=None if vector is None else c(vector[:, :, :2]), output=out)
+        f.run(color=c(color[:, :, :3]), normal=c(normal), depth=c(depth),
+              vector=None if vector is None else c(vector[:, :, :2]), output=out)
         return out
 
     def close(self):
-        self.filter.close()
+        for f in self.filters.values():
+            f.close()
+        self.filters.clear()
 
 
-# Temporal accumulation, as the add-on runs it: the noisy colour is
-# accumulated along the Vector pass by the library's temporal filter (normal
-# and depth rejection of disoccluded history; at least half of each output is
-# the current frame), then denoised. Where the accumulated history disagrees
-# with the frame by more than the frame's noise explains (a shadow that moved
-# over static geometry, a disocclusion the normal/depth test missed, vectors
-# that point the wrong way), the pixel takes the per-frame denoised result
-# instead (history_mismatch). Measured on rendered 4-spp shots (96x72 and
-# 160x120; camera panning/rising 1.5-4 px a frame, an object moving 6 px a
-# frame): plain accumulation (alpha_min 0.2) lost up to 5.4 dB to a moving
-# shadow; with the test no frame is below per-frame denoising and frames 2+
-# gain 0.07-0.45 dB; with deliberately wrong vectors nearly every pixel
-# falls back (a synthetic shot: within 0.25 dB of per-frame, 9 dB below
-# without the test). 2.5 standard errors: 3 and 4 let more wrong history
-# through on the synthetic shot; a per-pixel (1x1) test as well cost the
-# rendered shots 0.2-0.3 dB of their gain.
-TEMPORAL_PARAMS = {"alpha_min": 0.5}
+# Temporal accumulation, as the add-on runs it: each frame is denoised alone,
+# then its denoised colour, divided by the albedo (Denoising Albedo + 0.01, so
+# texture does not blur into the history), is accumulated with its
+# predecessors along the Vector pass by the library's temporal filter (normal
+# and depth rejection of disoccluded history, the history clamped to the
+# frame's 3x3 mean +- 1 standard deviation, as the bench's after-demod-clamp
+# mode), and multiplied back by the albedo. Whether the history matches the
+# frame is judged on the noisy colour, whose noise is known: a second filter
+# accumulates it (at least half of each pixel from the frame, no clamp), and
+# where that accumulation disagrees with the frame by more than the frame's
+# noise explains (history_mismatch: a shadow that moved over static geometry,
+# a disocclusion the normal/depth test missed, vectors that point the wrong
+# way), or the denoised accumulation moved away from the frame's denoised
+# colour by more than that noise, the pixel keeps the per-frame result. One
+# denoise per frame (and two ~10 ms filter runs at 256x256).
+# Accumulating the noisy colour first and denoising that (this add-on's
+# earlier way) lost up to 1.0 dB against per-frame denoising at 4 spp on the
+# 256x256 g_anim sequences (surfaces moving ~10 px a frame: the bilinear
+# reprojection blurs the input the denoiser sees); see docs/temporal.md.
+TEMPORAL_PARAMS = {"clamp": 1.0}
+CHECK_PARAMS = {"alpha_min": 0.5}
+ALBEDO_EPSILON = 0.01    # as the library demodulates (EW_ALBEDO_EPSILON)
 MISMATCH_RADII = (1, 2)  # 3x3 and 5x5 windows
 MISMATCH_Z = 2.5         # standard errors of the windowed noise
 
@@ -476,17 +488,22 @@ def box_mean(img, r):
 
 
 def history_mismatch(cur, acc, single, radii=MISMATCH_RADII, z=MISMATCH_Z):
-    """Pixels whose accumulated colour `acc` disagrees with the frame `cur`
-    beyond noise: in a window around the pixel (3x3 or 5x5; the smaller one
-    catches differences of alternating sign that cancel in the larger), the
-    mean of acc - cur (half the history's difference from the frame) exceeds
-    z standard errors of the frame's noise, estimated from what the per-frame
-    denoiser removed (cur - single) in the same window. On the channel mean
-    (render noise is correlated across RGB)."""
+    """history_mismatch on noisy accumulation: see mismatch()."""
+    return mismatch(acc - cur, cur - single, radii, z)
+
+
+def mismatch(diff, residual, radii=MISMATCH_RADII, z=MISMATCH_Z):
+    """Pixels where the history's contribution `diff` (accumulated minus the
+    frame) exceeds noise: in a window around the pixel (3x3 or 5x5; the
+    smaller one catches differences of alternating sign that cancel in the
+    larger), the mean of diff exceeds z standard errors of the frame's noise,
+    estimated from what the per-frame denoiser removed (`residual`: noisy
+    minus denoised) in the same window. On the channel mean (render noise is
+    correlated across RGB)."""
     import numpy as np
-    diff = (acc - cur).mean(axis=2, keepdims=True)
-    res = (cur - single).mean(axis=2, keepdims=True)
-    bad = np.zeros(cur.shape[:2], bool)
+    diff = diff.mean(axis=2, keepdims=True)
+    res = residual.mean(axis=2, keepdims=True)
+    bad = np.zeros(diff.shape[:2], bool)
     for r in radii:
         d = box_mean(diff, r)[:, :, 0]
         sigma = np.sqrt(np.maximum(box_mean(res * res, r)[:, :, 0], 0.0))
@@ -499,23 +516,27 @@ def history_mismatch(cur, acc, single, radii=MISMATCH_RADII, z=MISMATCH_Z):
 
 def denoise_frame(passes, settings, frame, history=None, progress=None, ew=None):
     """Denoise one view layer of one frame (arrays with rows top first, see
-    denoise_arrays). With a TemporalHistory, the frame is first accumulated
-    with its predecessors along passes["vector"]. Returns (rgba, what ran)."""
-    ew = ew or load_edgewise(settings.library_path)
-    if history is None or passes.get("vector") is None:
-        return denoise_arrays(passes, settings, progress, ew)
-    half = (lambda f: progress(0.5 * f)) if progress else None
-    rest = (lambda f: progress(0.5 + 0.5 * f)) if progress else None
-    single, ran = denoise_arrays(passes, settings, half, ew)
-    color = passes["color"]
-    acc = history.accumulate(frame, color[:, :, :3], passes.get("normal"), _depth(passes.get("depth")),
-                             passes["vector"], **TEMPORAL_PARAMS)
-    acc_passes = dict(passes, color=acc)
-    den, _ = denoise_arrays(acc_passes, settings, rest, ew)
+    denoise_arrays). With a TemporalHistory and passes["vector"], the
+    denoised frame is then accumulated with its predecessors (see above).
+    Returns (rgba, what ran)."""
     import numpy as np
-    bad = history_mismatch(color[:, :, :3], acc, single[:, :, :3])
+    ew = ew or load_edgewise(settings.library_path)
+    single, ran = denoise_arrays(passes, settings, progress, ew)
+    if history is None or passes.get("vector") is None:
+        return single, ran
+    albedo = passes.get("albedo")
+    scale = 1.0
+    if albedo is not None:
+        a = np.nan_to_num(np.asarray(albedo, np.float32)[:, :, :3], nan=0.0, posinf=0.0, neginf=0.0)
+        scale = np.maximum(a, 0.0) + ALBEDO_EPSILON
+    acc = history.accumulate(frame, single[:, :, :3] / scale, passes.get("normal"), _depth(passes.get("depth")),
+                             passes["vector"], **TEMPORAL_PARAMS) * scale
+    color = np.asarray(passes["color"], np.float32)[:, :, :3]
+    check = history.accumulate(frame, color, passes.get("normal"), _depth(passes.get("depth")), passes["vector"],
+                               stream="check", **CHECK_PARAMS)
+    bad = history_mismatch(color, check, single[:, :, :3]) | mismatch(acc - single[:, :, :3], color - single[:, :, :3])
     out = single.copy()
-    out[:, :, :3] = np.where(bad[:, :, None], single[:, :, :3], den[:, :, :3])
+    out[:, :, :3] = np.where(bad[:, :, None], single[:, :, :3], acc)
     return out, ran + " + temporal"
 
 
