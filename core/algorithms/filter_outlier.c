@@ -11,7 +11,7 @@
 #include "kernels/color.h"
 #include "kernels/outlier.h"
 #include "src/backend.h"
-#include "src/op.h"
+#include "src/op_mem.h"
 
 static const ew_image_desc images[] = {
     {"color", 3, 1, "linear colour with fireflies (the first 3 channels are read; RGB written to the output)"},
@@ -36,20 +36,18 @@ static const ew_param_desc params[] = {
      "denoisers' outlier_k rejection"},
 };
 
-/* Every buffer in one device allocation (commit), reused by each execute:
- * the op follows the device-memory pattern of docs/backends.md, so it runs
- * on CUDA devices too. Colour and output carry the channels both views
- * share (alpha passes through the kernel). */
+/* Every buffer in one device allocation (commit), reused by each execute
+ * (src/op_mem.h), so the filter runs on CUDA devices too. Colour and output
+ * carry the channels both views share (alpha passes through the kernel). */
 typedef struct {
     int w, h, has_albedo, has_normal, channels;
-    float *dmem, *stage; /* stage: host staging in host[], or NULL when views need none */
+    ew_op_mem mem;
     ew_outlier_buffers b;
-    float host[];
 } state;
 
 static void release(ew_op *op) {
     state *s = (state *)op->state;
-    if (s) ew_dev_free(op->dev, s->dmem);
+    if (s) ew_op_mem_free(op, &s->mem);
     free(s);
     op->state = NULL;
 }
@@ -61,7 +59,6 @@ static int carried_channels(ew_op *op) {
 }
 
 static ew_result commit(ew_op *op) {
-    ew_device *dev = op->dev;
     const ew_image *c = ew_op_image(op, "color");
     const int w = c->width, h = c->height, ch = carried_channels(op);
     const int has_a = ew_op_image(op, "albedo") != NULL, has_n = ew_op_image(op, "normal") != NULL;
@@ -69,27 +66,25 @@ static ew_result commit(ew_op *op) {
     if (s && s->w == w && s->h == h && s->has_albedo == has_a && s->has_normal == has_n && s->channels == ch)
         return EW_OK;
     release(op);
-    const size_t n = (size_t)w * (size_t)h;
-    const size_t floats = n * (2 * (size_t)ch + 3 * ((size_t)has_a + (size_t)has_n));
-    const size_t stage = ew_dev_stage_floats(dev, n, ch);
-    s = (state *)calloc(1, sizeof(state) + stage * sizeof(float));
-    if (s) s->dmem = (float *)ew_dev_alloc(dev, floats * sizeof(float));
+    s = (state *)calloc(1, sizeof(state));
     op->state = s;
-    if (!s || !s->dmem)
-        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: outlier filter of %dx%d needs %.1f MiB", w, h,
-                        (double)(floats + stage) * sizeof(float) / 1048576.0);
+    if (!s) return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
+    const size_t n = (size_t)w * (size_t)h;
+    float *color, *out, *albedo, *normal;
+    const ew_op_buf bufs[] = {{&color, n * (size_t)ch}, {&out, n * (size_t)ch}, {&albedo, has_a ? n * 3 : 0},
+                              {&normal, has_n ? n * 3 : 0}};
+    const ew_result r = ew_op_mem_alloc(op, &s->mem, bufs, 4, ch);
+    if (r != EW_OK) return r;
     s->w = w;
     s->h = h;
     s->has_albedo = has_a;
     s->has_normal = has_n;
     s->channels = ch;
-    s->stage = stage ? s->host : NULL;
-    float *m = s->dmem;
     s->b.channels = ch;
-    s->b.color = m; m += n * (size_t)ch;
-    s->b.out = m; m += n * (size_t)ch;
-    s->b.albedo = has_a ? m : NULL; m += has_a ? n * 3 : 0;
-    s->b.normal = has_n ? m : NULL;
+    s->b.color = color;
+    s->b.out = out;
+    s->b.albedo = albedo;
+    s->b.normal = normal;
     return EW_OK;
 }
 
@@ -97,9 +92,9 @@ static ew_result execute(ew_op *op) {
     ew_device *dev = op->dev;
     state *s = (state *)op->state;
     const ew_outlier_buffers *b = &s->b;
-    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), s->channels, (float *)b->color, s->stage);
-    if (r == EW_OK && b->albedo) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
-    if (r == EW_OK && b->normal) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
+    ew_result r = ew_op_put(op, &s->mem, "color", s->channels, (float *)b->color);
+    if (r == EW_OK) r = ew_op_put(op, &s->mem, "albedo", 3, (float *)b->albedo);
+    if (r == EW_OK) r = ew_op_put(op, &s->mem, "normal", 3, (float *)b->normal);
     if (r != EW_OK) return r;
     ew_outlier_params p = ew_outlier_plain_params(s->w, s->h, (int)ew_op_param(op, "radius"), ew_op_param(op, "k"));
     p.shift = 1;
@@ -109,7 +104,7 @@ static ew_result execute(ew_op *op) {
     p.normal_cos = ew_op_param(op, "normal_cos");
     p.sigma_floor = ew_op_param(op, "sigma_floor");
     dev->backend->outlier_guided(dev, &p, b);
-    return ew_dev_get_view(dev, b->out, s->channels, ew_op_image(op, "output"), s->stage);
+    return ew_op_get(op, &s->mem, b->out, s->channels, "output");
 }
 
 const ew_op_type ew_filter_outlier = {

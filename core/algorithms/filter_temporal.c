@@ -9,7 +9,8 @@
 #include <string.h>
 
 #include "src/backend.h"
-#include "src/op.h"
+#include "kernels/temporal.h"
+#include "src/op_mem.h"
 
 static const ew_image_desc images[] = {
     {"color", 3, 1, "the frame's colour (demodulated radiance works best)"},
@@ -33,27 +34,25 @@ static const ew_param_desc params[] = {
 };
 
 /* The current frame's copies and two history generations, in one device
- * allocation made at commit (docs/backends.md): the history never leaves
- * the device between frames. */
+ * allocation made at commit (src/op_mem.h): the history never leaves the
+ * device between frames. */
 typedef struct {
     int width, height, valid;
     int has_normal, has_depth;
-    float *dmem, *stage; /* stage: host staging in host[], or NULL when views need none */
+    ew_op_mem mem;
     float *color, *normal, *depth, *motion;
     float *hist_color[2], *hist_normal[2], *hist_depth[2], *hist_len[2];
     int cur; /* index of the newest history */
-    float host[];
 } state;
 
 static void release(ew_op *op) {
     state *s = (state *)op->state;
-    if (s) ew_dev_free(op->dev, s->dmem);
+    if (s) ew_op_mem_free(op, &s->mem);
     free(s);
     op->state = NULL;
 }
 
 static ew_result commit(ew_op *op) {
-    ew_device *dev = op->dev;
     const ew_image *c = ew_op_image(op, "color");
     const int w = c->width, h = c->height;
     const int has_n = ew_op_image(op, "normal") != NULL, has_d = ew_op_image(op, "depth") != NULL;
@@ -65,31 +64,22 @@ static ew_result commit(ew_op *op) {
         return EW_OK;
     }
     release(op);
-    const size_t n = (size_t)w * h;
-    const size_t floats = n * (3 + 3 + 1 + 2) + 2 * n * (3 + 3 + 1 + 1);
-    const size_t stage = ew_dev_stage_floats(dev, n, 3); /* the widest view moved */
-    s = (state *)calloc(1, sizeof(state) + stage * sizeof(float));
-    if (s) s->dmem = (float *)ew_dev_alloc(dev, floats * sizeof(float));
+    s = (state *)calloc(1, sizeof(state));
     op->state = s;
-    if (!s || !s->dmem)
-        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory for temporal history of %dx%d (%.1f MiB)", w, h,
-                        (double)(floats + stage) * sizeof(float) / 1048576.0);
+    if (!s) return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory");
+    const size_t n = (size_t)w * h;
+    const ew_op_buf bufs[] = {
+        {&s->color, n * 3},          {&s->normal, n * 3},         {&s->depth, n},
+        {&s->motion, n * 2},         {&s->hist_color[0], n * 3},  {&s->hist_normal[0], n * 3},
+        {&s->hist_depth[0], n},      {&s->hist_len[0], n},        {&s->hist_color[1], n * 3},
+        {&s->hist_normal[1], n * 3}, {&s->hist_depth[1], n},      {&s->hist_len[1], n},
+    };
+    const ew_result r = ew_op_mem_alloc(op, &s->mem, bufs, (int)(sizeof bufs / sizeof bufs[0]), 3);
+    if (r != EW_OK) return r;
     s->width = w;
     s->height = h;
     s->has_normal = has_n;
     s->has_depth = has_d;
-    s->stage = stage ? s->host : NULL;
-    float *m = s->dmem;
-    s->color = m; m += n * 3;
-    s->normal = m; m += n * 3;
-    s->depth = m; m += n;
-    s->motion = m; m += n * 2;
-    for (int g = 0; g < 2; g++) {
-        s->hist_color[g] = m; m += n * 3;
-        s->hist_normal[g] = m; m += n * 3;
-        s->hist_depth[g] = m; m += n;
-        s->hist_len[g] = m; m += n;
-    }
     return EW_OK;
 }
 
@@ -97,10 +87,10 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     const ew_image *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth"), *vv = ew_op_image(op, "vector");
-    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, s->color, s->stage);
-    if (r == EW_OK && nv) r = ew_dev_put_view(dev, nv, 3, s->normal, s->stage);
-    if (r == EW_OK && dv) r = ew_dev_put_view(dev, dv, 1, s->depth, s->stage);
-    if (r == EW_OK && vv) r = ew_dev_put_view(dev, vv, 2, s->motion, s->stage);
+    ew_result r = ew_op_put(op, &s->mem, "color", 3, s->color);
+    if (r == EW_OK) r = ew_op_put(op, &s->mem, "normal", 3, s->normal);
+    if (r == EW_OK) r = ew_op_put(op, &s->mem, "depth", 1, s->depth);
+    if (r == EW_OK) r = ew_op_put(op, &s->mem, "vector", 2, s->motion);
     if (r != EW_OK) return r;
     const int prev = s->cur, next = 1 - s->cur;
     ew_temporal_params p;
@@ -127,7 +117,7 @@ static ew_result execute(ew_op *op) {
     const size_t n = (size_t)s->width * s->height;
     if (nv) r = dev->backend->mem_copy(dev, s->hist_normal[next], s->normal, n * 3 * sizeof(float));
     if (r == EW_OK && dv) r = dev->backend->mem_copy(dev, s->hist_depth[next], s->depth, n * sizeof(float));
-    if (r == EW_OK) r = ew_dev_get_view(dev, s->hist_color[next], 3, ew_op_image(op, "output"), s->stage);
+    if (r == EW_OK) r = ew_op_get(op, &s->mem, s->hist_color[next], 3, "output");
     /* a failed frame leaves the history as it was */
     if (r != EW_OK) return r;
     s->cur = next;

@@ -20,18 +20,10 @@
 #include <string.h>
 
 #include "algorithms/pyramid.h"
+#include "src/weights.h"
 
 #define MAGIC "EWPYRWTS"
 #define VERSION 1u
-
-static uint32_t crc32_update(uint32_t crc, const unsigned char *p, size_t n) {
-    crc = ~crc;
-    for (size_t i = 0; i < n; i++) {
-        crc ^= p[i];
-        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-    }
-    return ~crc;
-}
 
 typedef struct {
     const unsigned char *p;
@@ -97,7 +89,7 @@ ew_result ew_pyr_table_parse(const void *data, size_t size, ew_pyr_table *out, c
         snprintf(msg, sizeof msg, "unsupported weights version %u (this library reads %u)", version, VERSION);
         return bad(why, whylen, msg);
     }
-    if (crc32_update(0, p, size - 4) != stored) return bad(why, whylen, "checksum mismatch (corrupted file)");
+    if (ew_crc32(p, size - 4) != stored) return bad(why, whylen, "checksum mismatch (corrupted file)");
     uint32_t al = rd_u32(&r);
     const unsigned char *arch = al < 4096 ? rd_bytes(&r, al) : NULL;
     if (!arch) return bad(why, whylen, "truncated architecture string");
@@ -204,7 +196,7 @@ size_t ew_pyr_table_write(const ew_pyr_table *t, void *buf, size_t cap) {
             for (int k = 0; k < EW_PYR_NPARAM; k++) wr_f32(&w, f[k]);
         }
     size_t body = w.at;
-    uint32_t crc = w.at + 4 <= w.cap ? crc32_update(0, w.p, body) : 0;
+    uint32_t crc = w.at + 4 <= w.cap ? ew_crc32(w.p, body) : 0;
     wr_u32(&w, crc);
     return w.at;
 }

@@ -4,18 +4,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 static const char magic[8] = {'E', 'W', 'W', 'E', 'I', 'G', 'H', 'T'};
 
-uint32_t ew_crc32(const void *data, size_t size) {
-    const unsigned char *p = (const unsigned char *)data;
-    uint32_t c = 0xFFFFFFFFu;
-    for (size_t i = 0; i < size; i++) {
-        c ^= p[i];
-        for (int k = 0; k < 8; k++) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
-    }
-    return c ^ 0xFFFFFFFFu;
-}
+uint32_t ew_crc32(const void *data, size_t size) { return (uint32_t)crc32_z(0uL, (const Bytef *)data, size); }
 
 typedef struct { const unsigned char *p; size_t size, at; } reader;
 

@@ -45,6 +45,7 @@ const ew_tensor *ew_weights_find(const ew_weights *w, const char *name, uint32_t
                                  char *err, size_t errlen);
 /* Serialise; *out is malloc'd (caller frees). Returns 0 on success. */
 int ew_weights_serialize(const ew_weights *w, void **out, size_t *size);
+/* CRC-32 (IEEE, zlib's crc32) of data: the checksum of both weights formats. */
 uint32_t ew_crc32(const void *data, size_t size);
 
 #endif
