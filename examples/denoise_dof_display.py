@@ -23,7 +23,7 @@ def build(out_dir, samples=os.path.join(HERE, "..", "samples")):
     denoised = g.add("denoise", id="denoised", method="bgrid", spatial_rate=8.0, range_rate=8.0,
                      color=render.color, albedo=render.albedo, normal=render.normal, depth=render.depth)
     g.add("metrics", id="quality", image=denoised, reference=reference.color)
-    lens = g.add("dof", id="lens", focal_length=50.0, fstop=2.0, focus_distance=4.0, weights=0,
+    lens = g.add("dof", id="lens", focal_length=50.0, fstop=2.0, focus_distance=4.0, weights="analytic",
                  color=denoised, depth=render.z)
     view = g.add("display", id="view", display="sRGB", view="Standard", color=lens.output)
     g.add("write", id="preview", path=os.path.join(out_dir, "denoise_dof_display_py.png"), image=view)

@@ -56,6 +56,13 @@ ew_result ew_bf_op_table(ew_op *op, int trained, int kind, ew_pyr_table *table, 
     return EW_OK;
 }
 
+void ew_bf_op_alpha_guides(const ew_op *op, ew_op *alpha_op) {
+    const ew_image *color = ew_op_image(op, "color");
+    const int model = (int)ew_op_param(op, "model"); /* kinds[] of ew_bf_op_commit */
+    if (model == 0 && !ew_op_image(op, "guide")) ew_op_set_image(alpha_op, "guide", color);
+    if (model == 2 && !ew_op_image(op, "depth")) ew_op_set_image(alpha_op, "depth", color);
+}
+
 ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color"), *output = ew_op_image(op, "output");

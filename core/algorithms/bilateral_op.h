@@ -13,7 +13,7 @@
 typedef enum { EW_BF_BRUTE = 0, EW_BF_SEPARABLE = 1, EW_BF_PYRAMID = 2 } ew_bf_method;
 
 #define EW_BF_OP_IMAGES                                                                                         \
-    {"color", 1, 1, "image to filter (1 to 3 channels, linear; a 4th, alpha, is copied unfiltered)"},           \
+    {"color", 1, 1, "image to filter (1 to 3 channels, linear; a 4th is premultiplied alpha, filtered with the colour's weights)"},           \
     {"guide", 1, 0, "model color: edge-stopping guide, up to 4 channels (default: the colour itself)"},         \
     {"normal", 3, 0, "model gi: normals, unit or zero for no surface (Cycles: Denoising Normal)"},             \
     {"depth", 1, 0, "models gi and depth: depth (Cycles: Depth); model depth without it filters on the colour's first channel"}, \
@@ -50,6 +50,9 @@ typedef enum { EW_BF_BRUTE = 0, EW_BF_SEPARABLE = 1, EW_BF_PYRAMID = 2 } ew_bf_m
 ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method);
 ew_result ew_bf_op_execute(ew_op *op);
 void ew_bf_op_release(ew_op *op);
+/* ew_op_type.alpha_guides: the alpha's run gets the colour as its guide
+ * (model color) and as its depth (model depth without a depth image). */
+void ew_bf_op_alpha_guides(const ew_op *op, ew_op *alpha_op);
 
 /* The pyramid's weights table for a commit: the one given with
  * set_data("weights", file bytes) if any, else the built-in trained table

@@ -165,6 +165,42 @@ static ew_result commit_grid(ew_op *op, state *s, const level_choice *g) {
     return r;
 }
 
+/* The estimate of one rung: method `name` with one int parameter set
+ * (NULL: the grid of level g). */
+static uint64_t rung_memory(const ew_op *op, const char *name, const char *param, int value, const level_choice *g,
+                            int w, int h) {
+    ew_op *in = NULL;
+    if (ew_op_create_kind(op->dev, "denoiser", name, &in) != EW_OK) return 0;
+    if (param) ew_op_set_param(in, param, (float)value, 1);
+    if (g) {
+        ew_op_set_param(in, "spatial_rate", g->spatial, 0);
+        ew_op_set_param(in, "range_rate", g->range, 0);
+        ew_op_set_param(in, "prepass_rate", g->prepass, 0);
+        ew_op_set_param(in, "color_weight", g->color_weight, 0);
+    }
+    const uint64_t bytes = in->type->memory ? in->type->memory(in, w, h) : 0;
+    ew_op_destroy(in);
+    return bytes;
+}
+
+/* ew_op_type.memory: the most that any rung auto may pick for such a frame
+ * needs (the sample count's level when one is set, else every level; kpcn,
+ * nbg and the grid alike, since which runs depends on the features and the
+ * weights a build has), each by its own estimate. */
+static uint64_t memory(const ew_op *op, int w, int h) {
+    const int samples = (int)ew_op_param(op, "samples"), quality = (int)ew_op_param(op, "quality");
+    const int lo = samples > 0 ? level_of(samples, 0.0f) : 0, hi = samples > 0 ? lo : 3;
+    uint64_t most = 0, b;
+    for (int l = lo; l <= hi; l++) {
+        const level_choice *lv = &levels[l];
+        const int kmodel = quality == QUALITY_HIGH ? lv->kpcn_high : quality == QUALITY_BALANCED ? lv->kpcn_balanced : -1;
+        if (kmodel >= 0 && (b = rung_memory(op, "kpcn", "model", kmodel, NULL, w, h)) > most) most = b;
+        if (lv->nbg_model >= 0 && (b = rung_memory(op, "nbg", "model", lv->nbg_model, NULL, w, h)) > most) most = b;
+        if ((b = rung_memory(op, "bgrid", NULL, 0, lv, w, h)) > most) most = b;
+    }
+    return most;
+}
+
 static ew_result commit(ew_op *op) {
     state *s = (state *)op->state;
     if (!s) {
@@ -243,6 +279,7 @@ const ew_op_type ew_denoise_auto = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .memory = memory,
     .describe = describe,
     .stage_in_inner = 1,
     /* it runs whatever its inner op runs on (bgrid and nbg are ported),

@@ -56,23 +56,40 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
+/* Device floats of a commit at w x h with these inputs (0: invalid grid
+ * parameters): the packed inputs (views may have any stride and the output
+ * may alias the colour), radiance, guide, sliced, output, clamped, grid. */
+static size_t device_floats(const ew_op *op, int w, int h, int has_a, int has_n, int has_d, ew_bgrid_params *gp,
+                            ew_bgrid_params *pre) {
+    if (!ew_bgrid_params_init(gp, w, h, ew_op_param(op, "spatial_rate"), ew_op_param(op, "range_rate"), 3) ||
+        !ew_bgrid_params_init(pre, w, h, ew_op_param(op, "prepass_rate"), ew_op_param(op, "range_rate"), 3))
+        return 0;
+    size_t grid_floats = ew_bgrid_floats(gp);
+    if (ew_bgrid_floats(pre) > grid_floats) grid_floats = ew_bgrid_floats(pre);
+    const size_t n = (size_t)w * (size_t)h;
+    return n * 3 * 5 + n + (has_a ? n * 3 : 0) + (has_n ? n * 3 : 0) + (has_d ? n : 0) + grid_floats;
+}
+
+/* ew_op_type.memory: the commit's allocations with every feature given
+ * (the row sums are doubles, first, for alignment). */
+static uint64_t memory(const ew_op *op, int w, int h) {
+    ew_bgrid_params gp, pre;
+    const size_t n = (size_t)w * (size_t)h, need = device_floats(op, w, h, 1, 1, 1, &gp, &pre);
+    if (!need) return 0;
+    return (uint64_t)need * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+           (uint64_t)ew_dev_stage_floats(op->dev, n, 3) * sizeof(float);
+}
+
 static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
     const int w = color->width, h = color->height;
-    ew_bgrid_params gp, pre;
-    if (!ew_bgrid_params_init(&gp, w, h, ew_op_param(op, "spatial_rate"), ew_op_param(op, "range_rate"), 3) ||
-        !ew_bgrid_params_init(&pre, w, h, ew_op_param(op, "prepass_rate"), ew_op_param(op, "range_rate"), 3))
-        return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "invalid grid parameters");
-    size_t grid_floats = ew_bgrid_floats(&gp);
-    if (ew_bgrid_floats(&pre) > grid_floats) grid_floats = ew_bgrid_floats(&pre);
     const int has_a = ew_op_image(op, "albedo") != NULL, has_n = ew_op_image(op, "normal") != NULL,
               has_d = ew_op_image(op, "depth") != NULL;
-    /* device: the row sums (first: doubles want 8-byte alignment), packed
-     * inputs (views may have any stride and the output may alias the
-     * colour), radiance, guide, sliced, output, clamped, grid */
+    ew_bgrid_params gp, pre;
+    const size_t need = device_floats(op, w, h, has_a, has_n, has_d, &gp, &pre);
+    if (!need) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "invalid grid parameters");
     const size_t n = (size_t)w * (size_t)h;
-    const size_t need = n * 3 * 5 + n + (has_a ? n * 3 : 0) + (has_n ? n * 3 : 0) + (has_d ? n : 0) + grid_floats;
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
     if (op->state) release(op);
@@ -185,6 +202,7 @@ const ew_op_type ew_denoise_bgrid = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .memory = memory,
     .device_memory = 1, /* runs on CUDA */
     .pixel_params = (const char *const[]){"spatial_rate", "prepass_rate", NULL},
     .inplace_inputs = (const char *const[]){"color", NULL},

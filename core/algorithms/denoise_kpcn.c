@@ -113,36 +113,67 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
+/* The model a commit runs: the weights given as data, else the built-in
+ * one the "model" parameter names (parsed into *builtin, the caller's to
+ * free). */
+static ew_result model_of(const ew_op *op, const model **out, model **builtin) {
+    *builtin = NULL;
+    *out = (const model *)op->data_state;
+    if (*out) return EW_OK;
+    const int which = (int)ew_op_param(op, "model");
+    const unsigned char *bytes;
+    size_t size;
+    ew_kpcn_builtin_weights(which, &bytes, &size);
+    if (size == 0)
+        return ew__fail(op->dev, EW_ERR_UNSUPPORTED,
+                        "this build has no built-in weights for kpcn model %d (%s): load a weights file with "
+                        "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
+                        which, ew_kpcn_model_name(which));
+    char what[64];
+    snprintf(what, sizeof what, "built-in kpcn model '%s'", ew_kpcn_model_name(which));
+    ew_result r = model_parse(op->dev, bytes, size, what, builtin);
+    if (r != EW_OK) return r;
+    *out = *builtin;
+    return EW_OK;
+}
+
+/* Device floats of a commit at w x h: parameters, packed colour, albedo,
+ * normal, depth, radiance, clamped radiance, the filtered radiance (sliced),
+ * the output, the hand-made guide denoise_prepare writes, then the scale
+ * buffers and the scales' radiance and outputs. */
+static size_t device_floats(const ew_kpcn_net *net, int w, int h) {
+    const size_t n = (size_t)w * (size_t)h;
+    return ((size_t)net->nparams + 15) / 16 * 16 + n * 3 * 7 + n * 2 + ew_kpcn_device_floats(net, w, h) + 64;
+}
+
+/* ew_op_type.memory: the commit's allocations (row sums as doubles on the
+ * host and the device, host staging when views need it). */
+static uint64_t memory(const ew_op *op, int w, int h) {
+    model *builtin = NULL;
+    const model *m = NULL;
+    if (model_of(op, &m, &builtin) != EW_OK) return 0;
+    const uint64_t bytes = (uint64_t)device_floats(&m->net, w, h) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+                           (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
+    model_free(builtin);
+    return bytes;
+}
+
 static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
     const int w = color->width, h = color->height;
     if (op->state) release(op);
     model *builtin = NULL;
-    const model *m = (const model *)op->data_state;
-    if (!m) {
-        const int which = (int)ew_op_param(op, "model");
-        const unsigned char *bytes;
-        size_t size;
-        ew_kpcn_builtin_weights(which, &bytes, &size);
-        if (size == 0)
-            return ew__fail(dev, EW_ERR_UNSUPPORTED,
-                            "this build has no built-in weights for kpcn model %d (%s): load a weights file with "
-                            "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
-                            which, ew_kpcn_model_name(which));
-        char what[64];
-        snprintf(what, sizeof what, "built-in kpcn model '%s'", ew_kpcn_model_name(which));
-        ew_result r = model_parse(dev, bytes, size, what, &builtin);
-        if (r != EW_OK) return r;
-        m = builtin;
-    }
+    const model *m = NULL;
+    ew_result mr = model_of(op, &m, &builtin);
+    if (mr != EW_OK) return mr;
     const ew_kpcn_net *net = &m->net;
     const size_t n = (size_t)w * (size_t)h;
     /* device: row sums (doubles first), parameters, packed colour, albedo,
      * normal, depth, radiance, clamped radiance, the filtered radiance
      * (sliced), the output, the hand-made guide denoise_prepare writes, then
      * the scale buffers and the scales' radiance and outputs */
-    const size_t need = (net->nparams + 15) / 16 * 16 + n * 3 * 7 + n * 2 + ew_kpcn_device_floats(net, w, h) + 64;
+    const size_t need = device_floats(net, w, h);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
     state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
@@ -333,6 +364,7 @@ const ew_op_type ew_denoise_kpcn = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .memory = memory,
     .set_data = set_data,
     .release_data = release_data,
     .device_memory = 1,

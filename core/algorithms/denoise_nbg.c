@@ -115,6 +115,45 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
+/* The model a commit runs: the weights given as data, else the built-in
+ * one the "model" parameter names (parsed into *builtin, the caller's to
+ * free). */
+static ew_result model_of(const ew_op *op, const model **out, model **builtin) {
+    *builtin = NULL;
+    *out = (const model *)op->data_state;
+    if (*out) return EW_OK;
+    const int which = (int)ew_op_param(op, "model");
+    const unsigned char *bytes;
+    size_t size;
+    ew_nbg_builtin_weights(which, &bytes, &size);
+    if (size == 0)
+        return ew__fail(op->dev, EW_ERR_UNSUPPORTED,
+                        "this build has no built-in weights for nbg model %d (%s): load a weights file with "
+                        "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
+                        which, ew_nbg_model_name(which));
+    char what[64];
+    snprintf(what, sizeof what, "built-in nbg model '%s'", ew_nbg_model_name(which));
+    ew_result r = model_parse(op->dev, bytes, size, what, builtin);
+    if (r != EW_OK) return r;
+    *out = *builtin;
+    return EW_OK;
+}
+
+/* ew_op_type.memory: the commit's allocations (row sums as doubles on the
+ * host and the device, host staging when views need it). */
+static uint64_t memory(const ew_op *op, int w, int h) {
+    model *builtin = NULL;
+    const model *m = NULL;
+    if (model_of(op, &m, &builtin) != EW_OK) return 0;
+    size_t grid_floats, band_floats;
+    const uint64_t bytes =
+        (uint64_t)ew_nbg_device_floats(&m->net, w, h, &grid_floats, &band_floats) * sizeof(float) +
+        (uint64_t)h * 4 * sizeof(double) +
+        (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
+    model_free(builtin);
+    return bytes;
+}
+
 static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
@@ -122,23 +161,9 @@ static ew_result commit(ew_op *op) {
     if (op->state) release(op);
 
     model *builtin = NULL;
-    const model *m = (const model *)op->data_state;
-    if (!m) {
-        const int which = (int)ew_op_param(op, "model");
-        const unsigned char *bytes;
-        size_t size;
-        ew_nbg_builtin_weights(which, &bytes, &size);
-        if (size == 0)
-            return ew__fail(dev, EW_ERR_UNSUPPORTED,
-                            "this build has no built-in weights for nbg model %d (%s): load a weights file with "
-                            "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
-                            which, ew_nbg_model_name(which));
-        char what[64];
-        snprintf(what, sizeof what, "built-in nbg model '%s'", ew_nbg_model_name(which));
-        ew_result r = model_parse(dev, bytes, size, what, &builtin);
-        if (r != EW_OK) return r;
-        m = builtin;
-    }
+    const model *m = NULL;
+    ew_result mr = model_of(op, &m, &builtin);
+    if (mr != EW_OK) return mr;
     const ew_guidenet *net = &m->net;
     ew_bgrid_params gp[EW_GN_MAX_GRIDS];
     for (int g = 0; g < net->ngrids; g++) {
@@ -296,6 +321,7 @@ const ew_op_type ew_denoise_nbg = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .memory = memory,
     .set_data = set_data,
     .release_data = release_data,
     .device_memory = 1,

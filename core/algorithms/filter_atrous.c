@@ -10,7 +10,7 @@
 #include "src/op.h"
 
 static const ew_image_desc images[] = {
-    {"color", 1, 1, "image to filter (1 to 3 channels, linear; a 4th, alpha, is copied unfiltered)"},
+    {"color", 1, 1, "image to filter (1 to 3 channels, linear; a 4th is premultiplied alpha, filtered too, with weights of its own luminance)"},
     {"normal", 3, 0, "normals for the normal edge-stopping term (Cycles: Denoising Normal)"},
     {"depth", 1, 0, "depth for the depth edge-stopping term (Cycles: Depth)"},
     {"output", 1, 1, "filtered image, as many channels as the colour; may be the colour view itself"},
@@ -95,6 +95,7 @@ const ew_op_type ew_filter_atrous = {
     .release = release,
     .pixel_params = (const char *const[]){"radius", NULL},
     .inplace_inputs = (const char *const[]){"color", NULL},
+    .filters_alpha = 1,
     /* zero iterations */
     .noop_at_zero = (const char *const[]){"radius", "iterations", NULL},
     .flags = EW_METHOD_HOST,

@@ -15,7 +15,7 @@
 #include "src/op.h"
 
 static const ew_image_desc images[] = {
-    {"color", 1, 1, "sharp (pinhole) image, 1 to 4 channels, linear; a 4th channel (alpha) is copied unfiltered"},
+    {"color", 1, 1, "sharp (pinhole) image, 1 to 4 channels, linear; a 4th is premultiplied alpha, blurred with the colour"},
     {"depth", 1, 1, "planar camera depth in metres (Cycles: Depth pass); non-finite or <= 0 = infinitely far"},
     {"coc", 1, 0, "written when set: signed circle-of-confusion diameter in pixels (negative in front of focus)"},
     {"output", 1, 1, "image with depth of field, as many channels as the colour; may be the colour view"},
@@ -201,6 +201,7 @@ const ew_op_type ew_filter_dof = {
                                           {NULL, NULL}},
     .extra_outputs = (const char *const[]){"coc", NULL},
     .inplace_inputs = (const char *const[]){"color", NULL},
+    .filters_alpha = 1,
     .data_params = (const char *const[]){"weights", "weights", NULL},
     .flags = EW_METHOD_HOST,
 };

@@ -26,6 +26,8 @@ const ew_op_type ew_filter_pyramid = {
     .pixel_params = EW_BF_OP_PIXEL_PARAMS,
     .choices = (const ew_param_choices[]){EW_BF_MODEL_CHOICES, EW_PYR_WEIGHTS_CHOICES, {NULL, NULL}},
     .inplace_inputs = EW_BF_OP_INPLACE,
+    .filters_alpha = 1,
+    .alpha_guides = ew_bf_op_alpha_guides,
     /* radius 0: no filtering at all, whatever the model */
     .noop_at_zero = (const char *const[]){"radius", NULL},
     .data_params = (const char *const[]){"weights", "weights", NULL},

@@ -24,4 +24,6 @@ const ew_op_type ew_filter_separable = {
     .choices = (const ew_param_choices[]){EW_BF_MODEL_CHOICES, {NULL, NULL}},
     .inplace_inputs = EW_BF_OP_INPLACE,
     .denoises = 1,
+    .filters_alpha = 1,
+    .alpha_guides = ew_bf_op_alpha_guides,
 };

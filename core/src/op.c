@@ -54,6 +54,7 @@ ew_result ew_op_create(ew_device *dev, const char *method, ew_op **out) {
 
 static void release(ew_op *op) {
     ew_harm_release(op);
+    ew_op_alpha_release(op);
     if (op->state && op->type->release) op->type->release(op);
     op->state = NULL;
     op->committed = 0;
@@ -281,6 +282,7 @@ static ew_result commit_checked(ew_op *op) {
     op->committed = 0;
     ew_result r = t->commit(op);
     if (r == EW_OK) r = ew_harm_commit(op);
+    if (r == EW_OK) r = ew_op_alpha_commit(op);
     if (r == EW_OK) op->committed = 1;
     return r;
 }
@@ -305,9 +307,11 @@ ew_result ew_op_execute(ew_op *op) {
     else if (!ew_op_report(op, 0.0))
         r = ew__fail(op->dev, EW_ERR_CANCELLED, "cancelled");
     else {
-        r = op->harm ? ew_harm_execute(op) : op->type->execute(op);
+        r = ew_op_alpha_execute(op);
+        if (r == EW_OK) r = op->harm ? ew_harm_execute(op) : op->type->execute(op);
         if (r == EW_OK && !strcmp(op->type->kind, "filter"))
             ew__finite_fallback(op->dev, ew_op_image(op, "output"), ew_op_image(op, "color"));
+        if (r == EW_OK) ew_op_alpha_store(op);
         if (r == EW_OK) ew_op_report(op, 1.0);
     }
     op_leave(op);

@@ -85,6 +85,20 @@ typedef struct ew_op_type {
     /* 1: the op runs another op that has the stage (auto): it forwards the
      * stage's parameters (ew_harm_forward) instead of running it twice. */
     int stage_in_inner;
+    /* 1: a colour of 4 channels is premultiplied RGBA, and its alpha is
+     * filtered with the colour's weights (op_alpha.c runs the method a second
+     * time on the alpha), so a blur keeps colour <= alpha where it was and a
+     * non-finite alpha is rebuilt like colour. 0: alpha passes through. */
+    int filters_alpha;
+    /* Optional, with filters_alpha: give the alpha's run the images the
+     * method derives from the colour when they are unset (the default
+     * guide), so that both runs weigh every pixel alike. */
+    void (*alpha_guides)(const ew_op *op, ew_op *alpha_op);
+    /* Optional (ew_op_memory): the bytes commit would allocate for images of
+     * w x h with every optional input set and the parameters as they are
+     * now, from the same size computation commit uses; 0 when it cannot
+     * say. */
+    uint64_t (*memory)(const ew_op *op, int w, int h);
 } ew_op_type;
 
 struct ew_op {
@@ -104,6 +118,10 @@ struct ew_op {
     void *state;
     void *data_state;
     void *harm; /* the do-no-harm stage's buffers (src/harm_stage.c), or NULL */
+    /* filters_alpha with an RGBA colour: the run on the alpha and the alpha
+     * it writes (op_alpha.c), made at commit */
+    struct ew_op *alpha_op;
+    float *alpha_out;
 };
 
 /* Registry of every method, by kind. NULL-terminated. */
@@ -137,6 +155,14 @@ ew_result ew_harm_execute(ew_op *op);
 void ew_harm_release(ew_op *op);
 /* Copy the stage's parameters of one op to another (auto -> its method). */
 void ew_harm_forward(const ew_op *from, ew_op *to);
+/* op_alpha.c: the second run of a filters_alpha method on an RGBA colour's
+ * alpha. commit makes it (after the method's own commit), execute runs it
+ * before the method (which may filter in place) and store puts its alpha
+ * into the output after; release frees it. */
+ew_result ew_op_alpha_commit(ew_op *op);
+ew_result ew_op_alpha_execute(ew_op *op);
+void ew_op_alpha_store(ew_op *op);
+void ew_op_alpha_release(ew_op *op);
 
 /* Pack the first c channels of a view into a dense buffer, and back. */
 void ew_view_pack(const ew_image *img, int c, float *dst);

@@ -20,7 +20,7 @@ static const char intro[] =
     "\n"
     "Denoise a render. IN is a Cycles multilayer EXR (every view layer with a\n"
     "Combined or Noisy Image pass is denoised; feature passes Denoising Albedo/\n"
-    "Normal/Depth are used when present) or a plain EXR/PNG/TIFF colour image.\n"
+    "Normal/Depth are used when present) or a plain EXR/PNG/TIFF/JPEG colour image.\n"
     "OUT's extension picks the format. An EXR output keeps every layer, pass and\n"
     "the header metadata of IN: Combined holds the denoised colour and the noisy\n"
     "original is kept as the pass 'Noisy Image' (as Blender does). PNG/TIFF/JPEG\n"
@@ -485,6 +485,58 @@ static int print_quality(job *j, const ew_layer_passes *lp, const float *noisy_r
     return rc;
 }
 
+/* "11.8 GiB", "37.5 MiB": sizes for messages (a few per call, rotating) */
+static const char *size_text(uint64_t bytes) {
+    static char buf[6][32];
+    static int next;
+    char *b = buf[next++ % 6];
+    if (bytes >= (1ull << 30)) snprintf(b, sizeof buf[0], "%.1f GiB", (double)bytes / (double)(1ull << 30));
+    else snprintf(b, sizeof buf[0], "%.1f MiB", (double)bytes / (double)(1ull << 20));
+    return b;
+}
+
+/* Before reading any pixels: the file's channels (as ewio holds them, float),
+ * this command's buffers a pixel and the method's own memory (the library's
+ * estimate for the frame's size with the parameters given) against the
+ * memory limit. An 8K frame that cannot be denoised is refused in a moment,
+ * not after minutes of reading. */
+static int check_memory(const options *o, ew_device *dev) {
+    char err[1024];
+    ewio_header hd;
+    if (ewio_read_header(o->in, &hd, err, sizeof err) != 0) return cli_fail("%s", err);
+    const uint64_t limit = ewio_max_memory();
+    if (!limit) return 0;
+    const uint64_t n = (uint64_t)hd.width * (uint64_t)hd.height;
+    const uint64_t file = n * (uint64_t)hd.channels * sizeof(float);
+    /* the result and the first layer's noisy colour (3 each), the layer's
+     * original colour kept as 'Noisy Image' (4), its colour, albedo, normal
+     * and depth for the method (10), the added 'Noisy Image' pass (4) */
+    const uint64_t buffers = n * 24 * sizeof(float);
+    const char *lm = library_method(o->method);
+    uint64_t method = 0;
+    ew_op *op = NULL;
+    if (ew_op_create(dev, lm, &op) == EW_OK) {
+        for (int i = 0; i < o->num_set; i++) {
+            if (!o->set_name[i]) continue;
+            ew_param_info p;
+            const int32_t k = param_index(lm, o->set_name[i]);
+            if (k < 0 || ew_method_param("denoiser", lm, k, &p) != EW_OK) continue;
+            if (p.type == EW_PARAM_FLOAT) ew_op_set_float(op, o->set_name[i], o->set_value[i]);
+            else ew_op_set_int(op, o->set_name[i], (int32_t)o->set_value[i]);
+        }
+        if (o->data_name) ew_op_set_data(op, o->data_name, o->data_bytes, o->data_size);
+        if (ew_op_memory(op, hd.width, hd.height, &method) != EW_OK) method = 0; /* no estimate: not counted */
+        ew_op_destroy(op);
+    }
+    const uint64_t total = file + buffers + method;
+    if (total <= limit) return 0;
+    return cli_fail("denoising '%s' (%dx%d, %d channels) with --method %s needs about %s: the file %s, this "
+                    "command's buffers %s, %s's working memory %s; above the memory limit of %s (--max-memory "
+                    "raises it; the default is 3/4 of the physical memory). Nothing was read",
+                    o->in, hd.width, hd.height, hd.channels, o->method, size_text(total), size_text(file),
+                    size_text(buffers), lm, size_text(method), size_text(limit));
+}
+
 int cmd_denoise(int argc, char **argv) {
     options o;
     if (!parse(argc, argv, &o)) return EW_EXIT_USAGE;
@@ -500,13 +552,19 @@ int cmd_denoise(int argc, char **argv) {
     job j;
     memset(&j, 0, sizeof j);
     j.o = &o;
+    int rc = EW_EXIT_FAIL;
+    if (!(j.dev = cli_device(o.threads)) || check_memory(&o, j.dev) != 0) {
+        cli_view_free(&o.view);
+        ew_device_destroy(j.dev);
+        return EW_EXIT_FAIL;
+    }
     const double t_read = cli_seconds();
     if (ewio_read(o.in, &j.f, j.err, sizeof j.err) != 0) {
         cli_view_free(&o.view);
+        ew_device_destroy(j.dev);
         return cli_fail("%s", j.err);
     }
     cli_timing.read += cli_seconds() - t_read;
-    int rc = EW_EXIT_FAIL;
     const size_t n = (size_t)ewio_width(j.f) * (size_t)ewio_height(j.f);
     float *noisy_first = NULL;
     j.out = (float *)malloc(n * 3 * sizeof(float));
@@ -515,7 +573,6 @@ int cmd_denoise(int argc, char **argv) {
         cli_fail("out of memory for a %dx%d image", ewio_width(j.f), ewio_height(j.f));
         goto done;
     }
-    if (!(j.dev = cli_device(o.threads))) goto done;
 
     int done_layers = 0;
     ew_layer_passes first;

@@ -16,7 +16,8 @@ static const cli_op_command dof_command = {
              "Blender: View Layer > Passes > Data > Z). The camera values are the ones of a\n"
              "Blender camera. A blurred background stays behind a sharp foreground, and a\n"
              "blurred foreground spreads over a sharp background. An EXR output keeps every\n"
-             "other layer, pass and the metadata of IN; PNG/TIFF get the colour only.\n",
+             "other layer, pass and the metadata of IN; PNG/TIFF/JPEG get the colour only.\n"
+             "An RGBA colour is premultiplied: alpha is blurred with it.\n",
     .outro = NULL,
 };
 

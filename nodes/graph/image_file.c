@@ -98,8 +98,10 @@ const char *ew_image_file_describe(ew_image_file *h) {
         if (!l || strlen(comp) != 1) continue;
         json_t *passes = json_object_get(l, "passes");
         const char *had = json_string_value(json_object_get(passes, pass));
+        /* comp is one letter (checked above); a pass of more than 62
+         * components keeps its first 62, which no reader addresses anyway */
         char comps[64];
-        snprintf(comps, sizeof comps, "%s%s", had ? had : "", comp);
+        snprintf(comps, sizeof comps, "%.*s%c", (int)sizeof comps - 2, had ? had : "", comp[0]);
         json_object_set_new(passes, pass, json_string(comps));
     }
     for (int i = 0; i < ewio_num_layers(f); i++) {

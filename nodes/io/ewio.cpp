@@ -435,7 +435,8 @@ std::string temp_name(const std::string &dir, const std::string &base, const std
 
 /* ------------------------------------------------------------------ read */
 
-int read_impl(const char *path, ewio_file **out, std::string &msg) {
+/* hdr non-NULL: stop after the header checks, with its figures in *hdr. */
+int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *hdr = nullptr) {
     const std::string p(path);
     struct stat st;
     if (stat(path, &st) != 0) {
@@ -527,6 +528,12 @@ int read_impl(const char *path, ewio_file **out, std::string &msg) {
     if (!d.empty()) {
         msg = "cannot read " + q(p) + ": " + d;
         return 1;
+    }
+    if (hdr) {
+        hdr->width = s0.width;
+        hdr->height = s0.height;
+        hdr->channels = int(total_channels);
+        return 0;
     }
     if (!in->seek_subimage(0, 0)) {
         msg = "cannot read " + q(p) + ": " + oiio_msg(in->geterror(), "cannot go back to the first part");
@@ -1164,6 +1171,26 @@ int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
         return rc;
     } catch (const std::bad_alloc &) {
         set_err(err, errlen, std::string("cannot read '") + path + "': out of memory");
+    } catch (const std::exception &e) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': " + one_line(e.what()));
+    } catch (...) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': unknown error");
+    }
+    return 1;
+}
+
+int ewio_read_header(const char *path, ewio_header *out, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!path || !*path || !out) {
+        set_err(err, errlen, "ewio_read_header: invalid argument (NULL or empty path, or NULL out)");
+        return 1;
+    }
+    memset(out, 0, sizeof *out);
+    try {
+        std::string msg;
+        int rc = read_impl(path, nullptr, msg, out);
+        if (rc) set_err(err, errlen, msg);
+        return rc;
     } catch (const std::exception &e) {
         set_err(err, errlen, std::string("cannot read '") + path + "': " + one_line(e.what()));
     } catch (...) {

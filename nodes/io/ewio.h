@@ -53,6 +53,15 @@ typedef struct ewio_file ewio_file;
 int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen);
 void ewio_free(ewio_file *f); /* NULL is a no-op */
 
+/* What ewio_read would read, from the headers alone, with the same checks
+ * (file type, size and channel limits, every part): size and the number of
+ * channels over all parts. Lets a command refuse work that will not fit
+ * before it reads the pixels. 0 on success. */
+typedef struct ewio_header {
+    int width, height, channels;
+} ewio_header;
+int ewio_read_header(const char *path, ewio_header *out, char *err, size_t errlen);
+
 /* The read limits, from the environment, so every reader in the process (the
  * CLI's commands and the graph's read nodes alike) applies the same ones:
  * EDGEWISE_MAX_PIXELS (at most, and by default, 2^28) and

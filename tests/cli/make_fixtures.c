@@ -1,5 +1,9 @@
 /* Writes the small EXR files the CLI tests feed to `edgewise`:
- *   make_fixtures DIR */
+ *   make_fixtures DIR
+ * and checks premultiplied colour in one:
+ *   make_fixtures --premultiplied FILE LAYER PASS
+ * prints "over N soft M nonfinite K": N colour samples above their alpha,
+ * M pixels with alpha strictly between 0 and 1, K non-finite samples. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -54,7 +58,53 @@ static int save(ewio_file *f, const char *dir, const char *name) {
     return rc;
 }
 
+/* A checker of opaque and transparent 8-pixel cells, colour premultiplied
+ * (<= alpha), and a depth ramp for depth of field. */
+static int alpha_checker(ewio_file *f) {
+    int rc = 0;
+    fill(4, 0.6f, 0.3f, 6);
+    for (int i = 0; i < W * H; i++) {
+        const int x = i % W, y = i / W;
+        const float a = ((x / 8 + y / 8) & 1) ? 1.0f : 0.0f;
+        for (int k = 0; k < 3; k++) buf[i * 4 + k] = a * fminf(fmaxf(buf[i * 4 + k], 0.05f), 1.0f);
+        buf[i * 4 + 3] = a;
+    }
+    rc |= put(f, "ViewLayer", "Combined", "RGBA");
+    for (int i = 0; i < W * H; i++) buf[i] = 0.5f + 10.0f * (float)(i % W) / W;
+    rc |= put(f, "ViewLayer", "Depth", "Z");
+    return rc;
+}
+
+static int check_premultiplied(const char *path, const char *layer, const char *pass) {
+    char err[512];
+    ewio_file *f = NULL;
+    if (ewio_read(path, &f, err, sizeof err) != 0) {
+        fprintf(stderr, "make_fixtures: %s\n", err);
+        return 1;
+    }
+    const size_t n = (size_t)ewio_width(f) * (size_t)ewio_height(f);
+    float *p = (float *)malloc(n * 4 * sizeof(float));
+    if (!p || ewio_get_pass(f, layer, pass, "RGBA", p, err, sizeof err) != 0) {
+        fprintf(stderr, "make_fixtures: %s\n", p ? err : "out of memory");
+        free(p);
+        ewio_free(f);
+        return 1;
+    }
+    long over = 0, soft = 0, nonfinite = 0;
+    for (size_t i = 0; i < n; i++) {
+        const float *q = p + i * 4;
+        for (int k = 0; k < 4; k++) nonfinite += !isfinite(q[k]);
+        for (int k = 0; k < 3; k++) over += q[k] > q[3] + 1e-5f;
+        soft += q[3] > 0.01f && q[3] < 0.99f;
+    }
+    printf("over %ld soft %ld nonfinite %ld\n", over, soft, nonfinite);
+    free(p);
+    ewio_free(f);
+    return 0;
+}
+
 int main(int argc, char **argv) {
+    if (argc == 5 && !strcmp(argv[1], "--premultiplied")) return check_premultiplied(argv[2], argv[3], argv[4]);
     if (argc != 2) { fprintf(stderr, "usage: make_fixtures DIR\n"); return 2; }
     const char *dir = argv[1];
     char err[512];
@@ -87,5 +137,10 @@ int main(int argc, char **argv) {
     fill(1, 3.0f, 0.0f, 5);
     rc |= put(f, "ViewLayer", "Depth", "Z");
     rc |= save(f, dir, "depth_only.exr");
+
+    /* premultiplied RGBA with transparent cells, and depth */
+    ewio_create(W, H, &f, err, sizeof err);
+    rc |= alpha_checker(f);
+    rc |= save(f, dir, "alpha_checker.exr");
     return rc ? 1 : 0;
 }

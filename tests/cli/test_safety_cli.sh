@@ -86,6 +86,17 @@ expect max_pixels_refuses 1 "above the limit of 1000" -- --max-pixels 1000 info 
 grep -qF -- "--max-pixels" "$T/err" && ok max_pixels_says_how_to_raise || bad max_pixels_says_how_to_raise
 expect max_pixels_range 2 "--max-pixels expects" -- info "$IN" --max-pixels 0
 
+# denoise: the file, the command's buffers and the method's own memory (the
+# library's estimate) against the limit from the header, before reading: a
+# file that fits alone but not with kpcn's working memory is refused, saying
+# what each part needs; nothing is written; with room enough it runs
+expect method_memory_refused 1 "kpcn's working memory" -- denoise "$IN" -o "$T/mem.exr" --method kpcn --layer ViewLayer --max-memory 2M
+grep -qF "Nothing was read" "$T/err" && grep -qF -- "--max-memory" "$T/err" \
+  && ok method_memory_says_why_and_how || bad method_memory_says_why_and_how
+[ -e "$T/mem.exr" ] && bad method_memory_writes_nothing || ok method_memory_writes_nothing
+expect method_memory_bgrid_fits 0 "" -- denoise "$IN" -o "$T/mem.exr" --method bgrid --layer ViewLayer --max-memory 2M -q
+expect method_memory_kpcn_fits 0 "" -- denoise "$IN" -o "$T/mem2.exr" --method kpcn --layer ViewLayer --max-memory 8M -q
+
 # A header whose data window claims 16384x16384 over a file of a few KB:
 # refused from the header (at 1 GiB), not after gigabytes are allocated.
 if command -v python3 >/dev/null; then

@@ -524,6 +524,75 @@ TEST(padded_row_bytes) {
     run_case(&c);
 }
 
+/* Premultiplied RGBA: a checker of transparent and opaque cells through
+ * the blurs comes out with soft alpha at the cell edges and no colour above
+ * its alpha (the host composites what it gets as premultiplied), and equals
+ * the library's result. */
+TEST(premultiplied_alpha_is_blurred_with_the_colour) {
+    const int w = 48, h = 40;
+    fx_sample chk;
+    memset(&chk, 0, sizeof chk);
+    chk.w = w;
+    chk.h = h;
+    chk.rgba = (float *)malloc(sizeof(float) * (size_t)w * (size_t)h * 4);
+    chk.depth = (float *)malloc(sizeof(float) * (size_t)w * (size_t)h);
+    CHECK(chk.rgba && chk.depth);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            float *p = chk.rgba + ((size_t)y * (size_t)w + (size_t)x) * 4;
+            const float a = ((x / 6 + y / 6) & 1) ? 1.0f : 0.0f;
+            p[0] = 0.9f * a;
+            p[1] = 0.5f * a;
+            p[2] = 0.2f * a;
+            p[3] = a;
+            chk.depth[(size_t)y * (size_t)w + (size_t)x] = 0.5f + 10.0f * (float)x / (float)w;
+        }
+    static const struct {
+        const char *id, *method;
+    } blurs[] = {{"org.edgewise.filter.pyramid", "pyramid"}, {"org.edgewise.filter.dof", "dof"}};
+    for (size_t b = 0; b < sizeof blurs / sizeof blurs[0]; b++) {
+        render_case c;
+        memset(&c, 0, sizeof c);
+        c.id = blurs[b].id;
+        c.kind = "filter";
+        c.method = blurs[b].method;
+        c.context = GENERAL;
+        c.s = &chk;
+        c.src_comps = 4;
+        if (!strcmp(blurs[b].method, "dof")) {
+            c.aux[0] = (case_aux){"Depth", "depth", chk.depth, 1};
+            c.num_aux = 1;
+            c.params[0] = (fx_param){"fstop", 0.5};
+            c.params[1] = (fx_param){"focus_distance", 0.5};
+            c.num_params = 2;
+        } else {
+            c.params[0] = (fx_param){"radius", 6};
+            c.params[1] = (fx_param){"sigma_range", 100.0};
+            c.params[2] = (fx_param){"weights", 0};
+            c.num_params = 3;
+        }
+        run_case(&c); /* the plugin's pixels are the library's */
+        /* and the library's (so the plugin's) are valid premultiplied colour */
+        float *ref = (float *)malloc(sizeof(float) * (size_t)w * (size_t)h * 4);
+        CHECK(ref);
+        fx_image aux = {"depth", chk.depth, 1};
+        CHECK_EQ_INT(fx_reference("filter", c.method, 0, w, h, chk.rgba, 4, 4, &aux, c.num_aux, c.params,
+                                  c.num_params, ref, err, sizeof err),
+                     0);
+        long over = 0, soft = 0;
+        for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
+            for (int k = 0; k < 3; k++) over += ref[i * 4 + (size_t)k] > ref[i * 4 + 3] + 1e-5f;
+            soft += ref[i * 4 + 3] > 0.01f && ref[i * 4 + 3] < 0.99f;
+        }
+        if (over || !soft) fprintf(stderr, "  %s: %ld above alpha, %ld soft\n", c.method, over, soft);
+        CHECK_EQ_INT(over, 0);
+        CHECK(soft > 0);
+        free(ref);
+    }
+    free(chk.rgba);
+    free(chk.depth);
+}
+
 TEST(rgb_source_and_output) {
     NEED("org.edgewise.filter.pyramid");
     const fx_sample *s = cornell();

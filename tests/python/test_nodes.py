@@ -59,7 +59,7 @@ class TestLibraryNodes(unittest.TestCase):
             if not info["available"]:
                 continue
             # weights 0: the analytic pyramid weights (no trained table needed)
-            kw = {"radius": 4, "weights": 0} if name == "pyramid" else {"radius": 4} if name == "bilateral" else {}
+            kw = {"radius": 4, "weights": "analytic"} if name == "pyramid" else {"radius": 4} if name == "bilateral" else {}
             out = ew.run_node(name, color=img, **kw)
             self.assertEqual(out.shape, img.shape, name)
             self.assertLess(float(out.std()), float(img.std()), name)  # it smooths

@@ -211,6 +211,15 @@ EW_API ew_result ew_op_execute(ew_op *op);
  * before a successful commit. The text lives until the next commit or
  * destroy. */
 EW_API const char *ew_op_describe(const ew_op *op);
+/* The memory (bytes: host, and device memory on a device that has its own)
+ * that commit would allocate for images of width x height with the
+ * parameters set now and every optional input image given: an upper bound
+ * to check before reading any pixels (the images set are not looked at).
+ * For "auto", the most of the methods it may pick for such a frame (at the
+ * sample count set, else at any). The caller's own buffers (the images) are
+ * not included. EW_ERR_UNSUPPORTED for a method that gives no estimate
+ * (the filters, for now). */
+EW_API ew_result ew_op_memory(ew_op *op, int32_t width, int32_t height, uint64_t *bytes);
 /* The op's method name and kind ("denoiser" or "filter"); static strings,
  * NULL for a NULL op. */
 EW_API const char *ew_op_method(const ew_op *op);
