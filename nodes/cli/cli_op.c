@@ -197,7 +197,7 @@ static void print_help(const cli_op_command *c) {
             to_option(im.name, "-pass", opt, sizeof opt);
             snprintf(head, sizeof head, "  --%s NAME", opt);
             const char *const *defaults = cli_default_passes(im.name);
-            printf("%-28s%s%s", head, fl & EW_IMAGE_OUTPUT ? "also write " : im.required ? "(required) " : "",
+            printf("%-28s%s%s", head, fl & EW_IMAGE_OUTPUT ? "(an output, into pass NAME) " : im.required ? "(required) " : "",
                    im.hint ? im.hint : "");
             if (!(fl & EW_IMAGE_OUTPUT) && defaults && defaults[0]) {
                 printf(" [default:");

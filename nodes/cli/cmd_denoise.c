@@ -525,6 +525,11 @@ static int check_memory(const options *o, ew_device *dev) {
             else ew_op_set_int(op, o->set_name[i], (int32_t)o->set_value[i]);
         }
         if (o->data_name) ew_op_set_data(op, o->data_name, o->data_bytes, o->data_size);
+        /* the sample count the run will give it (ew_layer_data_read), unless set */
+        int samples_set = 0;
+        for (int i = 0; i < o->num_set; i++) samples_set |= o->set_name[i] && !strcmp(o->set_name[i], "samples");
+        if (!samples_set && hd.samples > 0 && param_index(lm, "samples") >= 0)
+            ew_op_set_int(op, "samples", hd.samples);
         if (ew_op_memory(op, hd.width, hd.height, &method) != EW_OK) method = 0; /* no estimate: not counted */
         ew_op_destroy(op);
     }

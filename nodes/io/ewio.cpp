@@ -533,6 +533,21 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
         hdr->width = s0.width;
         hdr->height = s0.height;
         hdr->channels = int(total_channels);
+        /* the render's sample count when every layer's agrees */
+        long long spp = 0;
+        for (const ParamValue &pv : s0.extra_attribs) {
+            const std::string nm = pv.name().string();
+            if (nm.compare(0, 7, "cycles.") != 0 || nm.size() < 15 || nm.compare(nm.size() - 8, 8, ".samples") != 0)
+                continue;
+            const std::string v = pv.get_string();
+            char *end = nullptr;
+            errno = 0;
+            long long k = strtoll(v.c_str(), &end, 10);
+            if (end == v.c_str() || errno == ERANGE || k <= 0) k = 0;
+            if (k > (1LL << 24)) k = 1LL << 24;
+            spp = spp == 0 || spp == k ? k : -1;
+        }
+        hdr->samples = spp > 0 ? int(spp) : 0;
         return 0;
     }
     if (!in->seek_subimage(0, 0)) {

@@ -59,6 +59,7 @@ void ewio_free(ewio_file *f); /* NULL is a no-op */
  * before it reads the pixels. 0 on success. */
 typedef struct ewio_header {
     int width, height, channels;
+    int samples; /* Cycles' sample count (cycles.<layer>.samples) when every layer gives the same, else 0 */
 } ewio_header;
 int ewio_read_header(const char *path, ewio_header *out, char *err, size_t errlen);
 

@@ -34,7 +34,18 @@ expect usage_bad_threads 2 "--threads expects an integer" -- denoise "$T/two_lay
 expect usage_bad_rate 2 "--spatial-rate expects a number" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --spatial-rate 0
 expect usage_bad_method 2 "unknown method 'oidn'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --method oidn
 expect unknown_command 2 "unknown command" -- frobnicate
+# a bad value is a usage error (2) found before the input is read: the
+# input here does not exist, so a later check would say exit 1
+expect usage_param_of_another_method 2 "denoiser 'auto' has no parameter --firefly-k" -- denoise "$T/nope.exr" -o "$T/o.exr" --method auto --firefly-k 3
+expect usage_param_underscore 2 "unknown option '--spatial_rate'" -- denoise "$T/nope.exr" -o "$T/o.exr" --spatial_rate 12
+expect usage_firefly_range 2 "--firefly-k expects a number in [0, 100]" -- denoise "$T/nope.exr" -o "$T/o.exr" --firefly-k 101
+expect usage_firefly_nan 2 "--firefly-k expects a number" -- denoise "$T/nope.exr" -o "$T/o.exr" --firefly-k nan
+expect output_checked_first 1 "unsupported extension" -- denoise "$T/nope.exr" -o "$T/o.bmp"
 no_file "$T/o.exr" usage_errors_write_nothing
+# the top-level help lists every command and format
+"$EW" --help | grep -q "graph check FILE" && ok help_lists_graph_check || bad help_lists_graph_check
+"$EW" --help | grep -q "JPEG" && "$EW" denoise --help | grep -q "PNG/TIFF/JPEG colour" && "$EW" filter --help | grep -q "JPEG" \
+  && ok help_lists_jpeg || bad help_lists_jpeg
 
 # ---- bad input files
 expect missing_file 1 "no such file" -- denoise "$T/nope.exr" -o "$T/o.exr"

@@ -58,6 +58,13 @@ grep -q "valid" "$T/out" && [ ! -e "$T/c.png" ] && ok check_writes_nothing || ba
 expect set_bad_value 1 "node 'denoised' parameter 'spatial_rate' = 0 is outside [1, 256]" -- graph run "$EXAMPLES/denoise_dof_display.json" --set denoised.spatial_rate=0
 expect set_unknown_param 1 "node 'lens': unknown parameter 'blades'" -- graph run "$EXAMPLES/denoise_dof_display.json" --set lens.blades=6
 expect set_unknown_node 2 "no node 'nope'" -- graph run "$EXAMPLES/denoise_dof_display.json" --set nope.x=1
+# enum parameters by name, as the CLI takes them (the example gives "weights": "analytic")
+grep -q '"weights": "analytic"' "$EXAMPLES/denoise_dof_display.json" && ok example_enum_by_name || bad example_enum_by_name
+expect enum_by_name 0 "" -- graph check "$EXAMPLES/denoise_dof_display.json" --set lens.method=separable --set lens.weights=trained --set preview.path="$T/c.png" --set pixels.path="$T/c.exr"
+expect enum_unknown_name 1 "unknown value 'exact-ish' (one of: pyramid, bilateral, separable)" -- graph check "$EXAMPLES/denoise_dof_display.json" --set lens.method=exact-ish
+# outputs are checked before any work: an unwritable write path fails the check
+expect check_unwritable_output 1 "directory '$T/none' does not exist" -- graph run "$EXAMPLES/denoise_dof_display.json" --set preview.path="$T/none/p.png" --set pixels.path="$T/p2.exr"
+[ ! -e "$T/p2.exr" ] && ok unwritable_output_writes_nothing || bad unwritable_output_writes_nothing
 
 # ---- sequences
 graph seq.json '{"edgewise_graph": 1, "nodes": {

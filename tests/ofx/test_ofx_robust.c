@@ -363,6 +363,52 @@ TEST(malformed_calls_get_an_ofx_status) {
     fx_free(&crop);
 }
 
+/* A host that gives the render's arguments with the wrong property types
+ * (a string time, doubles for the integer window, too few values, a string
+ * scale, a pointer field): the plugin answers with a status (an error where
+ * it cannot go on), leaves no image fetched, and renders normally after. */
+TEST(wrong_property_types_get_an_ofx_status) {
+    fx_plugin fx;
+    fx_sample crop;
+    OPEN(fx, BGRID, FILTER, crop);
+    const host_bundle *b = &fx.bundle;
+    int i = fx.index;
+    host_effect *inst = fx.inst;
+    for (int k = 0; k < 5; k++) {
+        OfxPropertySetHandle in = hp_new("render inArgs (malformed)", NULL);
+        if (k == 0) hp_set_s(in, "OfxPropTime", 0, "one");
+        else hp_set_d(in, "OfxPropTime", 0, 1.0);
+        if (k == 1) { /* the window as doubles */
+            hp_set_d(in, "OfxImageEffectPropRenderWindow", 0, whole.x1);
+            hp_set_d(in, "OfxImageEffectPropRenderWindow", 1, whole.y1);
+            hp_set_d(in, "OfxImageEffectPropRenderWindow", 2, whole.x2);
+            hp_set_d(in, "OfxImageEffectPropRenderWindow", 3, whole.y2);
+        } else if (k == 2) { /* two of its four values */
+            hp_set_i(in, "OfxImageEffectPropRenderWindow", 0, whole.x1);
+            hp_set_i(in, "OfxImageEffectPropRenderWindow", 1, whole.y1);
+        } else {
+            hp_set_i(in, "OfxImageEffectPropRenderWindow", 0, whole.x1);
+            hp_set_i(in, "OfxImageEffectPropRenderWindow", 1, whole.y1);
+            hp_set_i(in, "OfxImageEffectPropRenderWindow", 2, whole.x2);
+            hp_set_i(in, "OfxImageEffectPropRenderWindow", 3, whole.y2);
+        }
+        if (k == 3) hp_set_s(in, "OfxImageEffectPropRenderScale", 0, "full");
+        if (k == 4) hp_set_p(in, "OfxImageEffectPropFieldToRender", 0, inst);
+        OfxStatus st = hx_action(b, i, "OfxImageEffectActionRender", inst, in, NULL);
+        hp_free(in);
+        /* time and window are needed; a render scale or field it cannot
+         * read may count as absent (scale 1, both fields) */
+        if (k < 3 && st == kOfxStatOK) FAIL_AT("malformed render arguments %d rendered (status OK)", k);
+        if (k >= 3 && st != kOfxStatOK && st != kOfxStatErrValue && st != kOfxStatErrBadHandle)
+            FAIL_AT("malformed render arguments %d: status %d", k, st);
+        RELEASED_ALL();
+    }
+    CHECK_EQ_INT(hx_render(b, i, inst, 1.0, whole), kOfxStatOK); /* and then as usual */
+    RELEASED_ALL();
+    fx_close(&fx);
+    fx_free(&crop);
+}
+
 TEST(load_and_unload_out_of_order) {
     host_reset();
     host_bundle b;
