@@ -178,7 +178,9 @@ static uint64_t rung_memory(const ew_op *op, const char *name, const char *param
         ew_op_set_param(in, "prepass_rate", g->prepass, 0);
         ew_op_set_param(in, "color_weight", g->color_weight, 0);
     }
-    const uint64_t bytes = in->type->memory ? in->type->memory(in, w, h) : 0;
+    ew_harm_forward(op, in); /* the stage runs in the rung, with auto's settings */
+    uint64_t bytes = 0;
+    if (ew_op_memory(in, w, h, &bytes) != EW_OK) bytes = 0;
     ew_op_destroy(in);
     return bytes;
 }

@@ -105,6 +105,20 @@ static int slot(const ew_op *op, const char *name) {
     return -1;
 }
 
+/* The stage's device floats for a colour of cc channels (see the commit). */
+static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre) {
+    return n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 6 + (pre ? (size_t)cc : 0));
+}
+
+uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
+    const int pre = ew_op_param(op, "outlier_k") > 0.0f, post = ew_op_param(op, "do_no_harm") != 0.0f;
+    if (!has_stage(op->type) || op->type->stage_in_inner || (!pre && !post)) return 0;
+    const size_t n = (size_t)w * (size_t)h, stage = ew_dev_stage_floats(op->dev, n, 4);
+    /* an RGBA colour with albedo and normal: the most the commit takes */
+    return (uint64_t)stage_floats(n, 4, 1, 1, pre) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+           (uint64_t)(stage + (pre ? stage : 0)) * sizeof(float);
+}
+
 ew_result ew_harm_commit(ew_op *op) {
     ew_device *dev = op->dev;
     const int ci = slot(op, "color"), oi = slot(op, "output");
@@ -125,7 +139,7 @@ ew_result ew_harm_commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     /* col (cc), albedo, normal, a (radiance, then the method's output), b
      * (rejected radiance, then the residual statistics), clamped (cc) */
-    const size_t floats = n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 6 + (pre ? (size_t)cc : 0));
+    const size_t floats = stage_floats(n, cc, has_a, has_n, pre);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
     const size_t hclamp = pre ? stage : 0;

@@ -153,6 +153,8 @@ const ew_param_desc *ew_op_type_param(const ew_op_type *t, int i);
 ew_result ew_harm_commit(ew_op *op);
 ew_result ew_harm_execute(ew_op *op);
 void ew_harm_release(ew_op *op);
+/* The stage's allocations for images of w x h (ew_op_memory adds them). */
+uint64_t ew_harm_memory(const ew_op *op, int w, int h);
 /* Copy the stage's parameters of one op to another (auto -> its method). */
 void ew_harm_forward(const ew_op *from, ew_op *to);
 /* op_alpha.c: the second run of a filters_alpha method on an RGBA colour's
