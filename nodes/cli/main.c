@@ -6,6 +6,7 @@
  * the ~260 shared libraries they pull in, whose loading and relocation is
  * most of a command's start-up (measured with --timings).
  */
+#define _GNU_SOURCE /* dladdr */
 #include <dlfcn.h>
 #include <stdio.h>
 #include <string.h>
@@ -63,8 +64,25 @@ int main(int argc, char **argv) {
         printf("edgewise %s\n", ew_version_string());
         return 0;
     }
-    /* found by this program's RUNPATH ($ORIGIN/../lib), like libedgewise */
-    void *lib = dlopen("libedgewise_cli.so", RTLD_NOW | RTLD_LOCAL);
+    /* Next to libedgewise, wherever the loader found it (this program's
+     * RUNPATH, $ORIGIN/../lib, or an installed prefix). By full path: a
+     * bare name would be searched with the RUNPATH of dlopen's caller,
+     * which under AddressSanitizer is its interceptor, not this program. */
+    void *lib = NULL;
+    Dl_info info;
+    const char *slash = NULL;
+    union {
+        const char *(*fn)(void);
+        void *p;
+    } in_lib = {ew_version_string}; /* an address inside libedgewise */
+    if (dladdr(in_lib.p, &info) && info.dli_fname) slash = strrchr(info.dli_fname, '/');
+    if (slash) {
+        char path[4096];
+        const int n = snprintf(path, sizeof path, "%.*s/libedgewise_cli.so", (int)(slash - info.dli_fname),
+                               info.dli_fname);
+        if (n > 0 && (size_t)n < sizeof path) lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    }
+    if (!lib) lib = dlopen("libedgewise_cli.so", RTLD_NOW | RTLD_LOCAL);
     if (!lib) {
         fprintf(stderr, "edgewise: cannot load the commands: %s\n", dlerror());
         return EXIT_FAIL;

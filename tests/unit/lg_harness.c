@@ -3,14 +3,16 @@
  * entry mirrors its CUDA wrapper in core/backends/cuda/cuda_backend.cu:
  * same geometry function, same body, same by-value parameter structs.
  */
-#define _GNU_SOURCE /* MAP_ANONYMOUS */
+#define _GNU_SOURCE /* MAP_ANONYMOUS, process_vm_readv */
 #include "lg_harness.h"
 
+#include <errno.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include "backends/cuda/kernel_bodies.h"
@@ -327,17 +329,25 @@ static void lg_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) {
 /* The kernels of EW_KERNEL_LIST: their structs go to the GPU by value, so
  * every pointer in them must be device memory. The harness cannot tell a
  * pointer member from the others, so it looks at every aligned word: one
- * that points into mapped memory outside the device blocks is a host
- * buffer handed to the GPU. */
-static int mapped(uintptr_t p) {
+ * that points at readable memory outside the device blocks is a host
+ * buffer handed to the GPU. Readable, not merely mapped: two ints read as
+ * one word land in reserved PROT_NONE ranges (AddressSanitizer's shadow
+ * gap spans terabytes), which no buffer can be. */
+static int readable(uintptr_t p) {
+    if (p < (uintptr_t)page_size()) return 0;
+    char byte;
+    struct iovec local = {&byte, 1}, remote = {(void *)p, 1};
+    if (process_vm_readv(getpid(), &local, 1, &remote, 1, 0) == 1) return 1;
+    if (errno == EFAULT) return 0;
+    /* the call refused (a seccomp policy): mapped at all, as msync tells */
     const uintptr_t pg = (uintptr_t)page_size();
-    return p >= pg && msync((void *)(p & ~(pg - 1)), 1, MS_ASYNC) == 0;
+    return msync((void *)(p & ~(pg - 1)), 1, MS_ASYNC) == 0;
 }
 static void check_args(const void *args, size_t size, const char *name) {
     for (size_t o = 0; o + sizeof(uintptr_t) <= size; o += sizeof(uintptr_t)) {
         uintptr_t w;
         memcpy(&w, (const char *)args + o, sizeof w);
-        if (w && !find((const void *)w) && mapped(w)) {
+        if (w && !find((const void *)w) && readable(w)) {
             char what[64];
             snprintf(what, sizeof what, "%s's argument at byte %zu", name, o);
             note("lg_run", what, "is not device memory");
