@@ -10,6 +10,7 @@
 #include <dlfcn.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "edgewise/edgewise.h"
 
@@ -51,6 +52,15 @@ static const char usage[] =
 
 typedef int (*cli_main_fn)(int argc, char **argv, const char *usage);
 
+/* dlopen of libedgewise_cli.so in the directory of file, then sub. */
+static void *load_beside(const char *file, const char *sub) {
+    const char *slash = strrchr(file, '/');
+    if (!slash) return NULL;
+    char path[4096];
+    const int n = snprintf(path, sizeof path, "%.*s%s/libedgewise_cli.so", (int)(slash - file), file, sub);
+    return n > 0 && (size_t)n < sizeof path ? dlopen(path, RTLD_NOW | RTLD_LOCAL) : NULL;
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         fputs(usage, stderr);
@@ -70,17 +80,18 @@ int main(int argc, char **argv) {
      * which under AddressSanitizer is its interceptor, not this program. */
     void *lib = NULL;
     Dl_info info;
-    const char *slash = NULL;
     union {
         const char *(*fn)(void);
         void *p;
     } in_lib = {ew_version_string}; /* an address inside libedgewise */
-    if (dladdr(in_lib.p, &info) && info.dli_fname) slash = strrchr(info.dli_fname, '/');
-    if (slash) {
-        char path[4096];
-        const int n = snprintf(path, sizeof path, "%.*s/libedgewise_cli.so", (int)(slash - info.dli_fname),
-                               info.dli_fname);
-        if (n > 0 && (size_t)n < sizeof path) lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (dladdr(in_lib.p, &info) && info.dli_fname) lib = load_beside(info.dli_fname, "");
+    /* then where the RUNPATH points, for a libedgewise loaded from
+     * elsewhere (LD_LIBRARY_PATH) */
+    char exe[4096];
+    const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (!lib && len > 0) {
+        exe[len] = '\0';
+        lib = load_beside(exe, "/../lib");
     }
     if (!lib) lib = dlopen("libedgewise_cli.so", RTLD_NOW | RTLD_LOCAL);
     if (!lib) {

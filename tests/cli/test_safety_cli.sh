@@ -137,9 +137,9 @@ if command -v oiiotool >/dev/null; then
     env --default-signal="$sig" "$EW" filter big.exr -o "sig$sig/out.exr" --method bilateral --float -q >/dev/null 2>&1 &
     pid=$!
     caught=0
-    for _ in $(seq 1 3000); do
+    # until the write starts, however long the filter takes (minutes under ASan)
+    while kill -0 "$pid" 2>/dev/null; do
       if ls -A "sig$sig" | grep -q '\.tmp-'; then kill -s "$sig" "$pid"; caught=1; break; fi
-      kill -0 "$pid" 2>/dev/null || break
       sleep 0.01
     done
     wait "$pid"; rc=$?

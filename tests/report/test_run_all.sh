@@ -4,6 +4,9 @@
 # strips directory made, -d passed on to the stability suite, -q smaller.
 # Usage: test_run_all.sh RUN_ALL_SH
 set -u
+# the build directory the copy names, not the one of the suite running this
+# (tools/test.sh exports EW_BUILD_DIR, e.g. build-asan in CI)
+unset EW_BUILD_DIR
 RUN_ALL=$1
 T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 pass=0; fail=0
