@@ -7,6 +7,7 @@
 #include "lg_harness.h"
 
 #include <errno.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -333,8 +334,20 @@ static void lg_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) {
  * buffer handed to the GPU. Readable, not merely mapped: two ints read as
  * one word land in reserved PROT_NONE ranges (AddressSanitizer's shadow
  * gap spans terabytes), which no buffer can be. */
+static int on_this_stack(uintptr_t p) {
+    pthread_attr_t attr;
+    void *lo = NULL;
+    size_t size = 0;
+    if (pthread_getattr_np(pthread_self(), &attr) != 0) return 0;
+    pthread_attr_getstack(&attr, &lo, &size);
+    pthread_attr_destroy(&attr);
+    return p >= (uintptr_t)lo && p < (uintptr_t)lo + size;
+}
 static int readable(uintptr_t p) {
-    if (p < (uintptr_t)page_size()) return 0;
+    /* An int and the struct padding after it read as one word can hold a
+     * stale stack address in the padding's half; no buffer a kernel is
+     * given lives on the caller's stack, so such words are not reported. */
+    if (p < (uintptr_t)page_size() || on_this_stack(p)) return 0;
     char byte;
     struct iovec local = {&byte, 1}, remote = {(void *)p, 1};
     if (process_vm_readv(getpid(), &local, 1, &remote, 1, 0) == 1) return 1;
@@ -348,8 +361,8 @@ static void check_args(const void *args, size_t size, const char *name) {
         uintptr_t w;
         memcpy(&w, (const char *)args + o, sizeof w);
         if (w && !find((const void *)w) && readable(w)) {
-            char what[64];
-            snprintf(what, sizeof what, "%s's argument at byte %zu", name, o);
+            char what[96];
+            snprintf(what, sizeof what, "%s's argument at byte %zu (%#lx)", name, o, (unsigned long)w);
             note("lg_run", what, "is not device memory");
         }
     }
