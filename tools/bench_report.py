@@ -65,16 +65,15 @@ def load_oidn(path, rows):
     """spp -> OIDN's mean PSNR over the scenes of rows that the anchor table has
     at that spp, and the number of those scenes; only spp where every scene
     of rows is in the table (a partial mean would not compare)."""
-    table = {}
+    table, cols = {}, []
     with open(path) as f:
         for line in f:
             cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if cells[0] == "scene" and not cols:
+                cols = cells[1:]
             if len(cells) < 3 or not cells[0] or cells[0] in ("scene", "mean") or set(cells[0]) <= set("-: "):
                 continue
             table[cells[0]] = cells[1:]
-    with open(path) as f:
-        header = next((l for l in f if l.startswith("| scene")), "")
-    cols = [c.strip() for c in header.strip().strip("|").split("|")][1:]
     out = {}
     for spp in sorted({r["spp"] for r in rows}):
         try:

@@ -280,16 +280,11 @@ static ew_result execute(ew_op *op) {
         radiance = s->clamped;
     }
     float noise = 0.0f;
-    if (net->noise) { /* the frame's noise level, summed as ew_kpcn_frame_noise sums it */
+    if (net->noise) { /* the frame's noise level, as the trainer's ew_kpcn_frame_noise */
         dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, w, h, radiance, s->row_out);
         r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)h * 2 * sizeof(double));
         if (r != EW_OK) return r;
-        double sum = 0.0, count = 0.0;
-        for (int y = 0; y < h; y++) {
-            sum += s->rows[2 * y];
-            count += s->rows[2 * y + 1];
-        }
-        noise = ew_kpcn_noise_feature(count > 0.0 ? sum / count : 0.0);
+        noise = ew_kpcn_noise_from_rows(s->rows, h);
     }
     ew_kpcn_input_args ia = {w, h, radiance, b->albedo, b->normal, b->depth, b->depth_scale,
                              ew_gn_plane_row(&s->sb[0], 0, 0), s->sb[0].rs, s->sb[0].ps, net->noise, noise};

@@ -213,15 +213,12 @@ void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_ne
 }
 
 float ew_kpcn_frame_noise(int width, int height, const float *radiance) {
-    double *rows = (double *)malloc(sizeof(double) * 2 * (size_t)height), sum = 0.0, count = 0.0;
+    double *rows = (double *)malloc(sizeof(double) * 2 * (size_t)height);
     if (!rows) return ew_kpcn_noise_feature(0.0);
     for (int y = 0; y < height; y++) ew_reduce_row(EW_REDUCE_NOISE, y, width, radiance, rows);
-    for (int y = 0; y < height; y++) {
-        sum += rows[2 * y];
-        count += rows[2 * y + 1];
-    }
+    const float noise = ew_kpcn_noise_from_rows(rows, height);
     free(rows);
-    return ew_kpcn_noise_feature(count > 0.0 ? sum / count : 0.0);
+    return noise;
 }
 
 /* ---- frames --------------------------------------------------------------- */

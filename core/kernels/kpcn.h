@@ -68,6 +68,17 @@ EW_HD float ew_kpcn_noise_feature(double mean_abs_hh) {
     return ew_clampf(1.0f + 0.25f * log10f((float)mean_abs_hh + 1e-4f), 0.0f, 1.0f);
 }
 
+/* The feature from the 2 x height doubles of EW_REDUCE_NOISE, summed in row
+ * order on the host, so the op and the trainer get the same bits. */
+EW_HD float ew_kpcn_noise_from_rows(const double *rows, int height) {
+    double sum = 0.0, count = 0.0;
+    for (int y = 0; y < height; y++) {
+        sum += rows[2 * y];
+        count += rows[2 * y + 1];
+    }
+    return ew_kpcn_noise_feature(count > 0.0 ? sum / count : 0.0);
+}
+
 EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
     const long j = (long)y * a->width + x;
     float *d = a->dst + (long)y * a->rs + x;
