@@ -11,6 +11,7 @@
  */
 #include "algorithms/guidenet_cpu.h"
 
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -247,10 +248,13 @@ static void conv_job_rows(void *ctx, int64_t begin, int64_t end, int tid) {
 }
 
 void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a) {
-    float wt[EW_CONV_CPU_MAX_CHANNEL_PAIRS * 25];
-    conv_job j = {a, wt, a->cin * a->cout <= EW_CONV_CPU_MAX_CHANNEL_PAIRS};
+    float stack_wt[EW_CONV_CPU_STACK_CHANNEL_PAIRS * 25];
+    const int pairs = a->cin * a->cout;
+    float *wt = pairs <= EW_CONV_CPU_STACK_CHANNEL_PAIRS ? stack_wt : (float *)malloc(sizeof(float) * 25 * (size_t)pairs);
+    conv_job j = {a, wt, wt != NULL};
     if (j.simd) ew_conv_cpu_wt_layout(a->cin, a->cout, a->weight, wt);
     ew_pool_run(dev->pool, a->rows, 1, conv_job_rows, &j);
+    if (wt != stack_wt) free(wt);
 }
 
 /* ---- the per-pixel GuideNet entries ------------------------------------ */

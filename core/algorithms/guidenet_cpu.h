@@ -14,9 +14,10 @@
 
 typedef struct ew_device ew_device;
 
-/* Largest cin * cout the backend entry handles with SIMD blocks (its weight
- * copy lives on the stack); larger layers fall back to the per-value code. */
-#define EW_CONV_CPU_MAX_CHANNEL_PAIRS 512
+/* Largest cin * cout whose weight copy the backend entry keeps on the stack
+ * (a host's worker thread may have a small one); larger layers' copy is
+ * allocated, and only if that fails do they take the per-value code. */
+#define EW_CONV_CPU_STACK_CHANNEL_PAIRS 512
 
 /* The weight layout the SIMD blocks read: per block of output channels
  * (one block of 5 when cout == 5, else blocks of 4 and the rest),

@@ -198,16 +198,32 @@ size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
     return f;
 }
 
+/* Which channel of src's layer input i of net's layer is, or -1 for a channel
+ * src does not have: a decoder's input is [skip (C), upsampled (C)], so
+ * its second half moves when the width changes. */
+static int src_input_channel(const ew_kpcn_net *net, const ew_kpcn_net *src, int l, int i) {
+    const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[l];
+    if (D->cin == 2 * net->ch && S->cin == 2 * src->ch) {
+        const int half = i >= net->ch, k = half ? i - net->ch : i;
+        return k < src->ch ? (half ? src->ch + k : k) : -1;
+    }
+    return i < S->cin ? i : -1;
+}
+
 void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params) {
-    memset(params, 0, net->nparams * sizeof(float));
     for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
         const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[l];
-        const int co = ew_mini(D->cout, S->cout), ci = ew_mini(D->cin, S->cin);
-        for (int o = 0; o < co; o++) {
-            for (int i = 0; i < ci; i++)
-                memcpy(params + D->w_off + ((size_t)o * D->cin + i) * 25,
-                       src_params + S->w_off + ((size_t)o * S->cin + i) * 25, 25 * sizeof(float));
-            params[D->b_off + o] = src_params[S->b_off + o];
+        for (int o = 0; o < D->cout; o++) {
+            const int old_out = o < S->cout;
+            for (int i = 0; i < D->cin; i++) {
+                float *w = params + D->w_off + ((size_t)o * D->cin + i) * 25;
+                const int si = src_input_channel(net, src, l, i);
+                if (old_out && si >= 0)
+                    memcpy(w, src_params + S->w_off + ((size_t)o * S->cin + si) * 25, 25 * sizeof(float));
+                else if (old_out)
+                    memset(w, 0, 25 * sizeof(float));
+            }
+            params[D->b_off + o] = old_out ? src_params[S->b_off + o] : 0.0f;
         }
     }
 }

@@ -45,7 +45,7 @@
 #define EW_KPCN_NLAYERS 9
 #define EW_KPCN_SCALES 3
 #define EW_KPCN_MIN_CH 4
-#define EW_KPCN_MAX_CH 16 /* dec layers: 2C x C channel pairs <= the CPU entry's 512 */
+#define EW_KPCN_MAX_CH 32
 
 typedef struct ew_kpcn_layer {
     int scale, in_plane, cin, out_plane, cout, act;
@@ -72,10 +72,12 @@ int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen);
 void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params);
 int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, char *err, size_t errlen);
 int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t *size);
-/* Parameters of net from those of another architecture src (a warm start):
- * each layer's overlapping [cout][cin] block is copied, the rest is zero, so
- * a "-noise" net made from its plain twin computes the same output until the
- * noise plane's weights are trained. */
+/* Parameters of net from those of another architecture src (a warm start),
+ * over params already holding ew_kpcn_random's: src's channels are copied,
+ * an old channel's weights from a new input (a wider net's extra channels,
+ * the noise plane) are zero, and a new channel keeps its random weights. So
+ * the net computes src's output until trained, and the new channels still
+ * get gradients (their consumers' weights start at zero, not their own). */
 void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params);
 /* The noise plane's value of a frame: EW_REDUCE_NOISE over its (clamped,
  * demodulated) radiance, 3 floats a pixel. */

@@ -321,10 +321,10 @@ TEST(output_cannot_invent_energy) {
 /* The trainer's forward pass (kernels run on the host) and the library's
  * "kpcn" op with the same weights give the same image: the model trained
  * is the model that runs. Also refusal without features. */
-TEST(op_matches_training_forward) {
+static void op_matches_training_forward_for(const char *arch) {
     ew_kpcn_net net;
     char err[128];
-    CHECK(ew_kpcn_init(&net, "kpcn-c8", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&net, arch, err, sizeof err) == 0);
     const int P = 32;
     scene sc;
     scene_make(&sc, P, P, 21);
@@ -373,8 +373,72 @@ TEST(op_matches_training_forward) {
     free(params);
     free(ref_out);
     free(op_out);
-    fprintf(stderr, "  op vs trainer: worst relative difference %.2e\n", worst);
+    fprintf(stderr, "  %s op vs trainer: worst relative difference %.2e\n", arch, worst);
     CHECK(worst < 1e-5);
+}
+
+/* kpcn-c24's decoders have 48 x 24 channel pairs, more than the CPU entry
+ * keeps on its stack: the allocated weight copy must give the same image. */
+TEST(op_matches_training_forward) {
+    op_matches_training_forward_for("kpcn-c8");
+    op_matches_training_forward_for("kpcn-c24-noise");
+}
+
+static void patch_forward(const ew_kpcn_net *net, const float *params, const ew_kpcn_frame *f, int P, float *grad,
+                          float *out) {
+    ew_kpcn_model m;
+    CHECK(ew_kpcn_model_init(&m, net) == 0);
+    ew_kpcn_model_prepare(&m, params);
+    ew_kpcn_scratch *s = ew_kpcn_scratch_create(net, P);
+    const ew_kpcn_patch p = {0, 0, 0, 0};
+    ew_kpcn_train_patch(&m, f, &p, P, EW_KPCN_LOSS_TM, s, grad, out, NULL);
+    ew_kpcn_scratch_destroy(s);
+    ew_kpcn_model_free(&m);
+}
+
+/* A warm start into a wider net with the noise plane computes the narrow
+ * net's image, and the new channels are not dead: the weights that read
+ * them get gradients (both sides zero would keep them zero forever). */
+TEST(warm_start_keeps_output_and_trains_new_channels) {
+    ew_kpcn_net small, wide;
+    char err[128];
+    CHECK(ew_kpcn_init(&small, "kpcn-c8", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&wide, "kpcn-c12-noise", err, sizeof err) == 0);
+    const int P = 32;
+    scene sc;
+    scene_make(&sc, P, P, 5);
+    ew_kpcn_frame f;
+    CHECK(ew_kpcn_frame_init(&f, sc.w, sc.h, sc.color, sc.albedo, sc.normal, sc.depth, sc.ref, 3.0f) == 0);
+    float *ps = malloc(sizeof(float) * small.nparams), *pw = malloc(sizeof(float) * wide.nparams);
+    float *gw = calloc(wide.nparams, sizeof(float));
+    ew_kpcn_random(&small, 3, ps);
+    for (size_t i = 0; i < small.nparams; i++) ps[i] *= 5.0f;
+    ew_kpcn_random(&wide, 4, pw);
+    ew_kpcn_params_from(&wide, pw, &small, ps);
+    float *os = malloc(sizeof(float) * P * P * 3), *ow = malloc(sizeof(float) * P * P * 3);
+    patch_forward(&small, ps, &f, P, NULL, os);
+    patch_forward(&wide, pw, &f, P, gw, ow);
+    double worst = 0;
+    for (int i = 0; i < P * P * 3; i++) worst = fmax(worst, fabs((double)ow[i] - os[i]) / (1e-3 + fabs(os[i])));
+    fprintf(stderr, "  c8 -> c12-noise warm start: worst relative difference %.2e\n", worst);
+    CHECK(worst < 1e-5);
+    /* dec0 (layer 7) reading new channel 10 of h0 and head0 (layer 8)
+     * reading new channel 10 of d0, over their old outputs */
+    const ew_kpcn_layer *L7 = &wide.layers[7], *L8 = &wide.layers[8];
+    double g7 = 0, g8 = 0;
+    for (int o = 0; o < small.layers[7].cout; o++)
+        for (int t = 0; t < 25; t++) g7 += fabs(gw[L7->w_off + (o * (size_t)L7->cin + 10) * 25 + t]);
+    for (int o = 0; o < L8->cout; o++)
+        for (int t = 0; t < 25; t++) g8 += fabs(gw[L8->w_off + (o * (size_t)L8->cin + 10) * 25 + t]);
+    CHECK(g7 > 0);
+    CHECK(g8 > 0);
+    ew_kpcn_frame_free(&f);
+    scene_free(&sc);
+    free(ps);
+    free(pw);
+    free(gw);
+    free(os);
+    free(ow);
 }
 
 /* The weights compiled into the library are the files in models/kpcn. */
