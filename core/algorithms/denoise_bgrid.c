@@ -9,6 +9,9 @@
 #include <string.h>
 
 #include "algorithms/bgrid.h"
+#include "kernels/denoise_px.h"
+#include "kernels/outlier.h"
+#include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
 

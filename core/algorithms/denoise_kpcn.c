@@ -17,6 +17,8 @@
 #include <string.h>
 
 #include "algorithms/kpcn.h"
+#include "kernels/outlier.h"
+#include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
 #include "src/weights.h"

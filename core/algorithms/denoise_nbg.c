@@ -18,6 +18,8 @@
 
 #include "algorithms/bgrid.h"
 #include "algorithms/nbg.h"
+#include "kernels/outlier.h"
+#include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
 #include "src/weights.h"

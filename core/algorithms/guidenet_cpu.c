@@ -15,6 +15,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "kernels/guidenet.h"
 #include "src/backend.h"
 #include "src/internal.h"
 

@@ -8,27 +8,31 @@
 #ifndef EW_BACKEND_H
 #define EW_BACKEND_H
 
-#include "kernels/bgrid.h"
-#include "kernels/denoise_px.h"
-#include "kernels/outlier.h"
-#include "kernels/temporal.h"
-/* edge-aware filters */
-#include "kernels/dof.h"
-#include "kernels/pyramid.h"
-/* neural bilateral grid */
-#include "kernels/conv.h"
-#include "kernels/guidenet.h"
-#include "kernels/kernel_ids.h"
-/* device memory and the CUDA module */
 #include <stddef.h>
 #include "edgewise/edgewise.h"
-#include "kernels/reduce.h"
-#include "kernels/view.h"
+#include "kernels/kernel_ids.h"
 
 typedef struct ew_device ew_device;
-/* kernels/harm.h: only the files that run the stage include it, so that
- * tuning it does not rebuild every backend file */
-typedef struct ew_harm_args ew_harm_args;
+/* The entries' argument structs, defined in the headers of core/kernels/.
+ * Only the files that build or run an entry include its kernel's header, so
+ * a change to one kernel rebuilds those files, not every file that calls a
+ * backend. */
+typedef struct ew_bgrid_params ew_bgrid_params;        /* kernels/bgrid.h */
+typedef struct ew_denoise_buffers ew_denoise_buffers;  /* kernels/denoise_px.h */
+typedef struct ew_outlier_params ew_outlier_params;    /* kernels/outlier.h */
+typedef struct ew_outlier_buffers ew_outlier_buffers;
+typedef struct ew_harm_args ew_harm_args;              /* kernels/harm.h */
+typedef struct ew_temporal_params ew_temporal_params;  /* kernels/temporal.h */
+typedef struct ew_temporal_buffers ew_temporal_buffers;
+typedef struct ew_bf_model ew_bf_model;                /* kernels/bilateral.h */
+typedef struct ew_bf_buffers ew_bf_buffers;
+typedef struct ew_pyr_down_args ew_pyr_down_args;      /* kernels/pyramid.h */
+typedef struct ew_pyr_up_args ew_pyr_up_args;
+typedef struct ew_dof_args ew_dof_args;                /* kernels/dof.h */
+typedef struct ew_conv_args ew_conv_args;              /* kernels/conv.h */
+typedef struct ew_gn_input_args ew_gn_input_args;      /* kernels/guidenet.h */
+typedef struct ew_nbg_blend_args ew_nbg_blend_args;
+typedef struct ew_view_desc ew_view_desc;              /* kernels/view.h */
 
 typedef struct ew_backend {
     /* Flags, before the name: every member after it is an entry that must

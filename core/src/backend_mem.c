@@ -8,6 +8,7 @@
  */
 #include <string.h>
 
+#include "kernels/view.h"
 #include "src/backend.h"
 #include "src/internal.h"
 #include "src/op.h"

@@ -29,6 +29,8 @@
 #include <string.h>
 
 #include "kernels/harm.h"
+#include "kernels/outlier.h"
+#include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
 

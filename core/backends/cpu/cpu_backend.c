@@ -4,6 +4,9 @@
  */
 #include "backends/cpu/cpu_bgrid.h"
 #include "kernels/harm.h"
+#include "kernels/denoise_px.h"
+#include "kernels/outlier.h"
+#include "kernels/temporal.h"
 #include "src/backend.h"
 #include "src/internal.h"
 

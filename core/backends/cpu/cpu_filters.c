@@ -20,6 +20,8 @@
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("no-trapping-math")
 #endif
+#include "kernels/dof.h"
+#include "kernels/pyramid.h"
 #include "src/backend.h"
 #include "src/internal.h"
 

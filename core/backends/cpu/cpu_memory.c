@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "kernels/reduce.h"
+#include "kernels/view.h"
 #include "src/backend.h"
 #include "src/internal.h"
 
