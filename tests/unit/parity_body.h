@@ -696,8 +696,8 @@ TEST(dof_attributes) {
 }
 
 TEST(guidenet_conv5) {
-    /* small channel counts (the CPU's SIMD path) and large ones (its
-     * per-value path); with and without accumulation. Planes laid out as
+    /* small channel counts (the CPU's SIMD weights on its stack) and large
+     * ones (allocated); with and without accumulation. Planes laid out as
      * GuideNet lays them out (zero borders, room for whole-vector reads). */
     const int shapes[][2] = {{4, 3}, {10, 16}, {24, 24}};
     for (size_t s = 0; s < sizeof shapes / sizeof shapes[0]; s++)
@@ -744,7 +744,9 @@ TEST(guidenet_conv5) {
             for (int c = 0; c < cout && ok; c++)
                 for (int r = 0; r < rows && ok; r++) {
                     const size_t off = (size_t)(ew_gn_plane_row(&out, c, r) - out_mem);
-                    ok = match_tol(got + off, out_mem + off, W, 2e-6f, "conv5");
+                    /* the CPU sums the 25 * cin products in another order:
+                     * the rounding difference grows with their count */
+                    ok = match_tol(got + off, out_mem + off, W, 1e-8f * 25.0f * (float)cin, "conv5");
                 }
             close_pair(&p);
             if (!ok) fprintf(stderr, "  (cin %d, cout %d, accumulate %d)\n", cin, cout, accumulate);
