@@ -38,6 +38,10 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off (the "
      "shipped models were trained with 3)"},
+    {"max_memory_mb", EW_PARAM_INT, 1024.0f, 1.0f, 1048576.0f,
+     "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose network planes would exceed it "
+     "runs in tiles with a 36-pixel halo, giving the same output; the frame-sized buffers (68 bytes a pixel) and "
+     "the smallest tile come first, so a tiny budget can be exceeded"},
 };
 
 typedef struct {
@@ -94,8 +98,13 @@ typedef struct {
     const model *m;
     ew_denoise_buffers buf;
     float *params, *clamped;
+    ew_kpcn_tiling tiling;
+    float *scale_mem;       /* the scale buffers of one region */
+    size_t scale_floats;
+    int lw, lh;             /* the region size sb is laid out for (0: none yet) */
     ew_gn_planes sb[EW_KPCN_SCALES];
     float *rad[EW_KPCN_SCALES], *out[EW_KPCN_SCALES]; /* scales 1, 2: 3 planes each */
+    float *tile_out;        /* scale 0's output on a region when there are several tiles */
     int sw[EW_KPCN_SCALES], sh[EW_KPCN_SCALES];
     double *row_out;
     void *dmem;
@@ -139,13 +148,29 @@ static ew_result model_of(const ew_op *op, const model **out, model **builtin) {
     return EW_OK;
 }
 
-/* Device floats of a commit at w x h: parameters, packed colour, albedo,
- * normal, depth, radiance, clamped radiance, the filtered radiance (sliced),
- * the output, the hand-made guide denoise_prepare writes, then the scale
- * buffers and the scales' radiance and outputs. */
-static size_t device_floats(const ew_kpcn_net *net, int w, int h) {
-    const size_t n = (size_t)w * (size_t)h;
-    return ((size_t)net->nparams + 15) / 16 * 16 + n * 3 * 7 + n * 2 + ew_kpcn_device_floats(net, w, h) + 64;
+/* Device floats of a commit at w x h: parameters and the frame-sized
+ * buffers (FRAME_FLOATS a pixel: packed colour, albedo, normal, depth,
+ * radiance, clamped radiance, the hand-made guide denoise_prepare writes;
+ * the output takes the colour's place, the filtered radiance the unused
+ * one of radiance and clamped radiance), then one region's scale buffers,
+ * the scales' radiance and outputs, and with several tiles scale 0's
+ * output of a region. */
+#define FRAME_FLOATS 17
+#define TILE_EXTRA_FLOATS 3
+
+static size_t frame_floats(const ew_kpcn_net *net, int w, int h) {
+    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * FRAME_FLOATS + 64;
+}
+
+/* The tiles of a w x h frame under max_memory_mb, and the device floats of
+ * the commit. */
+static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_kpcn_tiling *t) {
+    const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
+    const size_t frame = frame_floats(net, w, h);
+    ew_kpcn_tiling_plan(net, w, h, budget > frame ? budget - frame : 0, TILE_EXTRA_FLOATS, t);
+    const int tiled = t->nx * t->ny > 1;
+    return frame + ew_kpcn_device_floats(net, t->rw, t->rh) +
+           (tiled ? (size_t)TILE_EXTRA_FLOATS * (size_t)t->rw * (size_t)t->rh : 0);
 }
 
 /* ew_op_type.memory: the commit's allocations (row sums as doubles on the
@@ -154,7 +179,8 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     model *builtin = NULL;
     const model *m = NULL;
     if (model_of(op, &m, &builtin) != EW_OK) return 0;
-    const uint64_t bytes = (uint64_t)device_floats(&m->net, w, h) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    ew_kpcn_tiling t;
+    const uint64_t bytes = (uint64_t)plan(op, &m->net, w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
                            (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
     model_free(builtin);
     return bytes;
@@ -171,11 +197,9 @@ static ew_result commit(ew_op *op) {
     if (mr != EW_OK) return mr;
     const ew_kpcn_net *net = &m->net;
     const size_t n = (size_t)w * (size_t)h;
-    /* device: row sums (doubles first), parameters, packed colour, albedo,
-     * normal, depth, radiance, clamped radiance, the filtered radiance
-     * (sliced), the output, the hand-made guide denoise_prepare writes, then
-     * the scale buffers and the scales' radiance and outputs */
-    const size_t need = device_floats(net, w, h);
+    /* device: row sums (doubles first), then as plan() counts */
+    ew_kpcn_tiling tiling;
+    const size_t need = plan(op, net, w, h, &tiling);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
     state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
@@ -188,10 +212,15 @@ static ew_result commit(ew_op *op) {
     }
     s->builtin = builtin;
     s->m = m;
+    s->tiling = tiling;
     if (builtin)
         snprintf(s->choice, sizeof s->choice, "kpcn %s", ew_kpcn_model_name((int)ew_op_param(op, "model")));
     else
         snprintf(s->choice, sizeof s->choice, "kpcn weights %s", net->arch);
+    if (tiling.nx * tiling.ny > 1) {
+        const size_t len = strlen(s->choice);
+        snprintf(s->choice + len, sizeof s->choice - len, ", %dx%d tiles", tiling.nx, tiling.ny);
+    }
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->row_out = (double *)s->dmem;
@@ -201,30 +230,26 @@ static ew_result commit(ew_op *op) {
     memset(b, 0, sizeof *b);
     b->width = w;
     b->height = h;
+    b->out = p; /* the colour is read by denoise_prepare only: the output takes its place */
     b->color = p; p += n * 3;
     b->albedo = p; p += n * 3;
     b->normal = p; p += n * 3;
     b->depth = p; p += n;
     b->radiance = p; p += n * 3;
     s->clamped = p; p += n * 3;
-    b->sliced = p; p += n * 3;
-    b->out = p; p += n * 3;
     b->guide = p; p += n;
-    ew_kpcn_scale_sizes(w, h, s->sw, s->sh);
-    float *scale_mem = p;
-    for (int k = 0; k < EW_KPCN_SCALES; k++) {
-        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], net->nplanes[k]);
-        p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
-    }
-    /* the zero padding of every plane is written once: the entries only
-     * write inside the planes */
-    ew_result r = dev->backend->mem_zero(dev, scale_mem, (size_t)(p - scale_mem) * sizeof(float));
+    /* the region's buffers */
+    int rsw[EW_KPCN_SCALES], rsh[EW_KPCN_SCALES];
+    ew_kpcn_scale_sizes(tiling.rw, tiling.rh, rsw, rsh);
+    s->scale_mem = p;
+    for (int k = 0; k < EW_KPCN_SCALES; k++) p += ew_gn_planes_floats(rsw[k], rsh[k], net->nplanes[k]) + 16;
+    s->scale_floats = (size_t)(p - s->scale_mem);
     for (int k = 1; k < EW_KPCN_SCALES; k++) {
-        s->rad[k] = p; p += 3 * (size_t)s->sw[k] * s->sh[k];
-        s->out[k] = p; p += 3 * (size_t)s->sw[k] * s->sh[k];
+        s->rad[k] = p; p += 3 * (size_t)rsw[k] * rsh[k];
+        s->out[k] = p; p += 3 * (size_t)rsw[k] * rsh[k];
     }
-    if (r == EW_OK) r = dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
-    return r;
+    s->tile_out = tiling.nx * tiling.ny > 1 ? p : NULL;
+    return dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
 }
 
 static ew_kpcn_tensor planes_t(const ew_gn_planes *b, int plane) {
@@ -253,12 +278,102 @@ static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes
     (void)EW_RUN(dev, kpcn_up, &a);
 }
 
+/* Lays the scale buffers out for a rw x rh region; zeroes them when the
+ * layout changes (the planes' zero padding is written once a layout: the
+ * entries only write inside the planes). */
+static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
+    if (s->lw == rw && s->lh == rh) return EW_OK;
+    const ew_kpcn_net *net = &s->m->net;
+    ew_kpcn_scale_sizes(rw, rh, s->sw, s->sh);
+    float *p = s->scale_mem;
+    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], net->nplanes[k]);
+        p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
+    }
+    s->lw = rw;
+    s->lh = rh;
+    return dev->backend->mem_zero(dev, s->scale_mem, s->scale_floats * sizeof(float));
+}
+
+/* The network and the filters on one tile's region, keeping its core in
+ * b->sliced; progress from p0 over the span dp. */
+static ew_result run_tile(ew_op *op, const float *radiance, float noise, const ew_kpcn_tile *tile, double p0,
+                          double dp) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    ew_denoise_buffers *b = &s->buf;
+    const ew_kpcn_net *net = &s->m->net;
+    const int W = b->width, C = net->ch, rw = tile->rw, rh = tile->rh;
+    ew_result r = layout_region(dev, s, rw, rh);
+    if (r != EW_OK) return r;
+    const long at = (long)tile->ry * W + tile->rx; /* the region's first pixel in the frame */
+    ew_kpcn_input_args ia = {rw, rh, radiance + at * 3, b->albedo + at * 3, b->normal + at * 3, b->depth + at,
+                             b->depth_scale, ew_gn_plane_row(&s->sb[0], 0, 0), s->sb[0].rs, s->sb[0].ps, net->noise,
+                             noise, W};
+    (void)EW_RUN(dev, kpcn_input, &ia);
+    if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    /* the network (algorithms/kpcn.h's layer list) */
+    conv(dev, s, 0);
+    pool(dev, &s->sb[0], net->h0, &s->sb[1], net->p1, C);
+    conv(dev, s, 1);
+    pool(dev, &s->sb[1], net->h1, &s->sb[2], net->p2, C);
+    conv(dev, s, 2);
+    conv(dev, s, 3);
+    conv(dev, s, 4);
+    up(dev, &s->sb[2], net->h2b, &s->sb[1], net->u1, C);
+    conv(dev, s, 5);
+    conv(dev, s, 6);
+    if (!ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    up(dev, &s->sb[1], net->d1, &s->sb[0], net->u0, C);
+    conv(dev, s, 7);
+    if (!ew_op_report(op, p0 + 0.6 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    conv(dev, s, 8);
+    if (!ew_op_report(op, p0 + 0.85 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    /* the radiance pyramid, then the filters coarse to fine */
+    const ew_kpcn_tensor rad0 = {(float *)radiance + at * 3, 3, 3L * W, 1};
+    ew_kpcn_tensor prev = rad0;
+    for (int sc = 1; sc < EW_KPCN_SCALES; sc++) {
+        ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
+                                flat_t(s->rad[sc], s->sw[sc], s->sh[sc])};
+        (void)EW_RUN(dev, kpcn_pool, &pa);
+        prev = pa.dst;
+    }
+    for (int sc = EW_KPCN_SCALES - 1; sc >= 0; sc--) {
+        ew_kpcn_filter_args fa;
+        memset(&fa, 0, sizeof fa);
+        fa.width = s->sw[sc];
+        fa.height = s->sh[sc];
+        fa.logits = planes_t(&s->sb[sc], sc == 0 ? net->k0 : sc == 1 ? net->k1 : net->k2);
+        fa.radiance = sc == 0 ? rad0 : flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
+        if (sc + 1 < EW_KPCN_SCALES) {
+            fa.coarse = flat_t(s->out[sc + 1], s->sw[sc + 1], s->sh[sc + 1]);
+            fa.cw = s->sw[sc + 1];
+            fa.ch = s->sh[sc + 1];
+        }
+        if (sc == 0) {
+            /* one tile writes the frame; several write their region, and keep the core */
+            ew_kpcn_tensor o = {s->tile_out ? s->tile_out : b->sliced, 3, 3L * rw, 1};
+            fa.out = o;
+        } else {
+            fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
+        }
+        (void)EW_RUN(dev, kpcn_filter, &fa);
+    }
+    if (s->tile_out) {
+        const size_t row = (size_t)tile->cw * 3 * sizeof(float);
+        for (int y = tile->cy; y < tile->cy + tile->ch && r == EW_OK; y++)
+            r = dev->backend->mem_copy(dev, b->sliced + ((long)y * W + tile->cx) * 3,
+                                       s->tile_out + ((long)(y - tile->ry) * rw + (tile->cx - tile->rx)) * 3, row);
+    }
+    return r;
+}
+
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
     const ew_kpcn_net *net = &s->m->net;
-    const int w = b->width, h = b->height, C = net->ch;
+    const int w = b->width, h = b->height;
     ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
     if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
     if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
@@ -288,55 +403,15 @@ static ew_result execute(ew_op *op) {
         if (r != EW_OK) return r;
         noise = ew_kpcn_noise_from_rows(s->rows, h);
     }
-    ew_kpcn_input_args ia = {w, h, radiance, b->albedo, b->normal, b->depth, b->depth_scale,
-                             ew_gn_plane_row(&s->sb[0], 0, 0), s->sb[0].rs, s->sb[0].ps, net->noise, noise};
-    (void)EW_RUN(dev, kpcn_input, &ia);
-    if (!ew_op_report(op, 0.05)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    /* the network (algorithms/kpcn.h's layer list) */
-    conv(dev, s, 0);
-    pool(dev, &s->sb[0], net->h0, &s->sb[1], net->p1, C);
-    conv(dev, s, 1);
-    pool(dev, &s->sb[1], net->h1, &s->sb[2], net->p2, C);
-    conv(dev, s, 2);
-    conv(dev, s, 3);
-    conv(dev, s, 4);
-    up(dev, &s->sb[2], net->h2b, &s->sb[1], net->u1, C);
-    conv(dev, s, 5);
-    conv(dev, s, 6);
-    if (!ew_op_report(op, 0.3)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    up(dev, &s->sb[1], net->d1, &s->sb[0], net->u0, C);
-    conv(dev, s, 7);
-    if (!ew_op_report(op, 0.6)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    conv(dev, s, 8);
-    if (!ew_op_report(op, 0.85)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    /* the radiance pyramid, then the filters coarse to fine */
-    const ew_kpcn_tensor rad0 = {radiance, 3, 3L * w, 1};
-    ew_kpcn_tensor prev = rad0;
-    for (int sc = 1; sc < EW_KPCN_SCALES; sc++) {
-        ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
-                                flat_t(s->rad[sc], s->sw[sc], s->sh[sc])};
-        (void)EW_RUN(dev, kpcn_pool, &pa);
-        prev = pa.dst;
-    }
-    for (int sc = EW_KPCN_SCALES - 1; sc >= 0; sc--) {
-        ew_kpcn_filter_args fa;
-        memset(&fa, 0, sizeof fa);
-        fa.width = s->sw[sc];
-        fa.height = s->sh[sc];
-        fa.logits = planes_t(&s->sb[sc], sc == 0 ? net->k0 : sc == 1 ? net->k1 : net->k2);
-        fa.radiance = sc == 0 ? rad0 : flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
-        if (sc + 1 < EW_KPCN_SCALES) {
-            fa.coarse = flat_t(s->out[sc + 1], s->sw[sc + 1], s->sh[sc + 1]);
-            fa.cw = s->sw[sc + 1];
-            fa.ch = s->sh[sc + 1];
-        }
-        if (sc == 0) {
-            ew_kpcn_tensor o = {b->sliced, 3, 3L * w, 1};
-            fa.out = o;
-        } else {
-            fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
-        }
-        (void)EW_RUN(dev, kpcn_filter, &fa);
+    /* the filtered radiance goes where the radiance the filters do not read was */
+    b->sliced = radiance == b->radiance ? s->clamped : b->radiance;
+    const ew_kpcn_tiling *t = &s->tiling;
+    const int ntiles = t->nx * t->ny;
+    for (int i = 0; i < ntiles; i++) {
+        ew_kpcn_tile tile;
+        ew_kpcn_tile_at(t, i, &tile);
+        r = run_tile(op, radiance, noise, &tile, (double)i / ntiles, 1.0 / ntiles);
+        if (r != EW_OK) return r;
     }
     dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
     return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);

@@ -198,6 +198,81 @@ size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
     return f;
 }
 
+static size_t region_floats(const ew_kpcn_net *net, int w, int h, size_t extra) {
+    return ew_kpcn_device_floats(net, w, h) + extra * (size_t)w * (size_t)h;
+}
+
+/* Core size n split into tiles of side t (a multiple of 4): the regions'
+ * summed length along that axis. */
+static long regions_length(int n, int t) {
+    long sum = 0;
+    for (int c = 0; c < n; c += t) {
+        const int r0 = c - EW_KPCN_HALO < 0 ? 0 : c - EW_KPCN_HALO;
+        const int r1 = c + t + EW_KPCN_HALO > n ? n : c + t + EW_KPCN_HALO;
+        sum += r1 - r0;
+    }
+    return sum;
+}
+
+static int region_side(int n, int t) {
+    if (t >= n) return n;
+    const int r = t + 2 * EW_KPCN_HALO;
+    return r > n ? n : r;
+}
+
+void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_floats, size_t region_extra_floats,
+                         ew_kpcn_tiling *t) {
+    memset(t, 0, sizeof *t);
+    t->width = w;
+    t->height = h;
+    t->tw = w;
+    t->th = h;
+    if (region_floats(net, w, h, region_extra_floats) > budget_floats) {
+        /* for each tile width, the tallest tile that fits; keep the plan
+         * with the fewest region pixels (the work, halos included) */
+        double best = -1.0;
+        int last = 0;
+        for (int nx = 1; nx <= (w + EW_KPCN_MIN_TILE - 1) / EW_KPCN_MIN_TILE; nx++) {
+            const int tw = ((w + nx - 1) / nx + 3) / 4 * 4;
+            if (tw == last || tw < EW_KPCN_MIN_TILE) continue;
+            last = tw;
+            const int rw = region_side(w, tw);
+            int lo = 0, hi = (h + 3) / 4; /* th = 4 * k: the largest k whose region fits */
+            while (lo < hi) {
+                const int mid = (lo + hi + 1) / 2;
+                if (region_floats(net, rw, region_side(h, 4 * mid), region_extra_floats) <= budget_floats) lo = mid;
+                else hi = mid - 1;
+            }
+            if (4 * lo < EW_KPCN_MIN_TILE) continue;
+            const double cost = (double)regions_length(w, tw) * (double)regions_length(h, 4 * lo);
+            if (best < 0.0 || cost < best) {
+                best = cost;
+                t->tw = tw;
+                t->th = 4 * lo;
+            }
+        }
+        if (best < 0.0) t->tw = t->th = EW_KPCN_MIN_TILE;
+        if (t->tw > w) t->tw = w;
+        if (t->th > h) t->th = h;
+    }
+    t->nx = (w + t->tw - 1) / t->tw;
+    t->ny = (h + t->th - 1) / t->th;
+    t->rw = region_side(w, t->tw);
+    t->rh = region_side(h, t->th);
+}
+
+void ew_kpcn_tile_at(const ew_kpcn_tiling *t, int i, ew_kpcn_tile *tile) {
+    const int ix = i % t->nx, iy = i / t->nx;
+    tile->cx = ix * t->tw;
+    tile->cy = iy * t->th;
+    tile->cw = ew_mini(t->tw, t->width - tile->cx);
+    tile->ch = ew_mini(t->th, t->height - tile->cy);
+    tile->rx = ew_maxi(tile->cx - EW_KPCN_HALO, 0);
+    tile->ry = ew_maxi(tile->cy - EW_KPCN_HALO, 0);
+    tile->rw = ew_mini(tile->cx + tile->cw + EW_KPCN_HALO, t->width) - tile->rx;
+    tile->rh = ew_mini(tile->cy + tile->ch + EW_KPCN_HALO, t->height) - tile->ry;
+}
+
 /* Which channel of src's layer input i of net's layer is, or -1 for a channel
  * src does not have: a decoder's input is [skip (C), upsampled (C)], so
  * its second half moves when the width changes. */
@@ -295,7 +370,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
         }
     free(raw);
     ew_kpcn_input_args ia = {width, height, f->radiance, albedo, normal, depth, b.depth_scale, f->input, width, n,
-                             1, ew_kpcn_frame_noise(width, height, f->radiance)};
+                             1, ew_kpcn_frame_noise(width, height, f->radiance), width};
     for (int y = 0; y < height; y++)
         for (int x = 0; x < width; x++) ew_kpcn_input_px(x, y, &ia);
     for (long j = 0; j < n; j++)

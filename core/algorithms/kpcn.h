@@ -5,7 +5,7 @@
  * that scale, and per pixel of the two finer scales a weight blending in the
  * coarser scale's (bilinearly upsampled) result (kernels/kpcn.h). The albedo
  * is multiplied back at the end. The quarter scale's 5x5 kernel spans 20x20
- * full-resolution pixels, and the network sees ~±50 pixels, at a cost
+ * full-resolution pixels, and an output pixel sees +-36 pixels, at a cost
  * dominated by the full-resolution layers.
  *
  * Layers (all 5x5 SAME convolutions with biases; C = the width):
@@ -101,6 +101,41 @@ void ew_kpcn_builtin_weights(int which, const unsigned char **bytes, size_t *siz
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
  * the three scale buffers, radiance pyramid and outputs of scales 1-2. */
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
+
+/* ---- tiles -------------------------------------------------------------
+ * A frame whose planes exceed a memory budget runs in tiles: each tile's
+ * core is computed on a region that adds EW_KPCN_HALO pixels on every side
+ * inside the frame, and only the core is kept. An output pixel depends on
+ * the inputs within +-36 pixels of it (counted through the layer list
+ * above: the longest path runs head0, dec0, up, dec1, up, enc2b, enc2a,
+ * pool, enc1, pool, enc0), and a region reads zero padding or clamped taps
+ * only at its own edges, so with that halo every core pixel sees what it
+ * sees in the whole frame. Core and region origins are multiples of 4, so
+ * the 2x2 poolings of a region pair the same pixels as the whole frame's;
+ * the output is the same bits as one whole-frame pass (tests/unit/
+ * test_kpcn.c; 32 pixels would not do). */
+#define EW_KPCN_HALO 36
+#define EW_KPCN_MIN_TILE 8 /* smallest core side: below it the halo is nearly all the work */
+
+typedef struct ew_kpcn_tiling {
+    int width, height; /* the frame */
+    int tw, th;        /* core size of every tile but the last of a row / column (multiples of 4) */
+    int nx, ny;
+    int rw, rh;        /* the largest region */
+} ew_kpcn_tiling;
+
+typedef struct ew_kpcn_tile {
+    int cx, cy, cw, ch; /* core: what the tile outputs */
+    int rx, ry, rw, rh; /* region: what it computes */
+} ew_kpcn_tile;
+
+/* Tiles of a w x h frame whose regions each need at most budget_floats
+ * device floats (ew_kpcn_device_floats + region_extra_floats a region
+ * pixel); fewest region pixels in all. One tile when the frame fits; tiles
+ * of EW_KPCN_MIN_TILE when even those exceed the budget. */
+void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_floats, size_t region_extra_floats,
+                         ew_kpcn_tiling *t);
+void ew_kpcn_tile_at(const ew_kpcn_tiling *t, int i, ew_kpcn_tile *tile); /* i in [0, nx * ny) */
 
 /* ---- training (host) ---------------------------------------------------- */
 #define EW_KPCN_LOSS_TM 0  /* L1 of the metrics' tone curve (kernels/guidenet.h ew_nbg_tm) */

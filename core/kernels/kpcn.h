@@ -52,12 +52,13 @@ EW_HD float *ew_kpcn_at(const ew_kpcn_tensor *t, int c, int y, int x) {
  */
 typedef struct ew_kpcn_input_args {
     int width, height;
-    const float *radiance, *albedo, *normal, *depth; /* packed, whole image (3, 3, 3, 1 floats a pixel) */
+    const float *radiance, *albedo, *normal, *depth; /* packed (3, 3, 3, 1 floats a pixel), at pixel (0, 0) */
     float depth_scale;
     float *dst; /* plane 0, row 0, x = 0 */
     long rs, ps;
     int noise_plane; /* 1: write plane 10 = noise */
     float noise;
+    long src_rs; /* pixels a row of the packed sources (the frame's width: a tile reads its region of them) */
 } ew_kpcn_input_args;
 
 /* The noise plane's value from the mean |HH| of the frame's compressed
@@ -80,7 +81,7 @@ EW_HD float ew_kpcn_noise_from_rows(const double *rows, int height) {
 }
 
 EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
-    const long j = (long)y * a->width + x;
+    const long j = (long)y * a->src_rs + x;
     float *d = a->dst + (long)y * a->rs + x;
     for (int k = 0; k < 3; k++) {
         float r = ew_feature_or_zero(a->radiance[j * 3 + k]);

@@ -810,6 +810,7 @@ TEST(kpcn_input_pool_up_filter) {
     h.noise = 0.375f;
     h.width = W;
     h.height = H;
+    h.src_rs = W;
     h.radiance = hrand(N * 3, 0.0f, 4.0f, 23);
     h.albedo = hrand(N * 3, 0.0f, 1.0f, 79);
     h.normal = hrand(N * 3, -1.0f, 1.0f, 0);

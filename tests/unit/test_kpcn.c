@@ -6,6 +6,7 @@
 #include "ew_test.h"
 
 #include <stdlib.h>
+#include <string.h>
 
 #include "algorithms/kpcn.h"
 #include "src/internal.h"
@@ -475,4 +476,134 @@ TEST(builtin_weights_match_model_files) {
         free(p);
         ew_weights_free(&w);
     }
+}
+
+/* ---- tiles ------------------------------------------------------------------ */
+/* The plan's tiles cover the frame once, start on multiples of 4, and each
+ * region holds its core plus the halo (clipped to the frame) within the
+ * budget, unless the budget is below the smallest tile. */
+TEST(tiling_plan_covers_frame_within_budget) {
+    ew_kpcn_net net;
+    char err[128];
+    CHECK(ew_kpcn_init(&net, "kpcn-c12-noise", err, sizeof err) == 0);
+    const int sizes[][2] = {{1, 1}, {7, 5}, {97, 203}, {640, 360}, {1283, 721}, {3840, 2160}};
+    const size_t budgets[] = {1, 200000, 3000000, 50000000, (size_t)1 << 40};
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++)
+        for (size_t bi = 0; bi < sizeof budgets / sizeof budgets[0]; bi++) {
+            const int w = sizes[si][0], h = sizes[si][1];
+            ew_kpcn_tiling t;
+            ew_kpcn_tiling_plan(&net, w, h, budgets[bi], 3, &t);
+            unsigned char *cover = calloc((size_t)w * h, 1);
+            int ok = 1;
+            for (int i = 0; i < t.nx * t.ny; i++) {
+                ew_kpcn_tile c;
+                ew_kpcn_tile_at(&t, i, &c);
+                ok &= c.cx % 4 == 0 && c.cy % 4 == 0 && c.rx % 4 == 0 && c.ry % 4 == 0 && c.cw > 0 && c.ch > 0;
+                ok &= c.rx == (c.cx > EW_KPCN_HALO ? c.cx - EW_KPCN_HALO : 0);
+                ok &= c.ry == (c.cy > EW_KPCN_HALO ? c.cy - EW_KPCN_HALO : 0);
+                ok &= c.rx + c.rw == (c.cx + c.cw + EW_KPCN_HALO < w ? c.cx + c.cw + EW_KPCN_HALO : w);
+                ok &= c.ry + c.rh == (c.cy + c.ch + EW_KPCN_HALO < h ? c.cy + c.ch + EW_KPCN_HALO : h);
+                ok &= c.rw <= t.rw && c.rh <= t.rh;
+                for (int y = c.cy; ok && y < c.cy + c.ch; y++)
+                    for (int x = c.cx; x < c.cx + c.cw; x++) cover[(long)y * w + x]++;
+            }
+            for (long j = 0; ok && j < (long)w * h; j++) ok = cover[j] == 1;
+            free(cover);
+            const size_t need = ew_kpcn_device_floats(&net, t.rw, t.rh) + 3 * (size_t)t.rw * t.rh;
+            const int smallest = t.tw <= EW_KPCN_MIN_TILE || t.th <= EW_KPCN_MIN_TILE;
+            if (!ok || (need > budgets[bi] && !smallest))
+                fprintf(stderr, "  %dx%d budget %zu: %dx%d tiles of %dx%d, region %dx%d (%zu floats)\n", w, h,
+                        budgets[bi], t.nx, t.ny, t.tw, t.th, t.rw, t.rh, need);
+            CHECK(ok);
+            CHECK(need <= budgets[bi] || smallest || t.nx * t.ny == 1);
+            if (budgets[bi] == (size_t)1 << 40) CHECK_EQ_INT(t.nx * t.ny, 1);
+        }
+}
+
+/* Denoise a w x h scene with weights `bytes` and a memory budget; the
+ * description in *what. */
+static void denoise_budget(const scene *sc, const void *bytes, size_t size, int budget_mb, float *out, char *what,
+                           size_t len) {
+    ew_device *dev = make_device(2);
+    CHECK(dev != NULL);
+    ew_denoiser *d = NULL;
+    CHECK(ew_denoiser_create(dev, "kpcn", &d) == EW_OK);
+    ew_image c = ew_image_packed(sc->color, sc->w, sc->h, 3), a = ew_image_packed(sc->albedo, sc->w, sc->h, 3);
+    ew_image n = ew_image_packed(sc->normal, sc->w, sc->h, 3), z = ew_image_packed(sc->depth, sc->w, sc->h, 1);
+    ew_image o = ew_image_packed(out, sc->w, sc->h, 3);
+    CHECK(ew_denoiser_set_data(d, "weights", bytes, size) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "normal", &n) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+    CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget_mb) == EW_OK);
+    CHECK(ew_denoiser_commit(d) == EW_OK);
+    CHECK(ew_denoiser_execute(d) == EW_OK);
+    snprintf(what, len, "%s", ew_denoiser_describe(d));
+    ew_denoiser_destroy(d);
+    ew_device_destroy(dev);
+}
+
+/* A frame larger than its tiles (odd sizes: partial pooling blocks at the
+ * right and bottom, tiles of three widths and heights) gives the same bits
+ * tiled as in one pass: the halo covers everything a core pixel sees, and
+ * the noise level and the firefly clamp come from the whole frame. */
+TEST(tiles_give_the_untiled_output) {
+    ew_kpcn_net net;
+    char err[128];
+    CHECK(ew_kpcn_init(&net, "kpcn-c8-noise", err, sizeof err) == 0);
+    float *params = malloc(sizeof(float) * net.nparams);
+    ew_kpcn_random(&net, 29, params);
+    for (size_t i = 0; i < net.nparams; i++) params[i] *= 5.0f;
+    void *bytes;
+    size_t size;
+    CHECK(ew_kpcn_save(&net, params, &bytes, &size) == 0);
+    scene sc;
+    scene_make(&sc, 331, 245, 5);
+    sc.color[(100L * sc.w + 150) * 3] = 500.0f; /* a firefly near a tile seam */
+    const size_t n3 = (size_t)sc.w * sc.h * 3;
+    float *whole = malloc(sizeof(float) * n3), *tiled = malloc(sizeof(float) * n3);
+    char what_whole[128], what_tiled[128];
+    denoise_budget(&sc, bytes, size, 1024, whole, what_whole, sizeof what_whole);
+    denoise_budget(&sc, bytes, size, 12, tiled, what_tiled, sizeof what_tiled);
+    fprintf(stderr, "  untiled: %s; tiled: %s\n", what_whole, what_tiled);
+    CHECK(strstr(what_whole, "tiles") == NULL);
+    CHECK_STR_CONTAINS(what_tiled, "tiles");
+    size_t differ = 0, first = n3;
+    for (size_t i = 0; i < n3; i++)
+        if (memcmp(&whole[i], &tiled[i], sizeof(float)) != 0 && differ++ == 0) first = i;
+    if (differ)
+        fprintf(stderr, "  %zu values differ, first at pixel (%ld, %ld): %.9g tiled vs %.9g\n", differ,
+                (long)(first / 3 % sc.w), (long)(first / 3 / sc.w), (double)tiled[first], (double)whole[first]);
+    CHECK(differ == 0);
+    free(whole);
+    free(tiled);
+    free(bytes);
+    free(params);
+    scene_free(&sc);
+}
+
+/* At 3840x2160 the default budget keeps the op under 2 GiB (the do-no-harm
+ * stage around it included), and auto at quality balanced and high, which
+ * may run it, needs no more than kpcn or auto's own lower rungs. */
+TEST(uhd_frame_fits_the_default_budget) {
+    ew_device *dev = make_device(1);
+    CHECK(dev != NULL);
+    uint64_t bytes[4] = {0, 0, 0, 0}; /* kpcn, auto fast, balanced, high */
+    for (int m = 0; m < 4; m++) {
+        ew_op *op = NULL;
+        CHECK(ew_op_create(dev, m ? "auto" : "kpcn", &op) == EW_OK);
+        if (m) CHECK(ew_op_set_int(op, "quality", m - 1) == EW_OK);
+        CHECK(ew_op_memory(op, 3840, 2160, &bytes[m]) == EW_OK);
+        fprintf(stderr, "  %s at 3840x2160: %.0f MiB\n",
+                m == 0 ? "kpcn" : m == 1 ? "auto fast" : m == 2 ? "auto balanced" : "auto high",
+                (double)bytes[m] / 1048576.0);
+        ew_op_destroy(op);
+    }
+    CHECK(bytes[0] > 0 && bytes[0] < (uint64_t)2 << 30);
+    const uint64_t lower = bytes[1] > bytes[0] ? bytes[1] : bytes[0];
+    CHECK(bytes[2] <= lower);
+    CHECK(bytes[3] <= lower);
+    ew_device_destroy(dev);
 }
