@@ -41,7 +41,7 @@ static const ew_param_desc params[] = {
     {"max_memory_mb", EW_PARAM_INT, 1024.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose network planes would exceed it "
      "runs in tiles with a 36-pixel halo, giving the same output; the frame-sized buffers (68 bytes a pixel) and "
-     "the smallest tile come first, so a tiny budget can be exceeded"},
+     "a 256x256 tile come first, so a small budget can be exceeded"},
 };
 
 typedef struct {
@@ -157,6 +157,7 @@ static ew_result model_of(const ew_op *op, const model **out, model **builtin) {
  * output of a region. */
 #define FRAME_FLOATS 17
 #define TILE_EXTRA_FLOATS 3
+#define MIN_CORE 256
 
 static size_t frame_floats(const ew_kpcn_net *net, int w, int h) {
     return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * FRAME_FLOATS + 64;
@@ -167,7 +168,12 @@ static size_t frame_floats(const ew_kpcn_net *net, int w, int h) {
 static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_kpcn_tiling *t) {
     const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
     const size_t frame = frame_floats(net, w, h);
-    ew_kpcn_tiling_plan(net, w, h, budget > frame ? budget - frame : 0, TILE_EXTRA_FLOATS, t);
+    /* below a 256-pixel core the halos would more than double the work:
+     * such a tile's region is the least the tiles get */
+    const int least = MIN_CORE + 2 * EW_KPCN_HALO;
+    const size_t floor = ew_kpcn_device_floats(net, least, least) + (size_t)TILE_EXTRA_FLOATS * least * least;
+    const size_t tiles = budget > frame + floor ? budget - frame : floor;
+    ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, t);
     const int tiled = t->nx * t->ny > 1;
     return frame + ew_kpcn_device_floats(net, t->rw, t->rh) +
            (tiled ? (size_t)TILE_EXTRA_FLOATS * (size_t)t->rw * (size_t)t->rh : 0);
