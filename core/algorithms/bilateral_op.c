@@ -119,9 +119,7 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     size_t need = method == EW_BF_PYRAMID ? 0 : n * (size_t)(2 * EW_BF_CH + m.attrs);
     if (method == EW_BF_SEPARABLE) need += n * (size_t)EW_BF_CH;
     if (method == EW_BF_PYRAMID) need += ew_pyr_scratch_floats(&m, w, h, levels, uniform);
-    if (op->state) ew_bf_op_release(op);
-    state *s = (state *)malloc(sizeof(state) + need * sizeof(float));
-    op->state = s;
+    state *s = (state *)ew_op_state_block(op, sizeof(state) + need * sizeof(float));
     if (!s)
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: filtering %dx%d needs %.1f MiB", w, h,
                         (double)need * sizeof(float) / 1048576.0);
@@ -216,4 +214,5 @@ ew_result ew_bf_op_execute(ew_op *op) {
 void ew_bf_op_release(ew_op *op) {
     free(op->state);
     op->state = NULL;
+    op->state_bytes = 0;
 }

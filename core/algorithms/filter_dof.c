@@ -50,6 +50,7 @@ typedef struct {
 static void release(ew_op *op) {
     free(op->state);
     op->state = NULL;
+    op->state_bytes = 0;
 }
 
 static ew_result commit(ew_op *op) {
@@ -86,9 +87,7 @@ static ew_result commit(ew_op *op) {
     size_t need = n * (size_t)(2 * EW_BF_CH + 1) + ew_dof_scratch_floats(w, h);
     if (method == 2) need += n * (size_t)EW_BF_CH;
     if (method == 0) need += ew_pyr_scratch_floats(&m, w, h, levels, 0);
-    if (op->state) release(op);
-    state *s = (state *)malloc(sizeof(state) + need * sizeof(float));
-    op->state = s;
+    state *s = (state *)ew_op_state_block(op, sizeof(state) + need * sizeof(float));
     if (!s)
         return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory: depth of field at %dx%d needs %.1f MiB", w, h,
                         (double)need * sizeof(float) / 1048576.0);

@@ -57,7 +57,16 @@ static void release(ew_op *op) {
     ew_op_alpha_release(op);
     if (op->state && op->type->release) op->type->release(op);
     op->state = NULL;
+    op->state_bytes = 0;
     op->committed = 0;
+}
+
+void *ew_op_state_block(ew_op *op, size_t bytes) {
+    if (op->state && op->state_bytes == bytes) return op->state;
+    if (op->state && op->type->release) op->type->release(op);
+    op->state = malloc(bytes);
+    op->state_bytes = op->state ? bytes : 0;
+    return op->state;
 }
 
 static void op_free(ew_op *op) {

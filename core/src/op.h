@@ -116,6 +116,7 @@ struct ew_op {
     int busy;
     int destroy_pending;
     void *state;
+    size_t state_bytes; /* of state when made by ew_op_state_block, else 0 */
     void *data_state;
     void *harm; /* the do-no-harm stage's buffers (src/harm_stage.c), or NULL */
     /* filters_alpha with an RGBA colour: the run on the alpha and the alpha
@@ -142,6 +143,14 @@ float ew_op_param(const ew_op *op, const char *name);
 /* Overwrite a parameter from inside the op (e.g. a one-shot trigger). */
 void ew_op_param_put(ew_op *op, const char *name, float value);
 int ew_op_report(ew_op *op, double fraction);
+
+/* op->state as one host block of `bytes` (for an op whose state is that
+ * block, released with free): the block it has when that is already the
+ * size — a graph commits its ops again every frame with the same images,
+ * and a new block would be faulted in and zeroed by the kernel again —
+ * else a new one (the old one freed first). Contents are not kept. NULL
+ * when out of memory; the op then has no state. */
+void *ew_op_state_block(ew_op *op, size_t bytes);
 
 /* A type's parameters: its own, then the do-no-harm stage's when it has
  * the stage (src/harm_stage.c). Every front lists them through these. */

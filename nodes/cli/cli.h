@@ -119,6 +119,7 @@ typedef struct cli_timings {
 } cli_timings;
 extern cli_timings cli_timing;
 double cli_seconds(void);
+void cli_return_freed_memory(void); /* malloc_trim: see cli_main.c */
 int cli_take_timings(int *argc, char **argv);
 void cli_print_timings(void);
 

@@ -53,6 +53,13 @@ static void keep_freed_memory(void) {
     mallopt(M_TRIM_THRESHOLD, 1 << 30);
 }
 
+/* Between phases of a one-shot command: the heap's free blocks go back to
+ * the system. A phase that frees a frame's worth (the input pass once it is
+ * copied out, the op's buffers after it ran) is followed by one whose large
+ * buffers are mapped, not carved from the heap: kept, the freed memory
+ * would add to that phase's peak instead of serving it. */
+void cli_return_freed_memory(void) { malloc_trim(0); }
+
 __attribute__((visibility("default"))) int ew_cli_main(int argc, char **argv, const char *usage);
 
 int ew_cli_main(int argc, char **argv, const char *usage) {

@@ -552,6 +552,11 @@ static int execute(const parser *p) {
     if (r != EW_OK) { cli_fail("%s '%s': %s", cmd->kind, method, ew_device_last_error(dev)); goto done; }
     if (set_params(p, op, dev, 0) != 0) goto done;
 
+    /* the pass is in pix now and gets the result back (ewio_set_pass): the
+     * file need not hold it too while the method works */
+    ewio_release_pass(f, layer, pass, comps);
+    cli_return_freed_memory();
+
     cli_progress prog;
     cli_progress_init(&prog, method, 1, quiet);
     ew_op_set_progress(op, cli_progress_cb, &prog);
@@ -593,6 +598,15 @@ static int execute(const parser *p) {
                     (double)lo, (double)hi);
         }
         if (bad) fprintf(stderr, "edgewise: %ld non-finite samples in '%s' were treated as missing\n", bad, pass);
+    }
+    /* the results are in out and bufs: the op's memory goes before they are
+     * put into the file (unless --timings=N runs it again, or the reference
+     * is scored on the device) */
+    if (!cli_timing.warm_runs && !reference) {
+        ew_op_destroy(op);
+        op = NULL;
+        ew_device_destroy(dev);
+        dev = NULL;
     }
     if (ewio_set_pass(f, layer, pass, comps, out, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
     for (int32_t k = 0; k < MAX_IMAGES; k++) {
@@ -641,6 +655,7 @@ static int execute(const parser *p) {
             free(bufs[k]);
             bufs[k] = NULL;
         }
+        cli_return_freed_memory();
     }
     const double t_write = cli_seconds();
     if (cli_write(f, out_path, type, layer, pass, &p->view, quiet, err, sizeof err) != 0) {

@@ -611,6 +611,36 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
             for (size_t i = 0; i < npix; i++)
                 for (int c = 0; c < nch; c++)
                     f->ch[first + size_t(c)].px[i] = buf[i * size_t(nch) + size_t(c)];
+        } else if (fmt == "openexr") {
+            /* The stored types (half, float, uint), converted here plane by
+             * plane: OIIO's converting read_scanlines allocates a 64 MiB
+             * buffer on every call, whatever the band. */
+            std::vector<TypeDesc> cf(size_t(nch), OIIO::TypeFloat);
+            std::vector<size_t> off(static_cast<size_t>(nch));
+            size_t pxb = 0;
+            for (int c = 0; c < nch; c++) {
+                cf[size_t(c)] = s.channelformat(c);
+                off[size_t(c)] = pxb;
+                pxb += cf[size_t(c)].size();
+            }
+            size_t rows = std::max<size_t>(1, kBandFloats * sizeof(float) / (w * pxb));
+            rows = std::min(rows, size_t(s.height));
+            std::vector<unsigned char> buf(rows * w * pxb);
+            for (int y0 = 0; y0 < s.height; y0 += int(rows)) {
+                const int y1 = std::min(s.height, y0 + int(rows));
+                bool ok = in->read_native_scanlines(sub, 0, s.y + y0, s.y + y1, 0, 0, nch, buf.data());
+                for (int c = 0; ok && c < nch; c++)
+                    ok = OIIO::convert_image(1, s.width, y1 - y0, 1, buf.data() + off[size_t(c)], cf[size_t(c)],
+                                             OIIO::stride_t(pxb), OIIO::stride_t(w * pxb), OIIO::AutoStride,
+                                             f->ch[first + size_t(c)].px.data() + size_t(y0) * w,
+                                             OIIO::TypeFloat, OIIO::stride_t(sizeof(float)),
+                                             OIIO::stride_t(w * sizeof(float)), OIIO::AutoStride);
+                if (!ok) {
+                    msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
+                          oiio_msg(in->geterror(), "read failed") + ")";
+                    return 1;
+                }
+            }
         } else {
             size_t rows = std::max<size_t>(1, kBandFloats / (w * size_t(nch)));
             rows = std::min(rows, size_t(s.height));
@@ -691,14 +721,16 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
         std::vector<float> buf(size_t(w) * size_t(h) * size_t(nch));
         ok = in->read_image(0, 0, 0, nch, OIIO::TypeFloat, buf.data());
     } else {
-        size_t rows = std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch)));
+        /* decoding is the check: the stored types, no conversion (OIIO's
+         * converting read allocates 64 MiB a call) */
+        const size_t pxb = s.pixel_bytes(true);
+        size_t rows = std::max<size_t>(1, kBandFloats * sizeof(float) / (size_t(w) * pxb));
         rows = std::min(rows, size_t(h));
-        std::vector<float> buf(rows * size_t(w) * size_t(nch));
+        std::vector<unsigned char> buf(rows * size_t(w) * pxb);
         ok = true;
         for (int y0 = 0; ok && y0 < h; y0 += int(rows)) {
             const int y1 = std::min(h, y0 + int(rows));
-            ok = in->read_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0, nch, OIIO::TypeFloat,
-                                    buf.data());
+            ok = in->read_native_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0, nch, buf.data());
         }
     }
     if (!ok) why = oiio_msg(in->geterror(), "cannot read its pixels");
@@ -839,6 +871,12 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         }
     }
     const int nch = int(src.size());
+    for (int i : src)
+        if (f.ch[size_t(i)].px.size() != size_t(w) * size_t(h)) {
+            msg = what + "the pixels of channel " + q(f.ch[size_t(i)].name) +
+                  " were released (ewio_release_pass) and not set again";
+            return 1;
+        }
 
     TypeDesc widest = fmts[0];
     bool mixed = false;
@@ -1253,6 +1291,12 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
             return 1;
         }
         const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
+        for (size_t k = 0; k < n; k++)
+            if (f->ch[size_t(idx[k])].px.size() != npix) {
+                set_err(err, errlen, "ewio_get_pass: the pixels of " + display_pass(L, P) +
+                                         " were released (ewio_release_pass) and not set again");
+                return 1;
+            }
         for (size_t k = 0; k < n; k++) {
             const float *s = f->ch[size_t(idx[k])].px.data();
             for (size_t i = 0; i < npix; i++) dst[i * n + k] = s[i];
@@ -1264,6 +1308,23 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
         set_err(err, errlen, "ewio_get_pass: unexpected error");
     }
     return 1;
+}
+
+int ewio_release_pass(ewio_file *f, const char *layer, const char *pass, const char *comps) {
+    if (!f || !comps || !*comps) return 1;
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "";
+        std::vector<int> idx;
+        for (const char *c = comps; *c; c++) {
+            const int i = find_channel(*f, L, P, std::string(1, *c));
+            if (i < 0) return 1;
+            idx.push_back(i);
+        }
+        for (int i : idx) Plane().swap(f->ch[size_t(i)].px);
+        return 0;
+    } catch (...) {
+        return 1;
+    }
 }
 
 int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
@@ -1307,13 +1368,15 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
             }
         }
         const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
-        /* Prepare everything that allocates before changing the file. */
+        /* Prepare everything that allocates before changing the file: planes
+         * for new channels and for released ones; a channel that has its
+         * pixels is overwritten where it is (no second copy of the pass). */
         std::vector<Plane> data(n);
         size_t nnew = 0;
         for (size_t k = 0; k < n; k++) {
-            data[k].resize(npix);
-            for (size_t i = 0; i < npix; i++) data[k][i] = src[i * n + k];
-            if (find_channel(*f, L, P, std::string(1, C[k])) < 0) nnew++;
+            const int i = find_channel(*f, L, P, std::string(1, C[k]));
+            if (i < 0) nnew++;
+            if (i < 0 || f->ch[size_t(i)].px.size() != npix) data[k].resize(npix);
         }
         std::vector<Channel> fresh;
         fresh.reserve(nnew);
@@ -1334,8 +1397,10 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
         size_t fi = 0;
         for (size_t k = 0; k < n; k++) {
             int i = find_channel(*f, L, P, std::string(1, C[k]));
+            Plane &dst = i >= 0 && data[k].empty() ? f->ch[size_t(i)].px : data[k];
+            for (size_t j = 0; j < npix; j++) dst[j] = src[j * n + k];
             if (i >= 0) {
-                f->ch[size_t(i)].px.swap(data[k]);
+                if (&dst != &f->ch[size_t(i)].px) f->ch[size_t(i)].px.swap(data[k]);
                 continue;
             }
             /* After the pass's last channel, else the layer's, else at the end. */

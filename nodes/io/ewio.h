@@ -93,12 +93,21 @@ const char *ewio_layer_name(const ewio_file *f, int i);
  * pass means "". */
 int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps,
                   float *dst, char *err, size_t errlen);
+/* Free the pixels of the pass's components `comps` (as ewio_get_pass; names,
+ * order and stored types stay), for a caller that has copied them out and
+ * will put its result back with ewio_set_pass: the image is then not held
+ * twice while it works. Until they are set again, ewio_get_pass and
+ * ewio_write refuse them (ewio_has_pass still sees them). Non-zero, and
+ * nothing freed, if a component is missing. */
+int ewio_release_pass(ewio_file *f, const char *layer, const char *pass, const char *comps);
+
 /* 1 if all components of the pass exist. */
 int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps);
 
 /* Replace the pass's channels (or add them, after the layer's other channels)
  * from interleaved float32 data of the file's size. Existing channels are
- * replaced in place and keep their stored type; new ones are inserted after
+ * overwritten in place (no second copy of the pass is allocated, unless it
+ * was released) and keep their stored type; new ones are inserted after
  * the pass's last channel, else after the layer's last channel, else at the
  * end, and are stored as half under EWIO_KEEP. Refused (file unchanged): a
  * named layer with an empty pass, a pass name with a dot, repeated

@@ -235,6 +235,44 @@ TEST(set_pass_order_and_replace) {
     ewio_free(f);
 }
 
+/* A released pass is refused until it is set again; setting it brings its
+ * channels back where they were, and the rest of the file is untouched. */
+TEST(release_pass_then_set) {
+    char dir[4096], p[4200], err[512];
+    CHECK(make_tmpdir(dir, sizeof dir));
+    ewio_file *f = make_blender_like(9, 5, "ViewLayer");
+    CHECK(f != NULL);
+    const int nch = ewio_num_channels(f);
+    CHECK(ewio_release_pass(f, "ViewLayer", "No Such Pass", "RGB") != 0);
+    CHECK(ewio_release_pass(f, "ViewLayer", "Combined", "RGBW") != 0); /* no W: nothing freed */
+    CHECK(pattern_diff(f, "ViewLayer", "Combined", "RGBA", 1) == 0.0);
+    CHECK(ewio_release_pass(f, "ViewLayer", "Combined", "RGBA") == 0);
+    CHECK_EQ_INT(ewio_num_channels(f), nch);
+    CHECK_EQ_INT(ewio_has_pass(f, "ViewLayer", "Combined", "RGBA"), 1);
+    float px[9 * 5 * 4];
+    CHECK(ewio_get_pass(f, "ViewLayer", "Combined", "RGB", px, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "released");
+    snprintf(p, sizeof p, "%s/released.exr", dir);
+    CHECK(ewio_write(f, p, EWIO_FLOAT, NULL, NULL, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "released");
+    CHECK(!file_exists(p));
+    CHECK(count_entries(dir, ".tmp-") == 0);
+    /* other passes still read */
+    CHECK(pattern_diff(f, "ViewLayer", "Vector", "XYZW", 5) == 0.0);
+    CHECK(set_pattern(f, "ViewLayer", "Combined", "RGBA", 7) == 0);
+    CHECK_EQ_INT(ewio_num_channels(f), nch);
+    CHECK(!strcmp(ewio_channel_name(f, 0), "ViewLayer.Combined.R"));
+    CHECK(ewio_write(f, p, EWIO_FLOAT, NULL, NULL, err, sizeof err) == 0);
+    ewio_file *g = NULL;
+    CHECK(ewio_read(p, &g, err, sizeof err) == 0);
+    CHECK(pattern_diff(g, "ViewLayer", "Combined", "RGBA", 7) == 0.0);
+    CHECK(pattern_diff(g, "ViewLayer", "Denoising Albedo", "RGB", 2) == 0.0);
+    CHECK(pattern_diff(g, "ViewLayer", "Vector", "XYZW", 5) == 0.0);
+    ewio_free(g);
+    ewio_free(f);
+    rm_tree(dir);
+}
+
 /* --------------------------------------------------------- round trips */
 
 TEST(roundtrip_multilayer_float_and_half) {
