@@ -140,12 +140,13 @@ void ew_pyr_backward1(const ew_pyr_plan *p, const float *image, const float *att
 /* ---- the weights file (pyramid_weights.c) ---- */
 #define EW_PYR_ARCH "xu2024-dual3x3/v1: wf[9] by fine offset, wc[9] by distance class, gamma; " \
                     "levels=max(2,ceil(log2(3.5 sigma)))"
-/* Parse and validate a weights file in memory: magic, version, architecture
- * string, tensor names and shapes, checksum, finite values, Eq. 2g and the
- * weights' ranges. Returns EW_OK or EW_ERR_INVALID_DATA with why filled. */
+/* Parse and validate a weights file (src/weights.h) in memory: the
+ * container's checks (magic, version, sizes, checksum, finite values), then
+ * architecture string, tensor names and shapes, Eq. 2g and the weights'
+ * ranges. Returns EW_OK or EW_ERR_INVALID_DATA with why filled. */
 ew_result ew_pyr_table_parse(const void *data, size_t size, ew_pyr_table *out, char *why, size_t whylen);
 /* Serialise a table (what the training tool writes). Returns the number of
- * bytes needed; writes only when buf is large enough. */
+ * bytes needed, 0 when out of memory; writes only when buf is large enough. */
 size_t ew_pyr_table_write(const ew_pyr_table *t, void *buf, size_t cap);
 /* The trained table built into the library for a model kind, parsed and
  * validated into *out: GI's own (pyramid_weights_gi_data.c, a copy of

@@ -7,6 +7,8 @@
 #include <zlib.h>
 
 static const char magic[8] = {'E', 'W', 'W', 'E', 'I', 'G', 'H', 'T'};
+/* the pyramid tables' magic before they moved into this container */
+static const char pyramid_magic[8] = {'E', 'W', 'P', 'Y', 'R', 'W', 'T', 'S'};
 
 uint32_t ew_crc32(const void *data, size_t size) { return (uint32_t)crc32_z(0uL, (const Bytef *)data, size); }
 
@@ -43,7 +45,8 @@ void ew_weights_free(ew_weights *w) {
 int ew_weights_parse(const void *bytes, size_t size, ew_weights *out, char *err, size_t errlen) {
     memset(out, 0, sizeof *out);
     if (!bytes || size < sizeof magic + 8) FAIL("weights file is too small (%zu bytes)", size);
-    if (memcmp(bytes, magic, sizeof magic) != 0) FAIL("not an Edgewise weights file (bad magic)");
+    if (memcmp(bytes, magic, sizeof magic) != 0 && memcmp(bytes, pyramid_magic, sizeof magic) != 0)
+        FAIL("not an Edgewise weights file (bad magic)");
     reader r = {(const unsigned char *)bytes, size - 4, sizeof magic};
     uint32_t stored_crc = 0, version = 0;
     reader tail = {(const unsigned char *)bytes, size, size - 4};
@@ -91,23 +94,29 @@ int ew_weights_parse(const void *bytes, size_t size, ew_weights *out, char *err,
 }
 #undef FAIL
 
-const ew_tensor *ew_weights_find(const ew_weights *w, const char *name, uint32_t rank, const uint32_t *dims,
-                                 char *err, size_t errlen) {
-    for (uint32_t i = 0; i < w->num_tensors; i++) {
-        const ew_tensor *t = &w->tensors[i];
-        if (strcmp(t->name, name) != 0) continue;
-        int same = t->rank == rank;
-        for (uint32_t k = 0; same && k < rank; k++) same = t->dims[k] == dims[k];
-        if (!same) {
-            snprintf(err, errlen, "weights '%s': tensor '%s' has the wrong shape for this architecture", w->arch, name);
-            return NULL;
-        }
-        return t;
-    }
-    snprintf(err, errlen, "weights '%s': no tensor '%s'", w->arch, name);
+const ew_tensor *ew_weights_tensor(const ew_weights *w, const char *name) {
+    for (uint32_t i = 0; i < w->num_tensors; i++)
+        if (strcmp(w->tensors[i].name, name) == 0) return &w->tensors[i];
     return NULL;
 }
 
+const ew_tensor *ew_weights_find(const ew_weights *w, const char *name, uint32_t rank, const uint32_t *dims,
+                                 char *err, size_t errlen) {
+    const ew_tensor *t = ew_weights_tensor(w, name);
+    if (!t) {
+        snprintf(err, errlen, "weights '%s': no tensor '%s'", w->arch, name);
+        return NULL;
+    }
+    int same = t->rank == rank;
+    for (uint32_t k = 0; same && k < rank; k++) same = t->dims[k] == dims[k];
+    if (!same) {
+        snprintf(err, errlen, "weights '%s': tensor '%s' has the wrong shape for this architecture", w->arch, name);
+        return NULL;
+    }
+    return t;
+}
+
+/* p NULL: only counts the bytes */
 typedef struct { unsigned char *p; size_t at; } writer;
 
 static void wr_u32(writer *w, uint32_t v) {
@@ -145,15 +154,23 @@ static void emit(const ew_weights *wt, writer *w) {
     }
 }
 
-int ew_weights_serialize(const ew_weights *wt, void **out, size_t *size) {
+size_t ew_weights_write(const ew_weights *wt, void *buf, size_t cap) {
     writer sizing = {NULL, 0};
     emit(wt, &sizing);
-    unsigned char *buf = (unsigned char *)malloc(sizing.at + 4);
-    if (!buf) return 1;
-    writer w = {buf, 0};
+    const size_t size = sizing.at + 4;
+    if (!buf || cap < size) return size;
+    writer w = {(unsigned char *)buf, 0};
     emit(wt, &w);
     wr_u32(&w, ew_crc32(buf, sizing.at));
+    return size;
+}
+
+int ew_weights_serialize(const ew_weights *wt, void **out, size_t *size) {
+    const size_t n = ew_weights_write(wt, NULL, 0);
+    void *buf = malloc(n);
+    if (!buf) return 1;
+    ew_weights_write(wt, buf, n);
     *out = buf;
-    *size = w.at;
+    *size = n;
     return 0;
 }

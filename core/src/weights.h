@@ -1,15 +1,18 @@
 /*
- * weights.h — the versioned binary format of trained parameters (GuideNet
+ * weights.h — the one container of trained parameters (GuideNet and KPCN
  * convolutions, pyramid filter weight tables), validated on load.
  *
  * Layout (little-endian):
  *   magic "EWWEIGHT" (8 bytes), u32 version (1), u32 arch length, arch
- *   string (e.g. "guidenet-rt-3grid"), u32 tensor count, then per tensor:
+ *   string (e.g. "nbg-2layer-3grid"), u32 tensor count, then per tensor:
  *   u32 name length, name, u32 rank (1..4), u32 dims[rank], f32 data[prod],
- *   and finally u32 CRC-32 (IEEE) of every byte before it.
+ *   and finally u32 CRC-32 (zlib's crc32) of every byte before it.
+ * Pyramid tables were once written with the magic "EWPYRWTS" and this same
+ * layout; such files are still read.
  * Loading checks magic, version, sizes against the buffer, finiteness of
  * every value and the checksum, so a damaged or foreign file is an error,
- * never a wrong image.
+ * never a wrong image. What the tensors must hold is the reader's check
+ * (its architecture string, names, shapes and ranges).
  */
 #ifndef EW_WEIGHTS_H
 #define EW_WEIGHTS_H
@@ -20,6 +23,7 @@
 #define EW_WEIGHTS_VERSION 1u
 #define EW_WEIGHTS_MAX_RANK 4
 #define EW_WEIGHTS_MAX_NAME 64
+#define EW_WEIGHTS_MAX_ARCH 256
 
 typedef struct ew_tensor {
     char name[EW_WEIGHTS_MAX_NAME];
@@ -30,7 +34,7 @@ typedef struct ew_tensor {
 } ew_tensor;
 
 typedef struct ew_weights {
-    char arch[EW_WEIGHTS_MAX_NAME];
+    char arch[EW_WEIGHTS_MAX_ARCH];
     uint32_t num_tensors;
     ew_tensor *tensors;
 } ew_weights;
@@ -43,9 +47,14 @@ void ew_weights_free(ew_weights *w);
  * when absent or shaped differently. */
 const ew_tensor *ew_weights_find(const ew_weights *w, const char *name, uint32_t rank, const uint32_t *dims,
                                  char *err, size_t errlen);
+/* Tensor by name, whatever its shape; NULL when absent. */
+const ew_tensor *ew_weights_tensor(const ew_weights *w, const char *name);
+/* Serialise into buf when cap is enough; returns the file's size either
+ * way (buf NULL: just the size). */
+size_t ew_weights_write(const ew_weights *w, void *buf, size_t cap);
 /* Serialise; *out is malloc'd (caller frees). Returns 0 on success. */
 int ew_weights_serialize(const ew_weights *w, void **out, size_t *size);
-/* CRC-32 (IEEE, zlib's crc32) of data: the checksum of both weights formats. */
+/* CRC-32 (IEEE, zlib's crc32) of data: the container's checksum. */
 uint32_t ew_crc32(const void *data, size_t size);
 
 #endif

@@ -13,6 +13,7 @@
 #include "algorithms/pyramid.h"
 #include "src/backend.h"
 #include "src/op.h"
+#include "src/weights.h"
 
 static float urand(unsigned *s) {
     *s = *s * 1664525u + 1013904223u;
@@ -679,6 +680,12 @@ TEST(result_independent_of_thread_count) {
 }
 
 /* ---- the weights file ---- */
+/* the container's checksum of buf[0..n) after a patch */
+static void set_crc(unsigned char *buf, size_t n) {
+    const uint32_t crc = ew_crc32(buf, n - 4);
+    for (int k = 0; k < 4; k++) buf[n - 4 + k] = (unsigned char)(crc >> (8 * k));
+}
+
 TEST(weights_file_round_trip_and_validation) {
     ew_pyr_table t, back;
     unsigned s = 5;
@@ -696,7 +703,18 @@ TEST(weights_file_round_trip_and_validation) {
     CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
     CHECK_STR_CONTAINS(why, "checksum");
     buf[n / 2] ^= 1;
+    /* the weights container, as the networks' files */
+    CHECK(memcmp(buf, "EWWEIGHT", 8) == 0);
+    /* tables written before they moved into that container: same layout,
+     * magic "EWPYRWTS"; still read, to the same table */
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_OK);
+    memcpy(buf, "EWPYRWTS", 8);
+    set_crc(buf, n);
+    ew_pyr_table legacy;
+    CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &legacy, why, sizeof why), EW_OK);
+    CHECK(memcmp(&legacy, &back, sizeof back) == 0);
     buf[0] = 'X';
+    set_crc(buf, n);
     CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
     CHECK_STR_CONTAINS(why, "magic");
     free(buf);
@@ -720,13 +738,7 @@ TEST(weights_file_round_trip_and_validation) {
     CHECK_NEAR(centre, ew_pyr_centre_weight(&t.p[0][0]), 1e-6);
     centre -= 0.01f;
     memcpy(buf + at, &centre, 4);
-    uint32_t crc = 0xffffffffu;
-    for (size_t i = 0; i < n - 4; i++) {
-        crc ^= buf[i];
-        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-    }
-    crc = ~crc;
-    for (int k = 0; k < 4; k++) buf[n - 4 + k] = (unsigned char)(crc >> (8 * k));
+    set_crc(buf, n);
     CHECK_EQ_INT(ew_pyr_table_parse(buf, n, &back, why, sizeof why), EW_ERR_INVALID_DATA);
     CHECK_STR_CONTAINS(why, "Eq. 2g");
     free(buf);
@@ -843,6 +855,16 @@ TEST(builtin_weights_are_the_models_files) {
         CHECK(t.nodes >= 1);
         if (kinds[k] == EW_RANGE_GI) CHECK(same_table(&t, ew_pyr_builtin_weights_gi, ew_pyr_builtin_weights_gi_size));
         else CHECK(same_table(&t, ew_pyr_builtin_weights, ew_pyr_builtin_weights_size));
+    }
+    /* in the current container: writing the parsed table gives the same bytes */
+    const unsigned char *files[] = {ew_pyr_builtin_weights, ew_pyr_builtin_weights_gi};
+    const size_t sizes[] = {ew_pyr_builtin_weights_size, ew_pyr_builtin_weights_gi_size};
+    for (int k = 0; k < 2; k++) {
+        CHECK_EQ_INT(ew_pyr_table_parse(files[k], sizes[k], &t, why, sizeof why), EW_OK);
+        unsigned char *again = malloc(sizes[k]);
+        CHECK(again && ew_pyr_table_write(&t, again, sizes[k]) == sizes[k]);
+        CHECK(again && memcmp(again, files[k], sizes[k]) == 0);
+        free(again);
     }
     /* two different tables (else the GI table would be a copy) */
     CHECK(ew_pyr_builtin_weights_size != ew_pyr_builtin_weights_gi_size ||

@@ -497,8 +497,12 @@ static const model_spec models[] = {
 
 static int write_outputs(const ew_pyr_table *t, const model_spec *ms, const char *out_dir, const char *c_out) {
     size_t n = ew_pyr_table_write(t, NULL, 0);
-    unsigned char *buf = (unsigned char *)malloc(n);
-    ew_pyr_table_write(t, buf, n);
+    unsigned char *buf = n ? (unsigned char *)malloc(n) : NULL;
+    if (!buf || ew_pyr_table_write(t, buf, n) != n) {
+        fprintf(stderr, "train_pyramid: out of memory writing the table\n");
+        free(buf);
+        return -1;
+    }
     ew_pyr_table check;
     char why[200];
     if (ew_pyr_table_parse(buf, n, &check, why, sizeof why) != EW_OK) {
