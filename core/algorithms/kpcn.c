@@ -375,7 +375,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
         for (int x = 0; x < width; x++) ew_kpcn_input_px(x, y, &ia);
     for (long j = 0; j < n; j++)
         for (int k = 0; k < 3; k++) {
-            f->albedo_f[j * 3 + k] = ew_maxf(ew_feature_or_zero(albedo[j * 3 + k]), 0.0f) + EW_ALBEDO_EPS;
+            f->albedo_f[j * 3 + k] = ew_albedo_factor(albedo[j * 3 + k]);
             f->ref[j * 3 + k] = ew_feature_or_zero(reference[j * 3 + k]);
         }
     return 0;

@@ -68,7 +68,7 @@ int ew_train_frame_init(ew_train_frame *f, int width, int height, const float *c
     for (long j = 0; j < n; j++) {
         ew_gn_input_px(j, color, albedo, normal, depth, b.depth_scale, f->input + j, n);
         for (int k = 0; k < 3; k++) {
-            f->albedo_f[j * 3 + k] = ew_maxf(ew_feature_or_zero(albedo[j * 3 + k]), 0.0f) + EW_ALBEDO_EPS;
+            f->albedo_f[j * 3 + k] = ew_albedo_factor(albedo[j * 3 + k]);
             f->ref_tm[j * 3 + k] = ew_nbg_tm(ew_feature_or_zero(reference[j * 3 + k]));
         }
     }

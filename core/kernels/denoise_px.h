@@ -2,18 +2,17 @@
  * denoise_px.h — per-pixel steps around the bilateral grid: albedo
  * demodulation and remodulation, and the hand-made guide.
  *
- * Demodulation divides by (albedo + EW_ALBEDO_EPS) and remodulation
- * multiplies by the same value, so a pixel that is not filtered comes back
- * exactly, black albedo (emitters, background, black paint) amplifies noise
- * at most 1/EPS times instead of blowing up, and there is no threshold to
- * make seams.
+ * Demodulation divides by ew_albedo_factor (albedo + EW_ALBEDO_EPSILON, the
+ * public header's value) and remodulation multiplies by the same value, so a
+ * pixel that is not filtered comes back exactly, black albedo (emitters,
+ * background, black paint) amplifies noise at most 1/EPSILON times instead
+ * of blowing up, and there is no threshold to make seams.
  */
 #ifndef EW_KERNELS_DENOISE_PX_H
 #define EW_KERNELS_DENOISE_PX_H
 
+#include "edgewise/edgewise.h" /* EW_ALBEDO_EPSILON */
 #include "kernels/color.h"
-
-#define EW_ALBEDO_EPS 0.01f
 
 /* Packed per-pixel buffers of one denoise. albedo, normal and depth may be
  * NULL (feature absent). color/albedo/normal/out/sliced: 3 floats a pixel. */
@@ -32,12 +31,15 @@ typedef struct ew_denoise_buffers {
 
 EW_HD float ew_feature_or_zero(float v) { return ew_finitef(v) ? v : 0.0f; }
 
+/* What one albedo channel divides and multiplies by: a damaged or negative
+ * albedo counts as black, so it cannot turn a pixel into NaN. */
+EW_HD float ew_albedo_factor(float albedo) { return (ew_finitef(albedo) && albedo > 0.0f ? albedo : 0.0f) + EW_ALBEDO_EPSILON; }
+
 EW_HD void ew_denoise_prepare_px(long j, const ew_denoise_buffers *b) {
     const float *c = b->color + j * 3;
     float *r = b->radiance + j * 3;
     for (int k = 0; k < 3; k++) {
-        float a = b->albedo ? ew_maxf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f) : 1.0f;
-        float den = b->albedo ? a + EW_ALBEDO_EPS : 1.0f;
+        float den = b->albedo ? ew_albedo_factor(b->albedo[j * 3 + k]) : 1.0f;
         /* Negative radiance is not light (a compositing or reconstruction
          * artefact): splatted, one such sample darkens the whole cell
          * around it, so it counts as black. NaN and +-Inf stay non-finite
@@ -87,7 +89,7 @@ EW_HD void ew_denoise_refine_guide_px(long j, const ew_denoise_buffers *b, float
 
 EW_HD void ew_denoise_finish_px(long j, const ew_denoise_buffers *b) {
     for (int k = 0; k < 3; k++) {
-        float a = b->albedo ? ew_maxf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f) + EW_ALBEDO_EPS : 1.0f;
+        float a = b->albedo ? ew_albedo_factor(b->albedo[j * 3 + k]) : 1.0f;
         float v = b->sliced[j * 3 + k] * a;
         b->out[j * 3 + k] = ew_finitef(v) ? v : 0.0f;
     }

@@ -39,8 +39,8 @@
 #define EW_KERNELS_HARM_H
 
 #include "kernels/color.h"
+#include "kernels/denoise_px.h" /* ew_albedo_factor */
 
-#define EW_HARM_ALBEDO_EPS 0.01f /* as kernels/denoise_px.h's EW_ALBEDO_EPS */
 
 enum { EW_HARM_DEMOD = 0, EW_HARM_REMOD = 1, EW_HARM_STATS = 2, EW_HARM_BLEND = 3 };
 
@@ -63,9 +63,7 @@ typedef struct ew_harm_args {
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
 
 EW_HD float ew_harm_albedo(const ew_harm_args *a, long j, int c) {
-    if (!a->albedo) return 1.0f;
-    const float v = a->albedo[j * 3 + c];
-    return (ew_finitef(v) && v > 0.0f ? v : 0.0f) + EW_HARM_ALBEDO_EPS;
+    return a->albedo ? ew_albedo_factor(a->albedo[j * 3 + c]) : 1.0f;
 }
 
 /* display-like compression (see above); non-finite and negative: 0 */

@@ -29,11 +29,15 @@ static const ew_port_desc modulate_in[] = {
     {"color", EW_PASS_COLOR, 3, 1, "colour (RGB or RGBA; alpha is passed through)"},
     {"albedo", EW_PASS_ALBEDO, 3, 1, "albedo (Cycles: Denoising Albedo)"},
 };
-static const ew_port_desc demodulate_out[] = {{"output", EW_PASS_COLOR, 3, 0, "colour / max(albedo, epsilon)"}};
-static const ew_port_desc remodulate_out[] = {{"output", EW_PASS_COLOR, 3, 0, "colour * max(albedo, epsilon)"}};
+/* As the denoisers demodulate (EW_ALBEDO_EPSILON): colour / (albedo +
+ * epsilon), a damaged or negative albedo counting as black, so that a graph
+ * that demodulates around a filter feeds it what the library's methods see. */
+static const ew_port_desc demodulate_out[] = {{"output", EW_PASS_COLOR, 3, 0, "colour / (albedo + epsilon)"}};
+static const ew_port_desc remodulate_out[] = {{"output", EW_PASS_COLOR, 3, 0, "colour * (albedo + epsilon)"}};
 static const ew_nparam_desc modulate_params[] = {
-    {"epsilon", EW_NODE_PARAM_FLOAT, 0.001, 1e-6, 1.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Epsilon",
-     "smallest albedo divided by (black albedo would blow up); use the same value to remodulate"},
+    {"epsilon", EW_NODE_PARAM_FLOAT, EW_ALBEDO_EPSILON, 1e-6, 1.0, "", {0, 0, 0, 0}, NULL, 0, 0, "Epsilon",
+     "added to the albedo before dividing, so black albedo amplifies noise at most 1/epsilon times; the "
+     "denoisers' value by default; use the same value to remodulate"},
 };
 
 static ew_result modulate(ew_gnode *n, ew_run *r, int divide) {
@@ -51,7 +55,7 @@ static ew_result modulate(ew_gnode *n, ew_run *r, int divide) {
                     o[ch] = p[ch];
                     continue;
                 }
-                float d = a[ch] > eps ? a[ch] : eps;
+                const float d = (isfinite(a[ch]) && a[ch] > 0.0f ? a[ch] : 0.0f) + eps;
                 o[ch] = divide ? p[ch] / d : p[ch] * d;
             }
         }

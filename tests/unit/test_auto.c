@@ -9,7 +9,6 @@
 #include <string.h>
 
 #include "edgewise/edgewise.h"
-#include "kernels/denoise_px.h"
 
 static float urand(unsigned *s) {
     *s = *s * 1664525u + 1013904223u;
@@ -172,8 +171,4 @@ TEST(describe_needs_a_commit) {
     ew_denoiser_destroy(d);
     CHECK(ew_denoiser_describe(NULL) == NULL);
     ew_device_destroy(dev);
-}
-
-TEST(demodulation_epsilon_is_the_public_one) {
-    CHECK(EW_ALBEDO_EPS == EW_ALBEDO_EPSILON);
 }
