@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "algorithms/guidenet_cpu.h"
+#include "backends/cpu/cpu_conv.h"
 #include "kernels/guidenet.h"
 #include "kernels/outlier.h"
 #include "kernels/reduce.h"

@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "algorithms/bgrid.h"
-#include "algorithms/guidenet_cpu.h"
+#include "backends/cpu/cpu_conv.h"
 #include "kernels/bgrid_backward.h"
 #include "kernels/outlier.h"
 #include "kernels/reduce.h"

@@ -13,7 +13,7 @@
  * Weights are [cout][cin][5][5] (PyTorch's order), biases [cout]:
  *   out[co][r][x] = act(b[co] + sum_{ci,ky,kx} W[co][ci][ky][kx] * in[ci][r+ky-2][x+kx-2]).
  * The CPU backend computes the same sums with SIMD blocks
- * (algorithms/guidenet_cpu.c); the functions here are the per-value
+ * (backends/cpu/cpu_conv.c); the functions here are the per-value
  * formulation a CUDA kernel would call and the reference the tests use.
  */
 #ifndef EW_KERNELS_CONV_H

@@ -71,7 +71,7 @@ typedef struct ew_backend {
     /* depth of field: CoC and (D, C) attributes from depth */
     void (*dof_attributes)(ew_device *dev, const ew_dof_args *a);
 
-    /* ---- neural bilateral grid: core/algorithms/guidenet_cpu.c, nbg.c ---- */
+    /* ---- neural bilateral grid: CPU in core/backends/cpu/cpu_conv.c and cpu_backend.c ---- */
     /* one 5x5 GuideNet convolution (kernels/conv.h) */
     void (*conv5)(ew_device *dev, const ew_conv_args *a);
     /* GuideNet input features of a band of rows (kernels/guidenet.h) */
@@ -127,11 +127,8 @@ void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a);
 void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a);
 void ew_cpu_dof_attributes(ew_device *dev, const ew_dof_args *a);
 
-/* CPU implementations of the neural bilateral grid entries */
+/* The CPU's convolution entry (cpu_conv.c); the trainers call it directly. */
 void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a);
-void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a);
-void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs);
-void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a);
 
 /* The CPU backend's run (cpu_kernels.c). */
 ew_result ew_cpu_run(ew_device *dev, int id, const void *args, size_t args_size);

@@ -7,7 +7,7 @@
 #include <stdlib.h>
 
 #include "algorithms/guidenet.h"
-#include "algorithms/guidenet_cpu.h"
+#include "backends/cpu/cpu_conv.h"
 #include "src/backend.h"
 #include "src/internal.h"
 

@@ -37,7 +37,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "algorithms/guidenet_cpu.h"
+#include "backends/cpu/cpu_conv.h"
 #include "algorithms/kpcn.h"
 #include "algorithms/train.h"
 #include "cycles_passes.h"

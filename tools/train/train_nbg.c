@@ -33,7 +33,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "algorithms/guidenet_cpu.h"
+#include "backends/cpu/cpu_conv.h"
 #include "algorithms/nbg.h"
 #include "algorithms/train.h"
 #include "cycles_passes.h"

@@ -5,6 +5,7 @@
 #include "backends/cpu/cpu_bgrid.h"
 #include "kernels/harm.h"
 #include "kernels/denoise_px.h"
+#include "kernels/guidenet.h"
 #include "kernels/outlier.h"
 #include "kernels/temporal.h"
 #include "src/backend.h"
@@ -118,6 +119,50 @@ static void cpu_temporal(ew_device *dev, const ew_temporal_params *p, const ew_t
     ew_pool_run(dev->pool, p->height, 0, temporal_rows, &j);
 }
 
+/* ---- the per-pixel GuideNet entries ------------------------------------ */
+static void input_rows_shifted(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const ew_gn_input_args *a = (const ew_gn_input_args *)ctx;
+    for (int64_t y = a->y0 + begin; y < a->y0 + end; y++) {
+        float *dst = a->dst + (y - a->y0) * a->rs;
+        const long j0 = (long)y * a->width;
+        for (int x = 0; x < a->width; x++)
+            ew_gn_input_px(j0 + x, a->color, a->albedo, a->normal, a->depth, a->depth_scale, dst + x, a->ps);
+    }
+}
+
+static void cpu_gn_input(ew_device *dev, const ew_gn_input_args *a) {
+    /* the pool hands out [0, n): shift to the band's rows */
+    ew_pool_run(dev->pool, a->y1 - a->y0, 0, input_rows_shifted, (void *)a);
+}
+
+typedef struct {
+    long n;
+    int ngrids;
+    float *outputs;
+} guides_job;
+
+static void guides_range(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const guides_job *g = (const guides_job *)ctx;
+    for (int64_t j = begin; j < end; j++) ew_nbg_guide_px((long)j, g->n, g->ngrids, g->outputs);
+}
+
+static void cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs) {
+    guides_job g = {n, ngrids, outputs};
+    ew_pool_run(dev->pool, n, 16384, guides_range, &g);
+}
+
+static void blend_range(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const ew_nbg_blend_args *a = (const ew_nbg_blend_args *)ctx;
+    for (int64_t j = begin; j < end; j++) ew_nbg_blend_px((long)j, a->s, a->ngrids, a->outputs, a->n, a->sliced, a->acc);
+}
+
+static void cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) {
+    ew_pool_run(dev->pool, a->n, 16384, blend_range, (void *)a);
+}
+
 const ew_backend ew_cpu_backend = {
     .name = "cpu",
     .bgrid_splat = ew_cpu_bgrid_splat,
@@ -135,11 +180,11 @@ const ew_backend ew_cpu_backend = {
     .pyr_up = ew_cpu_pyr_up,
     .pyr_row_hooks = 1,
     .dof_attributes = ew_cpu_dof_attributes,
-    /* neural bilateral grid (core/algorithms/guidenet_cpu.c, nbg.c) */
+    /* neural bilateral grid (the convolution: cpu_conv.c) */
     .conv5 = ew_cpu_conv5,
-    .gn_input = ew_cpu_gn_input,
-    .nbg_guides = ew_cpu_nbg_guides,
-    .nbg_blend = ew_cpu_nbg_blend,
+    .gn_input = cpu_gn_input,
+    .nbg_guides = cpu_nbg_guides,
+    .nbg_blend = cpu_nbg_blend,
     /* every kernel of EW_KERNEL_LIST (cpu_kernels.c) */
     .run = ew_cpu_run,
     /* device memory (cpu_memory.c) */

@@ -1,12 +1,12 @@
 /*
- * guidenet_cpu.h — the CPU's convolutions for GuideNet: SIMD blocks (AVX-512
+ * cpu_conv.h — the CPU's 5x5 convolutions of GuideNet and KPCN: SIMD blocks (AVX-512
  * or AVX2 + FMA when the processor has them, chosen at run time; portable vectors
- * otherwise), the backend table's conv5 entry that runs them on the
- * device's threads, and the single-threaded pieces the trainer calls per
+ * otherwise), the backend table's conv5 entry (ew_cpu_conv5, declared in
+ * src/backend.h) that runs them on the device's threads, and the single-threaded pieces the trainer calls per
  * patch.
  */
-#ifndef EW_ALGORITHMS_GUIDENET_CPU_H
-#define EW_ALGORITHMS_GUIDENET_CPU_H
+#ifndef EW_BACKENDS_CPU_CPU_CONV_H
+#define EW_BACKENDS_CPU_CPU_CONV_H
 
 #include <stddef.h>
 
@@ -41,8 +41,5 @@ void ew_conv_cpu_rows_level(const ew_conv_args *a, const float *wt, int r0, int 
  * every thread of dev, in GFLOP/s (0 without AVX2). *seconds: the time it
  * took. */
 double ew_conv_cpu_fma_gflops(ew_device *dev, double *seconds);
-
-/* Backend entry (backend.h): the whole convolution on the device's threads. */
-void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a);
 
 #endif

@@ -1,6 +1,6 @@
 /*
- * guidenet_cpu.c — CPU convolutions for GuideNet (see guidenet_cpu.h and
- * the SIMD body in guidenet_cpu_kernel.h).
+ * cpu_conv.c — the CPU's 5x5 convolutions of GuideNet and KPCN (see
+ * cpu_conv.h and the SIMD body in cpu_conv_block.h).
  *
  * The body is compiled three times: with AVX-512 and with AVX2 + FMA
  * intrinsics for x86-64 processors that have them (picked at run time, so
@@ -9,13 +9,12 @@
  * build uses ISO C (-std=c11), where GCC does not contract a * b + c into
  * an FMA by itself, hence the explicit intrinsics.
  */
-#include "algorithms/guidenet_cpu.h"
+#include "backends/cpu/cpu_conv.h"
 
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-#include "kernels/guidenet.h"
 #include "src/backend.h"
 #include "src/internal.h"
 
@@ -35,7 +34,7 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_VW 8
 #define EW_XB4 3
 #define EW_XB5 2
-#include "algorithms/guidenet_cpu_kernel.h"
+#include "backends/cpu/cpu_conv_block.h"
 #undef EW_V
 #undef EW_VLOAD
 #undef EW_VSTORE
@@ -63,7 +62,7 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_VW 8
 #define EW_XB4 3
 #define EW_XB5 2
-#include "algorithms/guidenet_cpu_kernel.h"
+#include "backends/cpu/cpu_conv_block.h"
 #undef EW_V
 #undef EW_VLOAD
 #undef EW_VSTORE
@@ -93,7 +92,7 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_XB4 4
 #define EW_XB5 4
 #define EW_NO_DWEIGHT 1
-#include "algorithms/guidenet_cpu_kernel.h"
+#include "backends/cpu/cpu_conv_block.h"
 #undef EW_V
 #undef EW_VLOAD
 #undef EW_VSTORE
@@ -256,48 +255,4 @@ void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a) {
     if (j.simd) ew_conv_cpu_wt_layout(a->cin, a->cout, a->weight, wt);
     ew_pool_run(dev->pool, a->rows, 1, conv_job_rows, &j);
     if (wt != stack_wt) free(wt);
-}
-
-/* ---- the per-pixel GuideNet entries ------------------------------------ */
-static void input_rows_shifted(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const ew_gn_input_args *a = (const ew_gn_input_args *)ctx;
-    for (int64_t y = a->y0 + begin; y < a->y0 + end; y++) {
-        float *dst = a->dst + (y - a->y0) * a->rs;
-        const long j0 = (long)y * a->width;
-        for (int x = 0; x < a->width; x++)
-            ew_gn_input_px(j0 + x, a->color, a->albedo, a->normal, a->depth, a->depth_scale, dst + x, a->ps);
-    }
-}
-
-void ew_cpu_gn_input(ew_device *dev, const ew_gn_input_args *a) {
-    /* the pool hands out [0, n): shift to the band's rows */
-    ew_pool_run(dev->pool, a->y1 - a->y0, 0, input_rows_shifted, (void *)a);
-}
-
-typedef struct {
-    long n;
-    int ngrids;
-    float *outputs;
-} guides_job;
-
-static void guides_range(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const guides_job *g = (const guides_job *)ctx;
-    for (int64_t j = begin; j < end; j++) ew_nbg_guide_px((long)j, g->n, g->ngrids, g->outputs);
-}
-
-void ew_cpu_nbg_guides(ew_device *dev, long n, int ngrids, float *outputs) {
-    guides_job g = {n, ngrids, outputs};
-    ew_pool_run(dev->pool, n, 16384, guides_range, &g);
-}
-
-static void blend_range(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
-    const ew_nbg_blend_args *a = (const ew_nbg_blend_args *)ctx;
-    for (int64_t j = begin; j < end; j++) ew_nbg_blend_px((long)j, a->s, a->ngrids, a->outputs, a->n, a->sliced, a->acc);
-}
-
-void ew_cpu_nbg_blend(ew_device *dev, const ew_nbg_blend_args *a) {
-    ew_pool_run(dev->pool, a->n, 16384, blend_range, (void *)a);
 }

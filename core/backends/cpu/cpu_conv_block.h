@@ -1,6 +1,6 @@
 /*
- * guidenet_cpu_kernel.h — the SIMD body of the CPU convolutions, included
- * by guidenet_cpu.c once per instruction set with these macros defined:
+ * cpu_conv_block.h — the SIMD body of the CPU convolutions, included
+ * by cpu_conv.c once per instruction set with these macros defined:
  *   EW_V              vector type of EW_VW floats (8: AVX2 / portable, 16: AVX-512)
  *   EW_XB4, EW_XB5    vectors per register block for blocks of 4 (and fewer)
  *                     output channels and for the 5-channel layer
