@@ -27,7 +27,6 @@
 #include <map>
 #include <memory>
 #include <new>
-#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -421,16 +420,45 @@ struct TempGuard {
     }
 };
 
-/* Name of a temporary beside `dir`/`base`: ".<base>.tmp-XXXXXXXX.<ext>",
- * with base shortened when the whole would pass the 255-byte name limit
- * (an output name of 238-255 characters is itself fine). */
-std::string temp_name(const std::string &dir, const std::string &base, const std::string &ext,
-                      const std::string &suffix) {
-    const size_t extra = 1 + 5 + suffix.size() + (ext.empty() ? 0 : 1 + ext.size());
+/* The process's umask, read without changing it (umask() would set it for
+ * every thread for a moment); -1 when the kernel does not say. */
+int current_umask() {
+    FILE *f = fopen("/proc/self/status", "re");
+    if (!f) return -1;
+    char line[256];
+    int mask = -1;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "Umask: %o", (unsigned *)&mask) == 1) break;
+    fclose(f);
+    return mask;
+}
+
+/* Create a temporary beside `dir`/`base`: ".<base>.tmp-XXXXXX.<ext>" by
+ * mkostemps, with base shortened when the whole would pass the 255-byte
+ * name limit (an output name of 238-255 characters is itself fine). Its
+ * mode is the destination's when one exists (dst_mode >= 0), else what
+ * open(0666) would give, since mkostemps makes it 0600. Returns the open
+ * descriptor and sets guard.path, or -1 with errno set. */
+int make_temp(TempGuard &guard, const std::string &dir, const std::string &base, const std::string &ext,
+              int dst_mode) {
+    const std::string tail = ext.empty() ? "" : "." + ext;
+    const size_t extra = 1 + 5 + 6 + tail.size();
     std::string b = base;
     if (b.size() + extra > 255) b.resize(extra < 255 ? 255 - extra : 0);
-    return (dir == "/" ? std::string("/") : dir + "/") + "." + b + ".tmp-" + suffix +
-           (ext.empty() ? "" : "." + ext);
+    std::string name = (dir == "/" ? std::string("/") : dir + "/") + "." + b + ".tmp-XXXXXX" + tail;
+    std::vector<char> buf(name.begin(), name.end());
+    buf.push_back('\0');
+    const int fd = mkostemps(buf.data(), int(tail.size()), O_CLOEXEC);
+    if (fd < 0) return -1;
+    guard.path.assign(buf.data());
+    guard.arm();
+    int mode = dst_mode;
+    if (mode < 0) {
+        const int mask = current_umask();
+        mode = mask < 0 ? -1 : 0666 & ~mask;
+    }
+    if (mode >= 0) (void)fchmod(fd, mode_t(mode));
+    return fd;
 }
 
 /* ------------------------------------------------------------------ read */
@@ -737,15 +765,6 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
     return ok;
 }
 
-/* Random suffix for the temporary file name. */
-std::string random_suffix() {
-    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
-    std::random_device rd;
-    std::string s;
-    for (int i = 0; i < 8; i++) s += al[rd() % (sizeof al - 1)];
-    return s;
-}
-
 int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, const char *clayer,
                const char *cpass, std::string &msg) {
     const std::string path(cpath);
@@ -940,13 +959,9 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     /* ---- temporary file next to the destination */
     TempGuard guard;
     {
-        int fd = -1, e = 0;
-        for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
-            guard.path = temp_name(dir, base, ext, random_suffix());
-            fd = open(guard.path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-            e = errno;
-            if (fd < 0 && e != EEXIST) break;
-        }
+        const int fd = make_temp(guard, dir, base, ext,
+                                 dst_exists && S_ISREG(dst_st.st_mode) ? int(dst_st.st_mode & 07777) : -1);
+        const int e = errno;
         if (fd < 0) {
             if (e == EACCES || e == EPERM || e == EROFS)
                 msg = what + "directory " + q(dir) + " is not writable (" + errno_text(e) + ")";
@@ -955,9 +970,6 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
                       errno_text(e) + ")";
             return 1;
         }
-        guard.arm();
-        if (dst_exists && S_ISREG(dst_st.st_mode))
-            (void)fchmod(fd, dst_st.st_mode & 07777); /* keep the destination's mode */
         close(fd);
     }
 
@@ -1093,19 +1105,12 @@ int write_text_impl(const char *cpath, const char *text, size_t len, std::string
         return 1;
     }
     TempGuard guard;
-    int fd = -1, e = 0;
-    for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
-        guard.path = temp_name(dir, base, lower_ext(base), random_suffix());
-        fd = open(guard.path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        e = errno;
-        if (fd < 0 && e != EEXIST) break;
-    }
+    const int fd = make_temp(guard, dir, base, lower_ext(base), dst_exists ? int(dst_st.st_mode & 07777) : -1);
+    int e = errno;
     if (fd < 0) {
         msg = what + "cannot create a temporary file in " + q(dir) + " (" + errno_text(e) + ")";
         return 1;
     }
-    guard.arm();
-    if (dst_exists) (void)fchmod(fd, dst_st.st_mode & 07777);
     size_t done = 0;
     while (done < len) {
         ssize_t k = ::write(fd, text + done, len - done);

@@ -959,3 +959,39 @@ TEST(bad_failed_write_keeps_destination) {
     ewio_free(big);
     rm_tree(dir);
 }
+
+static int mode_of(const char *p) {
+    struct stat st;
+    return stat(p, &st) == 0 ? (int)(st.st_mode & 07777) : -1;
+}
+
+/* A new file gets what open(0666) under the umask gives, an overwritten one
+ * keeps its mode: what the user's other tools would leave (the temporary
+ * itself is created private). */
+TEST(written_files_keep_the_usual_modes) {
+    char dir[4096], p[4200], t[4200], err[512];
+    CHECK(make_tmpdir(dir, sizeof dir));
+    ewio_file *f = make_blender_like(4, 3, "ViewLayer");
+    CHECK(f != NULL);
+    snprintf(p, sizeof p, "%s/new.exr", dir);
+    snprintf(t, sizeof t, "%s/new.json", dir);
+    const mode_t masks[] = {022, 027, 077};
+    for (int i = 0; i < 3; i++) {
+        const mode_t old = umask(masks[i]);
+        unlink(p);
+        unlink(t);
+        CHECK(ewio_write(f, p, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+        CHECK(ewio_write_text(t, "{}\n", 3, err, sizeof err) == 0);
+        umask(old);
+        CHECK_EQ_INT(mode_of(p), (int)(0666 & ~masks[i]));
+        CHECK_EQ_INT(mode_of(t), (int)(0666 & ~masks[i]));
+    }
+    CHECK(chmod(p, 0640) == 0 && chmod(t, 0604) == 0);
+    CHECK(ewio_write(f, p, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    CHECK(ewio_write_text(t, "[]\n", 3, err, sizeof err) == 0);
+    CHECK_EQ_INT(mode_of(p), 0640);
+    CHECK_EQ_INT(mode_of(t), 0604);
+    CHECK_EQ_INT(count_entries(dir, ".tmp-"), 0);
+    ewio_free(f);
+    rm_tree(dir);
+}
