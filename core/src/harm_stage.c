@@ -46,6 +46,8 @@
 #define HARM_BLEND_STRENGTH 2.0f  /* C under-counts D (kernels/harm.h) */
 #define HARM_BLEND_Z 1.0f         /* C counts above 1 standard deviation of its own */
 #define HARM_BLEND_THETA 0.4f     /* no blend while D is below 0.4 of N + D */
+#define HARM_BLEND_KAPPA 1.0f     /* the residual's Haar detail is all noise */
+#define HARM_BLEND_THETA_N 0.2f   /* ... no blend from it while D is below 0.2 of R (1 spp: random) */
 
 static const ew_param_desc stage_on[] = {
     {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
@@ -109,7 +111,7 @@ static int slot(const ew_op *op, const char *name) {
 
 /* The stage's device floats for a colour of cc channels (see the commit). */
 static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre) {
-    return n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 6 + (pre ? (size_t)cc : 0));
+    return n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 3 + EW_HARM_STATS_FLOATS + (pre ? (size_t)cc : 0));
 }
 
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
@@ -166,7 +168,7 @@ ew_result ew_harm_commit(ew_op *op) {
     s->alb = has_a ? m : NULL; m += has_a ? n * 3 : 0;
     s->nrm = has_n ? m : NULL; m += has_n ? n * 3 : 0;
     s->a = m; m += n * 3;
-    s->b = m; m += n * 3;
+    s->b = m; m += n * EW_HARM_STATS_FLOATS;
     s->clamped = pre ? m : NULL;
     return EW_OK;
 }
@@ -216,6 +218,8 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.strength = HARM_BLEND_STRENGTH;
     ha.z = HARM_BLEND_Z;
     ha.theta = HARM_BLEND_THETA;
+    ha.kappa = HARM_BLEND_KAPPA;
+    ha.theta_n = HARM_BLEND_THETA_N;
     const ew_image saved = op->images[ci];
     if (s->pre) {
         r = reject(op, s, &ha);

@@ -457,7 +457,7 @@ TEST(frame_8k) {
  * issue's targets above are not met (BENCHMARKS.md lists them). Checked:
  * the stage never makes a method worse — output - input at least the
  * stage-off figure - 0.1 dB; on the firefly render no peak above the
- * input's own. */
+ * input's own; and at 16 spp every method at least as good as its input. */
 
 static int is_denoising(const ew_method_spec *s) {
     return s->kind && (!strcmp(s->kind, "denoiser") || (strcmp(s->name, "dof") && strcmp(s->name, "outlier")));
@@ -496,7 +496,7 @@ static double peak_ratio(const float *out, const float *ref, int w, int h, int r
 /* One committed render at one sample count, every denoising method with
  * and without the stage. firefly: check the energy and the peaks; else
  * check output - input against `margin` dB. Returns the failures. */
-static int harm_case(const char *scene, int spp, int firefly, double margin) {
+static int harm_case(const char *scene, int spp, int firefly, double margin, int must_meet) {
     collect();
     const char *root = getenv("EW_STABILITY_DATA");
     if (!root || !root[0]) root = EW_STABILITY_DATA_DIR;
@@ -554,7 +554,7 @@ static int harm_case(const char *scene, int spp, int firefly, double margin) {
                     ok ? "" : "  FAIL");
         } else {
             target = fig[1][0] >= margin;
-            ok = fig[1][0] >= fig[0][0] - 0.1;
+            ok = fig[1][0] >= fig[0][0] - 0.1 && (!must_meet || target);
             fprintf(stderr, "    %-10s output - input %+6.2f dB   (stage off: %+6.2f dB)%s%s\n", all_specs[m].label,
                     fig[1][0], fig[0][0], target ? "" : "  target missed", ok ? "" : "  FAIL");
         }
@@ -567,11 +567,13 @@ static int harm_case(const char *scene, int spp, int firefly, double margin) {
     return fails;
 }
 
-TEST(firefly_energy_1spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 1, 1, 0.0), 0); }
-TEST(firefly_energy_4spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 4, 1, 0.0), 0); }
-TEST(firefly_energy_16spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 16, 1, 0.0), 0); }
-TEST(firefly_energy_64spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 64, 1, 0.0), 0); }
-TEST(glossy_no_harm_16spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 16, 0, 0.0), 0); }
-TEST(glossy_no_harm_64spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 64, 0, -0.2), 0); }
-TEST(motionblur_no_harm_16spp) { CHECK_EQ_INT(harm_case("f_motionblur_1_64x64", 16, 0, 0.0), 0); }
-TEST(motionblur_no_harm_64spp) { CHECK_EQ_INT(harm_case("f_motionblur_1_64x64", 64, 0, -0.2), 0); }
+TEST(firefly_energy_1spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 1, 1, 0.0, 0), 0); }
+TEST(firefly_energy_4spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 4, 1, 0.0, 0), 0); }
+TEST(firefly_energy_16spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 16, 1, 0.0, 0), 0); }
+TEST(firefly_energy_64spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 64, 1, 0.0, 0), 0); }
+/* 16 spp: every method at least as good as its input (checked); 64 spp:
+ * within 0.2 dB of it (printed, not yet met by every method) */
+TEST(glossy_no_harm_16spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 16, 0, 0.0, 1), 0); }
+TEST(glossy_no_harm_64spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 64, 0, -0.2, 0), 0); }
+TEST(motionblur_no_harm_16spp) { CHECK_EQ_INT(harm_case("f_motionblur_1_64x64", 16, 0, 0.0, 1), 0); }
+TEST(motionblur_no_harm_64spp) { CHECK_EQ_INT(harm_case("f_motionblur_1_64x64", 64, 0, -0.2, 0), 0); }

@@ -336,9 +336,11 @@ TEST(harm_stage_steps) {
     h.rejected = rejected;
     h.clamped = hnan(N * 4);
     h.out = out;
-    h.stats = hnan(N * 3);
+    h.stats = hnan(N * EW_HARM_STATS_FLOATS);
     h.z = 1.0f;
     h.theta = 0.4f;
+    h.kappa = 1.0f;
+    h.theta_n = 0.2f;
     ew_harm_args d = h;
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);
@@ -346,7 +348,7 @@ TEST(harm_stage_steps) {
     d.rejected = dup_to(p.dut, rejected, N * 3);
     d.clamped = dnan(p.dut, N * 4);
     d.out = dup_to(p.dut, out, N * 3);
-    d.stats = dnan(p.dut, N * 3);
+    d.stats = dnan(p.dut, N * EW_HARM_STATS_FLOATS);
     /* the rejection keeps most pixels: the radiance itself, then a few changed */
     for (int step = EW_HARM_DEMOD; step <= EW_HARM_BLEND; step++) {
         if (step == EW_HARM_REMOD) {
@@ -359,7 +361,7 @@ TEST(harm_stage_steps) {
     }
     int ok = match(back(p.dut, d.radiance, N * 3), h.radiance, N * 3, "demodulated");
     ok = ok && match(back(p.dut, d.clamped, N * 4), h.clamped, N * 4, "remodulated");
-    ok = ok && match(back(p.dut, d.stats, N * 3), h.stats, N * 3, "residual statistics");
+    ok = ok && match(back(p.dut, d.stats, N * EW_HARM_STATS_FLOATS), h.stats, N * EW_HARM_STATS_FLOATS, "residual statistics");
     ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended");
     close_pair(&p);
     CHECK(ok);
