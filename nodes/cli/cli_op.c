@@ -445,6 +445,7 @@ static int execute(const parser *p) {
     char err[1024];
     ewio_file *f = NULL;
     const double t_read = cli_seconds();
+    ewio_set_threads(threads); /* the read decodes on them too (the device comes after) */
     if (ewio_read(in_path, &f, err, sizeof err) != 0) return cli_fail("%s", err); /* err names the file */
     int rc = EW_EXIT_FAIL;
     float *pix = NULL, *out = NULL, *bufs[MAX_IMAGES] = {NULL};

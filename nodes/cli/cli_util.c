@@ -70,6 +70,7 @@ float *cli_read_color(const ewio_file *f, const char *layer, char *err, size_t e
 }
 
 ew_device *cli_device(int threads) {
+    ewio_set_threads(threads); /* the files' compression on the same threads */
     ew_device_desc desc = EW_DEVICE_DESC_INIT;
     desc.num_threads = threads;
     ew_device *dev = NULL;

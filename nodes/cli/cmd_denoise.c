@@ -402,6 +402,11 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(orig);
         return cli_fail("%s", j->err);
     }
+    /* the colour is in orig and in.color now, and the result goes back over
+     * it: the file need not hold it too while the method works */
+    const char *dst = lp->layer[0] != '\0' ? "Combined" : lp->color;
+    if (!strcmp(dst, lp->color)) ewio_release_pass(j->f, layer, lp->color, "RGB");
+    cli_return_freed_memory();
     int features = 1;
     for (int k = 0; k < NUM_PRESETS; k++)
         if (!strcmp(presets[k].name, method)) features = presets[k].features;
@@ -443,7 +448,6 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     int put = 0;
     if (strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0')
         put = ewio_set_pass(j->f, layer, "Noisy Image", lp->color_comps, orig, j->err, sizeof j->err);
-    const char *dst = lp->layer[0] != '\0' ? "Combined" : lp->color;
     if (put == 0) put = ewio_set_pass(j->f, layer, dst, "RGB", j->out, j->err, sizeof j->err);
     free(orig);
     if (put != 0) return cli_fail("%s", j->err);
@@ -573,8 +577,8 @@ int cmd_denoise(int argc, char **argv) {
     const size_t n = (size_t)ewio_width(j.f) * (size_t)ewio_height(j.f);
     float *noisy_first = NULL;
     j.out = (float *)malloc(n * 3 * sizeof(float));
-    noisy_first = (float *)malloc(n * 3 * sizeof(float));
-    if (!j.out || !noisy_first) {
+    if (o.reference) noisy_first = (float *)malloc(n * 3 * sizeof(float)); /* scored after the first layer */
+    if (!j.out || (o.reference && !noisy_first)) {
         cli_fail("out of memory for a %dx%d image", ewio_width(j.f), ewio_height(j.f));
         goto done;
     }
@@ -593,7 +597,7 @@ int cmd_denoise(int argc, char **argv) {
         }
         if (done_layers == 0) {
             first = lp;
-            if (ewio_get_pass(j.f, layer, lp.color, "RGB", noisy_first, j.err, sizeof j.err) != 0) {
+            if (noisy_first && ewio_get_pass(j.f, layer, lp.color, "RGB", noisy_first, j.err, sizeof j.err) != 0) {
                 cli_fail("%s", j.err);
                 goto done;
             }
@@ -612,6 +616,11 @@ int cmd_denoise(int argc, char **argv) {
     ewio_set_attribute(j.f, "edgewise.version", ew_version_string());
     /* PNG/TIFF take only one pass: the first denoised layer's colour */
     const char *wpass = first.layer[0] ? "Combined" : first.color;
+    /* the results are in the file: the write's memory is its own */
+    free(j.out);
+    free(noisy_first);
+    j.out = noisy_first = NULL;
+    cli_return_freed_memory();
     const double t_write = cli_seconds();
     if (cli_write(j.f, o.out, o.type, first.layer, wpass, &o.view, o.quiet, j.err, sizeof j.err) != 0) {
         cli_fail("%s", j.err);

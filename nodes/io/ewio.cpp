@@ -1176,6 +1176,15 @@ void ewio_remove_temporaries(void) {
         if (g_temps[i].state.load() == 2) unlink(g_temps[i].path);
 }
 
+void ewio_set_threads(int n) {
+    try {
+        const int t = n > 0 ? n : 0; /* OIIO and OpenEXR: 0 = the hardware's count */
+        OIIO::attribute("threads", t);
+        OIIO::attribute("exr_threads", t);
+    } catch (...) {
+    }
+}
+
 int ewio_parse_size(const char *text, unsigned long long *out) {
     if (!text || !out) return 1;
     errno = 0;

@@ -71,6 +71,12 @@ int ewio_read_header(const char *path, ewio_header *out, char *err, size_t errle
  * --max-memory set them. */
 unsigned long long ewio_max_memory(void);
 long long ewio_max_pixels(void);
+/* Threads that decode and encode files (OpenEXR's compression, OIIO's
+ * own work), for the whole process: n as a device's num_threads (0 = as
+ * many as the machine has cores), so a run limited to n threads does its
+ * I/O on n too. */
+void ewio_set_threads(int n);
+
 /* "8G", "512M", "1.5T", "1000000" -> bytes; 0 on success. */
 int ewio_parse_size(const char *text, unsigned long long *out);
 
