@@ -21,7 +21,7 @@
 #include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
-#include "src/weights.h"
+#include "src/op_model.h"
 
 static const ew_image_desc images[] = {
     {"color", 3, 1, "noisy colour (RGB, linear)"},
@@ -44,58 +44,23 @@ static const ew_param_desc params[] = {
      "a 256x256 tile come first, so a small budget can be exceeded"},
 };
 
-typedef struct {
-    ew_kpcn_net net;
-    float *params;
-} model;
-
-static void model_free(model *m) {
-    if (m) free(m->params);
-    free(m);
+/* The network's weights (src/op_model.h). */
+static int from_weights(void *net, const ew_weights *w, float **out, char *err, size_t errlen) {
+    return ew_kpcn_from_weights((ew_kpcn_net *)net, w, out, err, errlen);
 }
 
-static ew_result model_parse(ew_device *dev, const void *bytes, size_t size, const char *what, model **out) {
-    *out = NULL;
-    ew_weights w;
-    char err[256];
-    if (ew_weights_parse(bytes, size, &w, err, sizeof err) != 0)
-        return ew__fail(dev, EW_ERR_INVALID_DATA, "%s: %s", what, err);
-    model *m = (model *)calloc(1, sizeof *m);
-    if (!m) {
-        ew_weights_free(&w);
-        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory loading %s", what);
-    }
-    int bad = ew_kpcn_from_weights(&m->net, &w, &m->params, err, sizeof err);
-    ew_weights_free(&w);
-    if (bad) {
-        model_free(m);
-        return ew__fail(dev, EW_ERR_INVALID_DATA, "%s: %s", what, err);
-    }
-    *out = m;
-    return EW_OK;
-}
+static const ew_net_kind kind = {"kpcn", sizeof(ew_kpcn_net), from_weights, ew_kpcn_builtin_weights,
+                                 ew_kpcn_model_name};
+
+static const ew_kpcn_net *net_of(const ew_net_model *m) { return (const ew_kpcn_net *)m->net; }
 
 static ew_result set_data(ew_op *op, const char *name, const void *data, size_t size) {
-    if (strcmp(name, "weights") != 0)
-        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "denoiser 'kpcn' takes data 'weights', not '%s'", name);
-    model *m = NULL;
-    if (data) {
-        ew_result r = model_parse(op->dev, data, size, "weights", &m);
-        if (r != EW_OK) return r;
-    }
-    model_free((model *)op->data_state);
-    op->data_state = m;
-    return EW_OK;
-}
-
-static void release_data(ew_op *op) {
-    model_free((model *)op->data_state);
-    op->data_state = NULL;
+    return ew_net_model_set_data(op, &kind, name, data, size);
 }
 
 typedef struct {
-    model *builtin;
-    const model *m;
+    ew_net_model *builtin;
+    const ew_net_model *m;
     ew_denoise_buffers buf;
     float *params, *clamped;
     ew_kpcn_tiling tiling;
@@ -118,34 +83,10 @@ static void release(ew_op *op) {
     state *s = (state *)op->state;
     if (s) {
         ew_dev_free(op->dev, s->dmem);
-        model_free(s->builtin);
+        ew_net_model_free(s->builtin);
     }
     free(s);
     op->state = NULL;
-}
-
-/* The model a commit runs: the weights given as data, else the built-in
- * one the "model" parameter names (parsed into *builtin, the caller's to
- * free). */
-static ew_result model_of(const ew_op *op, const model **out, model **builtin) {
-    *builtin = NULL;
-    *out = (const model *)op->data_state;
-    if (*out) return EW_OK;
-    const int which = (int)ew_op_param(op, "model");
-    const unsigned char *bytes;
-    size_t size;
-    ew_kpcn_builtin_weights(which, &bytes, &size);
-    if (size == 0)
-        return ew__fail(op->dev, EW_ERR_UNSUPPORTED,
-                        "this build has no built-in weights for kpcn model %d (%s): load a weights file with "
-                        "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
-                        which, ew_kpcn_model_name(which));
-    char what[64];
-    snprintf(what, sizeof what, "built-in kpcn model '%s'", ew_kpcn_model_name(which));
-    ew_result r = model_parse(op->dev, bytes, size, what, builtin);
-    if (r != EW_OK) return r;
-    *out = *builtin;
-    return EW_OK;
 }
 
 /* Device floats of a commit at w x h: parameters and the frame-sized
@@ -182,13 +123,13 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_kpc
 /* ew_op_type.memory: the commit's allocations (row sums as doubles on the
  * host and the device, host staging when views need it). */
 static uint64_t memory(const ew_op *op, int w, int h) {
-    model *builtin = NULL;
-    const model *m = NULL;
-    if (model_of(op, &m, &builtin) != EW_OK) return 0;
+    ew_net_model *builtin = NULL;
+    const ew_net_model *m = NULL;
+    if (ew_net_model_of(op, &kind, &m, &builtin) != EW_OK) return 0;
     ew_kpcn_tiling t;
-    const uint64_t bytes = (uint64_t)plan(op, &m->net, w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    const uint64_t bytes = (uint64_t)plan(op, net_of(m), w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
                            (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
-    model_free(builtin);
+    ew_net_model_free(builtin);
     return bytes;
 }
 
@@ -197,11 +138,11 @@ static ew_result commit(ew_op *op) {
     const ew_image *color = ew_op_image(op, "color");
     const int w = color->width, h = color->height;
     if (op->state) release(op);
-    model *builtin = NULL;
-    const model *m = NULL;
-    ew_result mr = model_of(op, &m, &builtin);
+    ew_net_model *builtin = NULL;
+    const ew_net_model *m = NULL;
+    ew_result mr = ew_net_model_of(op, &kind, &m, &builtin);
     if (mr != EW_OK) return mr;
-    const ew_kpcn_net *net = &m->net;
+    const ew_kpcn_net *net = net_of(m);
     const size_t n = (size_t)w * (size_t)h;
     /* device: row sums (doubles first), then as plan() counts */
     ew_kpcn_tiling tiling;
@@ -212,7 +153,7 @@ static ew_result commit(ew_op *op) {
     op->state = s;
     if (s) s->dmem = ew_dev_alloc(dev, row_bytes + need * sizeof(float));
     if (!s || !s->dmem) {
-        model_free(builtin);
+        ew_net_model_free(builtin);
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: kpcn on %dx%d needs %.1f MiB",
                         s ? dev->backend->name : "host", w, h, (double)(need * sizeof(float) + row_bytes) / 1048576.0);
     }
@@ -270,7 +211,7 @@ static ew_kpcn_tensor flat_t(float *p, int w, int h) {
 
 static void conv(ew_device *dev, const state *s, int l) {
     ew_conv_args a;
-    ew_kpcn_layer_args(&s->m->net, l, s->params, s->sb, &a);
+    ew_kpcn_layer_args(net_of(s->m), l, s->params, s->sb, &a);
     dev->backend->conv5(dev, &a);
 }
 
@@ -289,7 +230,7 @@ static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes
  * entries only write inside the planes). */
 static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
     if (s->lw == rw && s->lh == rh) return EW_OK;
-    const ew_kpcn_net *net = &s->m->net;
+    const ew_kpcn_net *net = net_of(s->m);
     ew_kpcn_scale_sizes(rw, rh, s->sw, s->sh);
     float *p = s->scale_mem;
     for (int k = 0; k < EW_KPCN_SCALES; k++) {
@@ -308,7 +249,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    const ew_kpcn_net *net = &s->m->net;
+    const ew_kpcn_net *net = net_of(s->m);
     const int W = b->width, C = net->ch, rw = tile->rw, rh = tile->rh;
     ew_result r = layout_region(dev, s, rw, rh);
     if (r != EW_OK) return r;
@@ -378,7 +319,7 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    const ew_kpcn_net *net = &s->m->net;
+    const ew_kpcn_net *net = net_of(s->m);
     const int w = b->width, h = b->height;
     ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
     if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
@@ -444,7 +385,7 @@ const ew_op_type ew_denoise_kpcn = {
     .release = release,
     .memory = memory,
     .set_data = set_data,
-    .release_data = release_data,
+    .release_data = ew_net_model_release,
     .device_memory = 1,
     .describe = describe,
     .choices = (const ew_param_choices[]){{"model", ew_kpcn_model_names}, {NULL, NULL}},

@@ -22,7 +22,7 @@
 #include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
-#include "src/weights.h"
+#include "src/op_model.h"
 
 static const ew_image_desc images[] = {
     {"color", 3, 1, "noisy colour (RGB, linear)"},
@@ -42,59 +42,23 @@ static const ew_param_desc params[] = {
      "(the shipped models were trained with 3)"},
 };
 
-/* What set_data("weights") or a built-in model gives: host copies. */
-typedef struct {
-    ew_guidenet net;
-    float *params;
-} model;
-
-static void model_free(model *m) {
-    if (m) free(m->params);
-    free(m);
+/* The network's weights (src/op_model.h). */
+static int from_weights(void *net, const ew_weights *w, float **out, char *err, size_t errlen) {
+    return ew_guidenet_from_weights((ew_guidenet *)net, w, out, err, errlen);
 }
 
-static ew_result model_parse(ew_device *dev, const void *bytes, size_t size, const char *what, model **out) {
-    *out = NULL;
-    ew_weights w;
-    char err[256];
-    if (ew_weights_parse(bytes, size, &w, err, sizeof err) != 0)
-        return ew__fail(dev, EW_ERR_INVALID_DATA, "%s: %s", what, err);
-    model *m = (model *)calloc(1, sizeof *m);
-    if (!m) {
-        ew_weights_free(&w);
-        return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory loading %s", what);
-    }
-    int bad = ew_guidenet_from_weights(&m->net, &w, &m->params, err, sizeof err);
-    ew_weights_free(&w);
-    if (bad) {
-        model_free(m);
-        return ew__fail(dev, EW_ERR_INVALID_DATA, "%s: %s", what, err);
-    }
-    *out = m;
-    return EW_OK;
-}
+static const ew_net_kind kind = {"nbg", sizeof(ew_guidenet), from_weights, ew_nbg_builtin_weights,
+                                 ew_nbg_model_name};
+
+static const ew_guidenet *net_of(const ew_net_model *m) { return (const ew_guidenet *)m->net; }
 
 static ew_result set_data(ew_op *op, const char *name, const void *data, size_t size) {
-    if (strcmp(name, "weights") != 0)
-        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "denoiser 'nbg' takes data 'weights', not '%s'", name);
-    model *m = NULL;
-    if (data) {
-        ew_result r = model_parse(op->dev, data, size, "weights", &m);
-        if (r != EW_OK) return r;
-    }
-    model_free((model *)op->data_state);
-    op->data_state = m;
-    return EW_OK;
-}
-
-static void release_data(ew_op *op) {
-    model_free((model *)op->data_state);
-    op->data_state = NULL;
+    return ew_net_model_set_data(op, &kind, name, data, size);
 }
 
 typedef struct {
-    model *builtin;          /* host: the built-in model parsed at commit, or NULL */
-    const model *m;          /* the model in use */
+    ew_net_model *builtin;          /* host: the built-in model parsed at commit, or NULL */
+    const ew_net_model *m;          /* the model in use */
     ew_bgrid_params grids[EW_GN_MAX_GRIDS];
     ew_denoise_buffers buf;  /* device buffers */
     float *params, *clamped, *outputs, *band, *grid;
@@ -111,48 +75,24 @@ static void release(ew_op *op) {
     state *s = (state *)op->state;
     if (s) {
         ew_dev_free(op->dev, s->dmem);
-        model_free(s->builtin);
+        ew_net_model_free(s->builtin);
     }
     free(s);
     op->state = NULL;
 }
 
-/* The model a commit runs: the weights given as data, else the built-in
- * one the "model" parameter names (parsed into *builtin, the caller's to
- * free). */
-static ew_result model_of(const ew_op *op, const model **out, model **builtin) {
-    *builtin = NULL;
-    *out = (const model *)op->data_state;
-    if (*out) return EW_OK;
-    const int which = (int)ew_op_param(op, "model");
-    const unsigned char *bytes;
-    size_t size;
-    ew_nbg_builtin_weights(which, &bytes, &size);
-    if (size == 0)
-        return ew__fail(op->dev, EW_ERR_UNSUPPORTED,
-                        "this build has no built-in weights for nbg model %d (%s): load a weights file with "
-                        "ew_denoiser_set_data(\"weights\") (CLI: --model PATH)",
-                        which, ew_nbg_model_name(which));
-    char what[64];
-    snprintf(what, sizeof what, "built-in nbg model '%s'", ew_nbg_model_name(which));
-    ew_result r = model_parse(op->dev, bytes, size, what, builtin);
-    if (r != EW_OK) return r;
-    *out = *builtin;
-    return EW_OK;
-}
-
 /* ew_op_type.memory: the commit's allocations (row sums as doubles on the
  * host and the device, host staging when views need it). */
 static uint64_t memory(const ew_op *op, int w, int h) {
-    model *builtin = NULL;
-    const model *m = NULL;
-    if (model_of(op, &m, &builtin) != EW_OK) return 0;
+    ew_net_model *builtin = NULL;
+    const ew_net_model *m = NULL;
+    if (ew_net_model_of(op, &kind, &m, &builtin) != EW_OK) return 0;
     size_t grid_floats, band_floats;
     const uint64_t bytes =
-        (uint64_t)ew_nbg_device_floats(&m->net, w, h, &grid_floats, &band_floats) * sizeof(float) +
+        (uint64_t)ew_nbg_device_floats(net_of(m), w, h, &grid_floats, &band_floats) * sizeof(float) +
         (uint64_t)h * 4 * sizeof(double) +
         (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
-    model_free(builtin);
+    ew_net_model_free(builtin);
     return bytes;
 }
 
@@ -162,15 +102,15 @@ static ew_result commit(ew_op *op) {
     const int w = color->width, h = color->height;
     if (op->state) release(op);
 
-    model *builtin = NULL;
-    const model *m = NULL;
-    ew_result mr = model_of(op, &m, &builtin);
+    ew_net_model *builtin = NULL;
+    const ew_net_model *m = NULL;
+    ew_result mr = ew_net_model_of(op, &kind, &m, &builtin);
     if (mr != EW_OK) return mr;
-    const ew_guidenet *net = &m->net;
+    const ew_guidenet *net = net_of(m);
     ew_bgrid_params gp[EW_GN_MAX_GRIDS];
     for (int g = 0; g < net->ngrids; g++) {
         if (!ew_bgrid_params_init(&gp[g], w, h, net->rate_s[g], net->rate_d[g], 3)) {
-            model_free(builtin);
+            ew_net_model_free(builtin);
             return ew__fail(dev, EW_ERR_INVALID_DATA, "nbg model '%s': grid %d has invalid rates", net->arch, g);
         }
     }
@@ -190,7 +130,7 @@ static ew_result commit(ew_op *op) {
     op->state = s;
     if (s) s->dmem = ew_dev_alloc(dev, row_bytes + need * sizeof(float));
     if (!s || !s->dmem) {
-        model_free(builtin);
+        ew_net_model_free(builtin);
         if (s) s->builtin = NULL;
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: nbg on %dx%d needs %.1f MiB",
                         s ? dev->backend->name : "host", w, h, (double)(need * sizeof(float) + row_bytes) / 1048576.0);
@@ -200,7 +140,7 @@ static ew_result commit(ew_op *op) {
     if (builtin)
         snprintf(s->choice, sizeof s->choice, "nbg %s", ew_nbg_model_name((int)ew_op_param(op, "model")));
     else
-        snprintf(s->choice, sizeof s->choice, "nbg weights %s", m->net.arch);
+        snprintf(s->choice, sizeof s->choice, "nbg weights %s", net_of(m)->arch);
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->row_out = (double *)s->dmem;
@@ -242,7 +182,7 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    const ew_guidenet *net = &s->m->net;
+    const ew_guidenet *net = net_of(s->m);
     const long n = (long)b->width * b->height;
     ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
     if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
@@ -325,7 +265,7 @@ const ew_op_type ew_denoise_nbg = {
     .release = release,
     .memory = memory,
     .set_data = set_data,
-    .release_data = release_data,
+    .release_data = ew_net_model_release,
     .device_memory = 1,
     .describe = describe,
     .choices = (const ew_param_choices[]){{"model", ew_nbg_model_names}, {NULL, NULL}},
