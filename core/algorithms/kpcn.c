@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "algorithms/train.h"
 #include "backends/cpu/cpu_conv.h"
 #include "kernels/guidenet.h"
 #include "kernels/outlier.h"
@@ -686,8 +687,7 @@ struct ew_kpcn_trainer {
     int batch, size, loss, nscratch;
     ew_kpcn_model model;
     ew_kpcn_scratch **scratch;
-    float *grads;
-    double *losses;
+    ew_batch_grads g;
 };
 
 ew_kpcn_trainer *ew_kpcn_trainer_create(ew_device *dev, const ew_kpcn_net *net, int batch, int size, int loss) {
@@ -701,9 +701,8 @@ ew_kpcn_trainer *ew_kpcn_trainer_create(ew_device *dev, const ew_kpcn_net *net, 
     t->loss = loss;
     t->nscratch = ew_device_get_num_threads(dev);
     t->scratch = (ew_kpcn_scratch **)calloc((size_t)t->nscratch, sizeof *t->scratch);
-    t->grads = (float *)malloc(sizeof(float) * net->nparams * (size_t)batch);
-    t->losses = (double *)malloc(sizeof(double) * (size_t)batch);
-    int bad = !t->scratch || !t->grads || !t->losses || ew_kpcn_model_init(&t->model, net) != 0;
+    int bad = ew_batch_grads_init(&t->g, batch, net->nparams) != 0 || !t->scratch ||
+              ew_kpcn_model_init(&t->model, net) != 0;
     for (int i = 0; !bad && i < t->nscratch; i++) bad = !(t->scratch[i] = ew_kpcn_scratch_create(net, size));
     if (bad) {
         ew_kpcn_trainer_destroy(t);
@@ -716,8 +715,7 @@ void ew_kpcn_trainer_destroy(ew_kpcn_trainer *t) {
     if (!t) return;
     for (int i = 0; t->scratch && i < t->nscratch; i++) ew_kpcn_scratch_destroy(t->scratch[i]);
     free(t->scratch);
-    free(t->grads);
-    free(t->losses);
+    ew_batch_grads_free(&t->g);
     ew_kpcn_model_free(&t->model);
     free(t);
 }
@@ -731,12 +729,9 @@ typedef struct {
 static void kbatch_items(void *ctx, int64_t begin, int64_t end, int tid) {
     const kbatch_job *j = (const kbatch_job *)ctx;
     ew_kpcn_trainer *t = j->t;
-    for (int64_t b = begin; b < end; b++) {
-        float *g = t->grads + (size_t)b * t->net->nparams;
-        memset(g, 0, sizeof(float) * t->net->nparams);
-        t->losses[b] = ew_kpcn_train_patch(&t->model, j->frames, &j->patches[b], t->size, t->loss, t->scratch[tid], g,
-                                           NULL, NULL);
-    }
+    for (int64_t b = begin; b < end; b++)
+        t->g.losses[b] = ew_kpcn_train_patch(&t->model, j->frames, &j->patches[b], t->size, t->loss, t->scratch[tid],
+                                             ew_batch_grads_patch(&t->g, (int)b), NULL, NULL);
 }
 
 double ew_kpcn_trainer_gradient(ew_kpcn_trainer *t, const float *params, const ew_kpcn_frame *frames,
@@ -744,16 +739,7 @@ double ew_kpcn_trainer_gradient(ew_kpcn_trainer *t, const float *params, const e
     ew_kpcn_model_prepare(&t->model, params);
     kbatch_job j = {t, frames, patches};
     ew_pool_run(t->dev->pool, t->batch, 1, kbatch_items, &j);
-    /* summed in patch order: the result does not depend on the threads */
-    const size_t np = t->net->nparams;
-    for (size_t i = 0; i < np; i++) {
-        float s = 0.0f;
-        for (int b = 0; b < t->batch; b++) s += t->grads[(size_t)b * np + i];
-        grad[i] = s / (float)t->batch;
-    }
-    double loss = 0.0;
-    for (int b = 0; b < t->batch; b++) loss += t->losses[b];
-    return loss / t->batch;
+    return ew_batch_grads_mean(&t->g, grad);
 }
 
 /* ---- built-in models (kpcn_weights_data.c) ---------------------------------- */

@@ -594,6 +594,45 @@ double ew_clip_global_norm(float *grad, size_t n, double max_norm, int *clipped)
     return norm;
 }
 
+double ew_adam_step(ew_adam *a, float *params, float *grad, size_t n, double max_norm, int *clipped) {
+    const double norm = ew_clip_global_norm(grad, n, max_norm, clipped);
+    ew_adam_update(a, params, grad, n);
+    return norm;
+}
+
+int ew_batch_grads_init(ew_batch_grads *g, int batch, size_t nparams) {
+    g->batch = batch;
+    g->nparams = nparams;
+    g->grads = (float *)malloc(sizeof(float) * nparams * (size_t)batch);
+    g->losses = (double *)malloc(sizeof(double) * (size_t)batch);
+    return g->grads && g->losses ? 0 : -1;
+}
+
+void ew_batch_grads_free(ew_batch_grads *g) {
+    free(g->grads);
+    free(g->losses);
+    g->grads = NULL;
+    g->losses = NULL;
+}
+
+float *ew_batch_grads_patch(ew_batch_grads *g, int b) {
+    float *p = g->grads + (size_t)b * g->nparams;
+    memset(p, 0, sizeof(float) * g->nparams);
+    return p;
+}
+
+double ew_batch_grads_mean(const ew_batch_grads *g, float *grad) {
+    const size_t np = g->nparams;
+    for (size_t i = 0; i < np; i++) {
+        float s = 0.0f;
+        for (int b = 0; b < g->batch; b++) s += g->grads[(size_t)b * np + i];
+        grad[i] = s / (float)g->batch;
+    }
+    double loss = 0.0;
+    for (int b = 0; b < g->batch; b++) loss += g->losses[b];
+    return loss / g->batch;
+}
+
 /* ---- batches ----------------------------------------------------------------------- */
 struct ew_trainer {
     ew_device *dev;
@@ -601,9 +640,8 @@ struct ew_trainer {
     int batch, size, nscratch;
     ew_train_model model;
     ew_train_scratch **scratch; /* one per thread */
-    float *grads;               /* batch x nparams */
+    ew_batch_grads g;
     float *mean;                /* nparams */
-    double *losses;
 };
 
 ew_trainer *ew_trainer_create(ew_device *dev, const ew_guidenet *net, int batch, int size) {
@@ -615,10 +653,9 @@ ew_trainer *ew_trainer_create(ew_device *dev, const ew_guidenet *net, int batch,
     t->size = size;
     t->nscratch = ew_device_get_num_threads(dev);
     t->scratch = (ew_train_scratch **)calloc((size_t)t->nscratch, sizeof *t->scratch);
-    t->grads = (float *)malloc(sizeof(float) * net->nparams * (size_t)batch);
     t->mean = (float *)malloc(sizeof(float) * net->nparams);
-    t->losses = (double *)malloc(sizeof(double) * (size_t)batch);
-    int bad = !t->scratch || !t->grads || !t->mean || !t->losses || ew_train_model_init(&t->model, net) != 0;
+    int bad = ew_batch_grads_init(&t->g, batch, net->nparams) != 0 || !t->scratch || !t->mean ||
+              ew_train_model_init(&t->model, net) != 0;
     for (int i = 0; !bad && i < t->nscratch; i++) bad = !(t->scratch[i] = ew_train_scratch_create(net, size));
     if (bad) {
         ew_trainer_destroy(t);
@@ -631,9 +668,8 @@ void ew_trainer_destroy(ew_trainer *t) {
     if (!t) return;
     for (int i = 0; t->scratch && i < t->nscratch; i++) ew_train_scratch_destroy(t->scratch[i]);
     free(t->scratch);
-    free(t->grads);
+    ew_batch_grads_free(&t->g);
     free(t->mean);
-    free(t->losses);
     ew_train_model_free(&t->model);
     free(t);
 }
@@ -647,11 +683,9 @@ typedef struct {
 static void batch_items(void *ctx, int64_t begin, int64_t end, int tid) {
     const batch_job *j = (const batch_job *)ctx;
     ew_trainer *t = j->t;
-    for (int64_t b = begin; b < end; b++) {
-        float *g = t->grads + (size_t)b * t->net->nparams;
-        memset(g, 0, sizeof(float) * t->net->nparams);
-        t->losses[b] = ew_train_patch(&t->model, j->frames, &j->refs[b], t->size, t->scratch[tid], g, NULL, NULL);
-    }
+    for (int64_t b = begin; b < end; b++)
+        t->g.losses[b] = ew_train_patch(&t->model, j->frames, &j->refs[b], t->size, t->scratch[tid],
+                                        ew_batch_grads_patch(&t->g, (int)b), NULL, NULL);
 }
 
 double ew_trainer_gradient(ew_trainer *t, const float *params, const ew_train_frame *frames, const ew_patch_ref *refs,
@@ -659,21 +693,11 @@ double ew_trainer_gradient(ew_trainer *t, const float *params, const ew_train_fr
     ew_train_model_prepare(&t->model, params);
     batch_job j = {t, frames, refs};
     ew_pool_run(t->dev->pool, t->batch, 1, batch_items, &j);
-    /* fixed order: the sum does not depend on which thread did what */
-    const size_t np = t->net->nparams;
-    double loss = 0.0;
-    for (size_t i = 0; i < np; i++) {
-        float s = 0.0f;
-        for (int b = 0; b < t->batch; b++) s += t->grads[(size_t)b * np + i];
-        grad[i] = s / (float)t->batch;
-    }
-    for (int b = 0; b < t->batch; b++) loss += t->losses[b];
-    return loss / t->batch;
+    return ew_batch_grads_mean(&t->g, grad);
 }
 
 void ew_trainer_step(ew_trainer *t, float *params, ew_adam *adam, const ew_train_frame *frames,
                      const ew_patch_ref *refs, double max_norm, ew_train_step_stats *stats) {
     stats->loss = ew_trainer_gradient(t, params, frames, refs, t->mean);
-    stats->grad_norm = ew_clip_global_norm(t->mean, t->net->nparams, max_norm, &stats->clipped);
-    ew_adam_update(adam, params, t->mean, t->net->nparams);
+    stats->grad_norm = ew_adam_step(adam, params, t->mean, t->net->nparams, max_norm, &stats->clipped);
 }

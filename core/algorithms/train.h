@@ -119,5 +119,25 @@ double ew_trainer_gradient(ew_trainer *t, const float *params, const ew_train_fr
 void ew_adam_update(ew_adam *a, float *params, const float *grad, size_t n);
 /* Scale grad to L2 norm max_norm if above it; returns the norm before. */
 double ew_clip_global_norm(float *grad, size_t n, double max_norm, int *clipped);
+/* The optimiser step of every trainer: grad clipped to global L2 norm
+ * max_norm (<= 0: no clipping), then Adam. Returns the norm before. */
+double ew_adam_step(ew_adam *a, float *params, float *grad, size_t n, double max_norm, int *clipped);
+
+/* A batch's per-patch gradients and losses (patch b writes its own, from
+ * whichever thread runs it) and their mean, summed in patch order so that
+ * a step does not depend on the number of threads. Every trainer's. */
+typedef struct ew_batch_grads {
+    int batch;
+    size_t nparams;
+    float *grads;   /* batch x nparams */
+    double *losses; /* batch */
+} ew_batch_grads;
+/* 0, or -1 when out of memory (free it either way). */
+int ew_batch_grads_init(ew_batch_grads *g, int batch, size_t nparams);
+void ew_batch_grads_free(ew_batch_grads *g);
+/* Patch b's gradient, zeroed. */
+float *ew_batch_grads_patch(ew_batch_grads *g, int b);
+/* grad (nparams) = the mean gradient; returns the mean loss. */
+double ew_batch_grads_mean(const ew_batch_grads *g, float *grad);
 
 #endif

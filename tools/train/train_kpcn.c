@@ -904,8 +904,7 @@ int main(int argc, char **argv) {
         adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979 * t));
         const double loss = ew_kpcn_trainer_gradient(tr, params, tframes, patches, grad);
         int clipped;
-        const double gn = ew_clip_global_norm(grad, net.nparams, o.clip, &clipped);
-        ew_adam_update(&adam, params, grad, net.nparams);
+        const double gn = ew_adam_step(&adam, params, grad, net.nparams, o.clip, &clipped);
         loss_acc += loss;
         gn_acc += gn;
         acc_n++;
