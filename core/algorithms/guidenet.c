@@ -97,16 +97,7 @@ int ew_guidenet_from_weights(ew_guidenet *net, const ew_weights *w, float **para
     }
     for (int l = 0; l < net->nlayers; l++) {
         const ew_gn_layer *L = &net->layers[l];
-        char name[32];
-        uint32_t wd[4] = {(uint32_t)L->cout, (uint32_t)L->cin, 5, 5}, bd[1] = {(uint32_t)L->cout};
-        snprintf(name, sizeof name, "conv%d.weight", l);
-        const ew_tensor *t = ew_weights_find(w, name, 4, wd, err, errlen);
-        if (!t) goto fail;
-        memcpy(p + L->w_off, t->data, t->count * sizeof(float));
-        snprintf(name, sizeof name, "conv%d.bias", l);
-        t = ew_weights_find(w, name, 1, bd, err, errlen);
-        if (!t) goto fail;
-        memcpy(p + L->b_off, t->data, t->count * sizeof(float));
+        if (ew_weights_get_conv(w, l, L->cin, L->cout, p, L->w_off, L->b_off, err, errlen) != 0) goto fail;
     }
     uint32_t rd[2] = {(uint32_t)net->ngrids, 2};
     const ew_tensor *rates = ew_weights_find(w, "grid.rates", 2, rd, err, errlen);
@@ -133,22 +124,9 @@ int ew_guidenet_save(const ew_guidenet *net, const float *params, void **out, si
     float rates[2 * EW_GN_MAX_GRIDS];
     memset(t, 0, sizeof t);
     int n = 0;
-    for (int l = 0; l < net->nlayers; l++) {
+    for (int l = 0; l < net->nlayers; l++, n += 2) {
         const ew_gn_layer *L = &net->layers[l];
-        snprintf(t[n].name, sizeof t[n].name, "conv%d.weight", l);
-        t[n].rank = 4;
-        t[n].dims[0] = (uint32_t)L->cout;
-        t[n].dims[1] = (uint32_t)L->cin;
-        t[n].dims[2] = t[n].dims[3] = 5;
-        t[n].count = (size_t)L->cout * L->cin * 25;
-        t[n].data = (float *)(params + L->w_off);
-        n++;
-        snprintf(t[n].name, sizeof t[n].name, "conv%d.bias", l);
-        t[n].rank = 1;
-        t[n].dims[0] = (uint32_t)L->cout;
-        t[n].count = (size_t)L->cout;
-        t[n].data = (float *)(params + L->b_off);
-        n++;
+        ew_weights_put_conv(&t[n], l, L->cin, L->cout, params, L->w_off, L->b_off);
     }
     for (int s = 0; s < net->ngrids; s++) {
         rates[2 * s] = net->rate_s[s];

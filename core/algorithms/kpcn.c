@@ -110,22 +110,10 @@ int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, 
     }
     for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
         const ew_kpcn_layer *L = &net->layers[l];
-        char name[32];
-        uint32_t wd[4] = {(uint32_t)L->cout, (uint32_t)L->cin, 5, 5}, bd[1] = {(uint32_t)L->cout};
-        snprintf(name, sizeof name, "conv%d.weight", l);
-        const ew_tensor *t = ew_weights_find(w, name, 4, wd, err, errlen);
-        if (!t) {
+        if (ew_weights_get_conv(w, l, L->cin, L->cout, p, L->w_off, L->b_off, err, errlen) != 0) {
             free(p);
             return 1;
         }
-        memcpy(p + L->w_off, t->data, t->count * sizeof(float));
-        snprintf(name, sizeof name, "conv%d.bias", l);
-        t = ew_weights_find(w, name, 1, bd, err, errlen);
-        if (!t) {
-            free(p);
-            return 1;
-        }
-        memcpy(p + L->b_off, t->data, t->count * sizeof(float));
     }
     *params = p;
     return 0;
@@ -135,22 +123,9 @@ int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t
     ew_tensor t[2 * EW_KPCN_NLAYERS];
     memset(t, 0, sizeof t);
     int n = 0;
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (int l = 0; l < EW_KPCN_NLAYERS; l++, n += 2) {
         const ew_kpcn_layer *L = &net->layers[l];
-        snprintf(t[n].name, sizeof t[n].name, "conv%d.weight", l);
-        t[n].rank = 4;
-        t[n].dims[0] = (uint32_t)L->cout;
-        t[n].dims[1] = (uint32_t)L->cin;
-        t[n].dims[2] = t[n].dims[3] = 5;
-        t[n].count = (size_t)L->cout * L->cin * 25;
-        t[n].data = (float *)(params + L->w_off);
-        n++;
-        snprintf(t[n].name, sizeof t[n].name, "conv%d.bias", l);
-        t[n].rank = 1;
-        t[n].dims[0] = (uint32_t)L->cout;
-        t[n].count = (size_t)L->cout;
-        t[n].data = (float *)(params + L->b_off);
-        n++;
+        ew_weights_put_conv(&t[n], l, L->cin, L->cout, params, L->w_off, L->b_off);
     }
     ew_weights w;
     memset(&w, 0, sizeof w);

@@ -116,6 +116,37 @@ const ew_tensor *ew_weights_find(const ew_weights *w, const char *name, uint32_t
     return t;
 }
 
+int ew_weights_get_conv(const ew_weights *w, int l, int cin, int cout, float *params, size_t w_off, size_t b_off,
+                        char *err, size_t errlen) {
+    char name[EW_WEIGHTS_MAX_NAME];
+    const uint32_t wd[4] = {(uint32_t)cout, (uint32_t)cin, 5, 5}, bd[1] = {(uint32_t)cout};
+    snprintf(name, sizeof name, "conv%d.weight", l);
+    const ew_tensor *t = ew_weights_find(w, name, 4, wd, err, errlen);
+    if (!t) return 1;
+    memcpy(params + w_off, t->data, t->count * sizeof(float));
+    snprintf(name, sizeof name, "conv%d.bias", l);
+    t = ew_weights_find(w, name, 1, bd, err, errlen);
+    if (!t) return 1;
+    memcpy(params + b_off, t->data, t->count * sizeof(float));
+    return 0;
+}
+
+void ew_weights_put_conv(ew_tensor t[2], int l, int cin, int cout, const float *params, size_t w_off, size_t b_off) {
+    memset(t, 0, 2 * sizeof *t);
+    snprintf(t[0].name, sizeof t[0].name, "conv%d.weight", l);
+    t[0].rank = 4;
+    t[0].dims[0] = (uint32_t)cout;
+    t[0].dims[1] = (uint32_t)cin;
+    t[0].dims[2] = t[0].dims[3] = 5;
+    t[0].count = (size_t)cout * (size_t)cin * 25;
+    t[0].data = (float *)(params + w_off); /* only read by ew_weights_serialize */
+    snprintf(t[1].name, sizeof t[1].name, "conv%d.bias", l);
+    t[1].rank = 1;
+    t[1].dims[0] = (uint32_t)cout;
+    t[1].count = (size_t)cout;
+    t[1].data = (float *)(params + b_off);
+}
+
 /* p NULL: only counts the bytes */
 typedef struct { unsigned char *p; size_t at; } writer;
 

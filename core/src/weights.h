@@ -54,6 +54,14 @@ const ew_tensor *ew_weights_tensor(const ew_weights *w, const char *name);
 size_t ew_weights_write(const ew_weights *w, void *buf, size_t cap);
 /* Serialise; *out is malloc'd (caller frees). Returns 0 on success. */
 int ew_weights_serialize(const ew_weights *w, void **out, size_t *size);
+/* A 5x5 convolution layer l of a network's file: "conv<l>.weight"
+ * [cout, cin, 5, 5] and "conv<l>.bias" [cout], at w_off and b_off of the
+ * network's parameter vector. get copies them from w into params (non-zero
+ * with err when absent or shaped otherwise); put describes them in t[0..2),
+ * pointing into params, for ew_weights_serialize. */
+int ew_weights_get_conv(const ew_weights *w, int l, int cin, int cout, float *params, size_t w_off, size_t b_off,
+                        char *err, size_t errlen);
+void ew_weights_put_conv(ew_tensor t[2], int l, int cin, int cout, const float *params, size_t w_off, size_t b_off);
 /* CRC-32 (IEEE, zlib's crc32) of data: the container's checksum. */
 uint32_t ew_crc32(const void *data, size_t size);
 

@@ -476,6 +476,12 @@ TEST(builtin_weights_match_model_files) {
         float *p = NULL;
         CHECK(ew_kpcn_from_weights(&net, &w, &p, err, sizeof err) == 0);
         CHECK_EQ_INT(net.ch, k == 0 ? 16 : 8);
+        /* and saving it writes the same file: the format is unchanged */
+        void *again = NULL;
+        size_t again_size = 0;
+        CHECK(ew_kpcn_save(&net, p, &again, &again_size) == 0);
+        CHECK(again_size == size && memcmp(again, bytes, size) == 0);
+        free(again);
         free(p);
         ew_weights_free(&w);
     }

@@ -269,6 +269,20 @@ TEST(built_in_models_are_the_shipped_files) {
         free(file);
         if (!same) fprintf(stderr, "  %s differs from the built-in copy: run train_nbg --emit-c\n", path);
         CHECK(same);
+        /* saving the parsed model writes the same file: the format is unchanged */
+        ew_weights w;
+        char err[256];
+        CHECK_EQ_INT(ew_weights_parse(bytes, size, &w, err, sizeof err), 0);
+        ew_guidenet net;
+        float *params = NULL;
+        CHECK_EQ_INT(ew_guidenet_from_weights(&net, &w, &params, err, sizeof err), 0);
+        void *again = NULL;
+        size_t again_size = 0;
+        CHECK_EQ_INT(ew_guidenet_save(&net, params, &again, &again_size), 0);
+        CHECK(again_size == size && memcmp(again, bytes, size) == 0);
+        free(again);
+        free(params);
+        ew_weights_free(&w);
         images im;
         images_make(&im, 24, 20, 11);
         ew_device *dev = make_device(2);
