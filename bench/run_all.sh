@@ -21,6 +21,8 @@
 #   temporal/   edgewise bench --temporal on the g_anim sequences + its report
 #   strips/     the stability suite's image strips (tests/stability), on DATA's hard scenes
 #   nbg_speed.txt     train_nbg --bench: 1280x720 ms per model, GuideNet share, GFLOP/s, 4K memory
+#   kpcn_oidn.txt     bench/bench_kpcn_oidn.py --uhd: kpcn and OIDN (oidn_torch.py) on one 1280x720
+#                     frame, time ratios, conv share of the FMA peak, peak RSS at 3840x2160 (not with -q)
 #   filters/    bench_filters: pyramid filter quality vs brute force, time vs radius, speed ratios
 # Environment: EW_BUILD_DIR (default build), PYTHON (default /usr/bin/python3: the
 # Debian interpreter, which has matplotlib). A build directory configured for this
@@ -121,6 +123,15 @@ if [ "$DRY" -eq 1 ]; then
     run "$B/bin/train_nbg" --bench --data "$DATA" --models "$ROOT/models/nbg"
 else
     "$B/bin/train_nbg" --bench --data "$DATA" --models "$ROOT/models/nbg" | tee "$OUT/nbg_speed.txt"
+fi
+
+step "kpcn against OIDN at 1280x720, kpcn's peak memory at 3840x2160"
+if [ "$QUICK" -eq 1 ]; then
+    echo "run_all.sh: -q leaves out kpcn against OIDN (minutes of OIDN's network on the CPU)" >&2
+elif [ "$DRY" -eq 1 ]; then
+    run "$PY" "$ROOT/bench/bench_kpcn_oidn.py" --uhd
+else
+    EW_BUILD_DIR=$B "$PY" "$ROOT/bench/bench_kpcn_oidn.py" --uhd | tee "$OUT/kpcn_oidn.txt"
 fi
 
 step "edge-aware filters (issue 4)"
