@@ -71,10 +71,13 @@ static ew_result table_from_weights(const ew_weights *w, ew_pyr_table *out, char
 
 ew_result ew_pyr_table_parse(const void *data, size_t size, ew_pyr_table *out, char *why, size_t whylen) {
     if (!data || !out) return bad(why, whylen, "no data");
-    char err[200];
+    char err[200], msg[240];
     ew_weights w;
     /* finite values, sizes, checksum: the container's checks */
-    if (ew_weights_parse(data, size, &w, err, sizeof err) != 0) return bad(why, whylen, err);
+    if (ew_weights_parse(data, size, &w, err, sizeof err) != 0) {
+        snprintf(msg, sizeof msg, "not a pyramid weights file: %s", err);
+        return bad(why, whylen, msg);
+    }
     const ew_result r = table_from_weights(&w, out, why, whylen);
     ew_weights_free(&w);
     return r;
