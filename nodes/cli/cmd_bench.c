@@ -14,6 +14,7 @@
 #include <time.h>
 
 #include "cli.h"
+#include "frame_energy.h"
 #include "method_run.h"
 
 static const char help[] =
@@ -183,37 +184,6 @@ static void strip_stage(void) {
         param(&specs[m], "do_no_harm", 0.0f);
         param(&specs[m], "outlier_k", 0.0f);
     }
-}
-
-static double frame_lum(const float *c, size_t n) {
-    double s = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        const double l = 0.2126 * c[i * 3] + 0.7152 * c[i * 3 + 1] + 0.0722 * c[i * 3 + 2];
-        if (isfinite(l)) s += l;
-    }
-    return s / (double)n;
-}
-
-/* The largest ratio of an output pixel's luminance to the reference's
- * largest within r pixels (floored at 1e-3 of the reference's mean): an
- * extreme sample that survived, spread or not, shows as a large ratio. */
-static double peak_ratio(const float *out, const float *ref, int w, int h, int r) {
-    const double floor_l = 1e-3 * frame_lum(ref, (size_t)w * h);
-    double worst = 0.0;
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            const float *o = out + ((size_t)y * w + x) * 3;
-            const double l = 0.2126 * o[0] + 0.7152 * o[1] + 0.0722 * o[2];
-            double mx = floor_l;
-            for (int yy = y - r < 0 ? 0 : y - r; yy <= (y + r < h ? y + r : h - 1); yy++)
-                for (int xx = x - r < 0 ? 0 : x - r; xx <= (x + r < w ? x + r : w - 1); xx++) {
-                    const float *q = ref + ((size_t)yy * w + xx) * 3;
-                    const double lq = 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
-                    if (lq > mx) mx = lq;
-                }
-            if (l / mx > worst) worst = l / mx;
-        }
-    return worst;
 }
 
 /* specs[m] on the layer, after its pre-filter if it has one. */
@@ -647,10 +617,11 @@ int cmd_bench(int argc, char **argv) {
                     ew_image_ssim(dev, &vo, &vr, &ssim);
                     ew_image_relmse(dev, &vo, &vr, &rel);
                     ew_image_smape(dev, &vo, &vr, &smape);
-                    const double lum_ratio = frame_lum(out, (size_t)w * h) / frame_lum(ref, (size_t)w * h);
+                    const double lum_ratio =
+                        ew_frame_mean_lum(out, (size_t)w * h) / ew_frame_mean_lum(ref, (size_t)w * h);
                     fprintf(csv, "%s,%d,%d,%s,%.4f,%.5f,%.6g,%.6g,%.3f,%d,%d,%d,%.4f,%.3f\n", names[s], frame, spp,
                             specs[m].label, psnr, ssim, rel, smape, specs[m].kind ? best : 0.0, w, h,
-                            ew_device_get_num_threads(dev), lum_ratio, peak_ratio(out, ref, w, h, 5));
+                            ew_device_get_num_threads(dev), lum_ratio, ew_frame_peak_ratio(out, ref, w, h, 5));
                     fflush(csv);
                     rows++;
                     fprintf(stderr, "[%d/%d] %-28s %3d spp %-16s PSNR %6.2f SSIM %.4f %8.2f ms\n", s + 1, n_names,

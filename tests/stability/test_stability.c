@@ -20,6 +20,7 @@
 #include <sys/resource.h>
 #include <time.h>
 
+#include "frame_energy.h"
 #include "method_run.h"
 
 #ifndef EW_STABILITY_DATA_DIR
@@ -463,36 +464,6 @@ static int is_denoising(const ew_method_spec *s) {
     return s->kind && (!strcmp(s->kind, "denoiser") || (strcmp(s->name, "dof") && strcmp(s->name, "outlier")));
 }
 
-static double frame_lum(const float *c, size_t n) {
-    double s = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        const double l = 0.2126 * c[i * 3] + 0.7152 * c[i * 3 + 1] + 0.0722 * c[i * 3 + 2];
-        if (isfinite(l)) s += l;
-    }
-    return s / (double)n;
-}
-
-/* Largest ratio of an output pixel's luminance to the reference's largest
- * luminance within `r` pixels (floored at 1e-3 of the reference's mean). */
-static double peak_ratio(const float *out, const float *ref, int w, int h, int r) {
-    const double floor_l = 1e-3 * frame_lum(ref, (size_t)w * h);
-    double worst = 0.0;
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            const float *o = out + ((size_t)y * w + x) * 3;
-            const double l = 0.2126 * o[0] + 0.7152 * o[1] + 0.0722 * o[2];
-            double mx = floor_l;
-            for (int yy = y - r < 0 ? 0 : y - r; yy <= (y + r < h ? y + r : h - 1); yy++)
-                for (int xx = x - r < 0 ? 0 : x - r; xx <= (x + r < w ? x + r : w - 1); xx++) {
-                    const float *q = ref + ((size_t)yy * w + xx) * 3;
-                    const double lq = 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
-                    if (lq > mx) mx = lq;
-                }
-            if (l / mx > worst) worst = l / mx;
-        }
-    return worst;
-}
-
 /* One committed render at one sample count, every denoising method with
  * and without the stage. firefly: check the energy and the peaks; else
  * check output - input against `margin` dB. Returns the failures. */
@@ -512,12 +483,12 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
     const int w = d.width, h = d.height;
     const size_t n = (size_t)w * h;
     float *out = malloc(n * 3 * sizeof(float));
-    const double p_in = psnr_of(dev, d.color, refc, w, h), l_ref = frame_lum(refc, n);
+    const double p_in = psnr_of(dev, d.color, refc, w, h), l_ref = ew_frame_mean_lum(refc, n);
     int fails = 0;
-    const double in_peak = peak_ratio(d.color, refc, w, h, 5);
+    const double in_peak = ew_frame_peak_ratio(d.color, refc, w, h, 5);
     if (firefly)
         fprintf(stderr, "  %s %d spp: input lum %.3fx ref, peak %.1fx local max\n", scene, spp,
-                frame_lum(d.color, n) / l_ref, peak_ratio(d.color, refc, w, h, 5));
+                ew_frame_mean_lum(d.color, n) / l_ref, ew_frame_peak_ratio(d.color, refc, w, h, 5));
     else
         fprintf(stderr, "  %s %d spp: input %.2f dB\n", scene, spp, p_in);
     for (int m = 0; out && m < n_specs; m++) {
@@ -539,8 +510,8 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
                 continue;
             }
             if (firefly) {
-                fig[stage][0] = frame_lum(out, n) / l_ref;
-                fig[stage][1] = peak_ratio(out, refc, w, h, 5);
+                fig[stage][0] = ew_frame_mean_lum(out, n) / l_ref;
+                fig[stage][1] = ew_frame_peak_ratio(out, refc, w, h, 5);
             } else {
                 fig[stage][0] = psnr_of(dev, out, refc, w, h) - p_in;
             }
