@@ -79,7 +79,7 @@ REPEAT=$([ "$QUICK" -eq 1 ] && echo 1 || echo 2)
 
 # Held out from every choice of settings and from training (models/nbg/README.md)
 SCENES=a_cornell_119,a_cornell_122,b_glossy_112,b_glossy_118,c_glass_113,c_glass_120,h_hdri_114,h_hdri_121,e_dof_116,d_firefly_115,f_motionblur_117,g_anim_123
-METHODS=input,bgrid-features,bgrid,nbg,nbg-1grid,nbg-7layer,nbg-1spp,kpcn,kpcn-small,auto,auto-high,auto-noise,atrous,pyramid-gi,bilateral-gi
+METHODS=input,bgrid-features,bgrid,nbg,nbg-1grid,nbg-7layer,nbg-1spp,kpcn,kpcn-small,kpcn-large,auto,auto-high,auto-noise,atrous,pyramid-gi,bilateral-gi
 SPP=1,4,16,64
 TSCENES=g_anim_111,g_anim_123
 if [ "$QUICK" -eq 1 ]; then

@@ -8,9 +8,9 @@
  * (kernels/denoise_px.h, outlier.h), so the output cannot hold more energy
  * than the radiance around each pixel.
  *
- * Weights: "model" picks a model built into the library (0 = kpcn, the
- * large one; 1 = kpcn-small); ew_denoiser_set_data(d, "weights", ...) loads
- * a weights file written by train_kpcn instead.
+ * Weights: "model" picks a model built into the library (0 = kpcn, 16
+ * channels; 1 = kpcn-small, 8; 2 = kpcn-large, 24); ew_denoiser_set_data(d,
+ * "weights", ...) loads a weights file written by train_kpcn instead.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -33,8 +33,8 @@ static const ew_image_desc images[] = {
 
 static const ew_param_desc params[] = {
     {"model", EW_PARAM_INT, 0.0f, 0.0f, (float)(EW_KPCN_NUM_MODELS - 1),
-     "built-in model: kpcn (16 channels, the best; the default), kpcn-small (8 channels, 2.7x fewer "
-     "multiply-adds); ignored while weights are set with set_data"},
+     "built-in model: kpcn (16 channels; the default), kpcn-small (8 channels, 2.7x fewer multiply-adds), "
+     "kpcn-large (24 channels, 1.9x the multiply-adds, the best); ignored while weights are set with set_data"},
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off (the "
      "shipped models were trained with 3)"},

@@ -718,16 +718,14 @@ double ew_kpcn_trainer_gradient(ew_kpcn_trainer *t, const float *params, const e
 }
 
 /* ---- built-in models (kpcn_weights_data.c) ---------------------------------- */
-extern const unsigned char ew_kpcn_weights_large[], ew_kpcn_weights_small[];
-extern const size_t ew_kpcn_weights_large_size, ew_kpcn_weights_small_size;
-
-const char *const ew_kpcn_model_names[EW_KPCN_NUM_MODELS + 1] = {"kpcn", "kpcn-small", NULL};
+const char *const ew_kpcn_model_names[EW_KPCN_NUM_MODELS + 1] = {"kpcn", "kpcn-small", "kpcn-large", NULL};
 
 const char *ew_kpcn_model_name(int which) {
     return which >= 0 && which < EW_KPCN_NUM_MODELS ? ew_kpcn_model_names[which] : NULL;
 }
 
 void ew_kpcn_builtin_weights(int which, const unsigned char **bytes, size_t *size) {
-    *bytes = which == 0 ? ew_kpcn_weights_large : which == 1 ? ew_kpcn_weights_small : NULL;
-    *size = which == 0 ? ew_kpcn_weights_large_size : which == 1 ? ew_kpcn_weights_small_size : 0;
+    const int ok = which >= 0 && which < EW_KPCN_NUM_MODELS;
+    *bytes = ok ? ew_kpcn_builtin_bytes[which] : NULL;
+    *size = ok ? ew_kpcn_builtin_sizes[which] : 0;
 }

@@ -91,11 +91,16 @@ void ew_kpcn_layer_args(const ew_kpcn_net *net, int l, const float *params, cons
 void ew_kpcn_scale_sizes(int w, int h, int *sw, int *sh);
 
 /* ---- built-in models ------------------------------------------------- */
-#define EW_KPCN_NUM_MODELS 2
-/* 0 = "kpcn" (the large model, the default), 1 = "kpcn-small" */
+#define EW_KPCN_NUM_MODELS 3
+/* 0 = "kpcn" (the default), 1 = "kpcn-small", 2 = "kpcn-large": the files
+ * models/kpcn/<name>.ewm, compiled in as kpcn_weights_data.c. */
 const char *ew_kpcn_model_name(int which);
 extern const char *const ew_kpcn_model_names[EW_KPCN_NUM_MODELS + 1]; /* NULL-terminated (enum choices) */
+/* The built-in model's weights file; size 0 when this build has none. */
 void ew_kpcn_builtin_weights(int which, const unsigned char **bytes, size_t *size);
+/* kpcn_weights_data.c (train_kpcn --emit-c) */
+extern const unsigned char *const ew_kpcn_builtin_bytes[EW_KPCN_NUM_MODELS];
+extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
 
 /* ---- inference on a device -------------------------------------------- */
 /* Device floats the op needs for a w x h frame beyond its packed inputs:

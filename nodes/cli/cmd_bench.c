@@ -117,9 +117,11 @@ static void build_specs(void) {
         }
     }
     if (has_method("denoiser", "kpcn")) {
-        add("kpcn", "denoiser", "kpcn", 0); /* built-in model 0: the large one */
+        add("kpcn", "denoiser", "kpcn", 0); /* built-in model 0 */
         s = add("kpcn-small", "denoiser", "kpcn", 0);
         param(s, "model", 1.0f);
+        s = add("kpcn-large", "denoiser", "kpcn", 0);
+        param(s, "model", 2.0f);
     }
     if (has_method("denoiser", "auto")) {
         add("auto", "denoiser", "auto", 0); /* the sample count from the file's Cycles metadata */
