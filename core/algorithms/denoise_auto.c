@@ -15,10 +15,11 @@
  *   3 (33-)       bgrid finest grid              finest grid (2, 4, 4; 0.9)
  *
  * The "quality" parameter says how far up the ladder it may climb: fast is
- * the table above and the default; balanced runs the kernel-predicting
- * network kpcn at levels 1 and 2, where it measured better by 0.4-0.5 dB;
- * high also at level 3, where it measured level (the rows below). The
- * default stays fast: kpcn takes about three times nbg's time.
+ * the table above; balanced, the default, runs the kernel-predicting network
+ * kpcn (16 channels) at levels 1 and 2, where it measured better by 0.3-0.4
+ * dB for about three times nbg's time; high runs kpcn-large (24 channels) at
+ * every level, where it measured better than or level with both (the rows
+ * below). Without albedo, normal and depth every quality is the grid.
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
  * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
@@ -57,10 +58,10 @@ static const ew_image_desc images[] = {
 
 static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 16777216.0f, "samples per pixel of the render (0: unknown, estimate the noise)"},
-    {"quality", EW_PARAM_INT, 0.0f, 0.0f, 2.0f,
-     "how far up the ladder auto may climb: fast (the default: grids and nbg only), balanced (kpcn where it "
-     "measured better on the validation scenes, 3-32 spp, about 3x the time), high (kpcn also where it measured "
-     "level, 3 spp and up); kpcn needs albedo, normal and depth"},
+    {"quality", EW_PARAM_INT, 1.0f, 0.0f, 2.0f,
+     "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn at 3-32 spp, "
+     "where it measured better on the held-out scenes, about 3x nbg's time), high (kpcn-large at every sample "
+     "count, about 2x kpcn's time); kpcn needs albedo, normal and depth"},
 };
 
 static const char *const quality_names[] = {"fast", "balanced", "high", NULL};
@@ -80,20 +81,20 @@ typedef struct {
     float spatial, range, prepass, color_weight;
 } level_choice;
 
-#define KPCN_LARGE 0 /* kpcn's built-in model (algorithms/kpcn.h) */
+#define KPCN_16 0 /* kpcn's built-in models (algorithms/kpcn.h) */
+#define KPCN_24 2
 
 /* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md):
- * on the 12 held-out validation scenes the noise-aware kpcn beat the fast
- * rungs at 4 spp (32.84 dB against nbg's 32.35) and 16 spp (37.28 against
- * the fine grid's 36.88), was level at 64 spp (40.01 against the finest
- * grid's 39.83), and lost at 1 spp (28.07 against nbg-1spp's 28.42), so no
- * quality climbs there. kpcn-small is not used: it did not beat the fast
- * rungs at any level. */
+ * on 28 held-out scenes (the render cache's val split and held-out training
+ * scenes), against the fast rungs, at 1 / 4 / 16 / 64 spp: kpcn (16
+ * channels) -0.4 / +0.3 / +0.4 / +0.0 dB, kpcn-large +0.0 / +0.6 / +0.9 /
+ * +0.5 dB. Balanced climbs where kpcn wins, high wherever kpcn-large is at
+ * least level. kpcn-small is not used: it did not beat the fast rungs. */
 static const level_choice levels[] = {
-    {-1, -1, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
-    {KPCN_LARGE, KPCN_LARGE, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
-    {KPCN_LARGE, KPCN_LARGE, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
-    {-1, KPCN_LARGE, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
+    {-1, KPCN_24, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
+    {KPCN_16, KPCN_24, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
+    {KPCN_16, KPCN_24, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
+    {-1, KPCN_24, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
 };
 
 /* Noise-estimate thresholds between the levels: the geometric means of the
@@ -272,8 +273,9 @@ const ew_op_type ew_denoise_auto = {
     .kind = "denoiser",
     .name = "auto",
     .summary = "picks the cheapest method that reaches the best quality for the frame's noise level (sample "
-               "count, or a noise estimate) and passes: nbg at 1-8 spp with albedo/normal/depth, else a "
-               "bilateral grid as fine as the frame allows",
+               "count, or a noise estimate), its passes and the quality setting: with albedo/normal/depth kpcn "
+               "at 3-32 spp (quality balanced, the default) and nbg at 1-2 spp, else a bilateral grid as fine as "
+               "the frame allows",
     .images = images,
     .num_images = (int)(sizeof images / sizeof images[0]),
     .params = params,

@@ -335,14 +335,14 @@ static ew_result execute(ew_op *op) {
     b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
     dev->backend->denoise_prepare(dev, b); /* radiance = colour / (albedo + eps) */
     const float k = ew_op_param(op, "firefly_k");
-    float *radiance = b->radiance;
-    if (k > 0.0f) {
-        /* the shared outlier definition (kernels/outlier.h), plain statistics */
-        const ew_outlier_params fp = ew_outlier_plain_params(w, h, 2, k);
-        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3};
-        dev->backend->outlier_guided(dev, &fp, &fb);
-        radiance = s->clamped;
-    }
+    /* the shared outlier definition (kernels/outlier.h), plain statistics;
+     * it also rebuilds NaN/Inf samples from their neighbours even with the
+     * clamp off (k 0), since the kernels are convex combinations of the
+     * radiance: one non-finite tap would blank its whole neighbourhood */
+    const ew_outlier_params fp = ew_kpcn_clamp_params(w, h, k);
+    const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3};
+    dev->backend->outlier_guided(dev, &fp, &fb);
+    float *radiance = s->clamped;
     float noise = 0.0f;
     if (net->noise) { /* the frame's noise level, as the trainer's ew_kpcn_frame_noise */
         dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, w, h, radiance, s->row_out);

@@ -305,7 +305,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
     f->width = width;
     f->height = height;
     f->input = (float *)malloc(sizeof(float) * n * EW_KPCN_MAX_INPUTS);
-    f->radiance = (float *)malloc(sizeof(float) * n * 3);
+    f->radiance = (float *)calloc((size_t)n * 3, sizeof(float)); /* the clamp pass writes all of it; GCC cannot tell */
     f->albedo_f = (float *)malloc(sizeof(float) * n * 3);
     f->ref = (float *)malloc(sizeof(float) * n * 3);
     float *raw = (float *)malloc(sizeof(float) * n * 4);
@@ -335,15 +335,10 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
     b.radiance = raw;
     b.guide = raw + n * 3;
     for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, &b);
-    const ew_outlier_params fp = ew_outlier_plain_params(width, height, 2, firefly_k);
+    const ew_outlier_params fp = ew_kpcn_clamp_params(width, height, firefly_k);
     const ew_outlier_buffers fb = {raw, NULL, NULL, f->radiance, 3};
     for (int y = 0; y < height; y++)
-        for (int x = 0; x < width; x++) {
-            if (firefly_k > 0.0f)
-                ew_outlier_guided_px(x, y, &fp, &fb);
-            else
-                memcpy(f->radiance + ((long)y * width + x) * 3, raw + ((long)y * width + x) * 3, 3 * sizeof(float));
-        }
+        for (int x = 0; x < width; x++) ew_outlier_guided_px(x, y, &fp, &fb);
     free(raw);
     ew_kpcn_input_args ia = {width, height, f->radiance, albedo, normal, depth, b.depth_scale, f->input, width, n,
                              1, ew_kpcn_frame_noise(width, height, f->radiance), width};

@@ -24,6 +24,7 @@
 
 #include "kernels/conv.h"
 #include "kernels/denoise_px.h"
+#include "kernels/outlier.h"
 
 #define EW_KPCN_INPUTS 10     /* network input planes of the per-pixel features */
 #define EW_KPCN_MAX_INPUTS 11 /* and the frame's noise level, in the "-noise" models */
@@ -78,6 +79,15 @@ EW_HD float ew_kpcn_noise_from_rows(const double *rows, int height) {
         count += rows[2 * y + 1];
     }
     return ew_kpcn_noise_feature(count > 0.0 ? sum / count : 0.0);
+}
+
+/* The radiance kpcn filters: firefly-clamped at k (0: no clamp) with the
+ * shared outlier definition, and NaN/Inf samples rebuilt from their
+ * neighbours: the op and the trainer's frames use these. */
+EW_HD ew_outlier_params ew_kpcn_clamp_params(int width, int height, float k) {
+    ew_outlier_params p = ew_outlier_plain_params(width, height, 2, k > 0.0f ? k : 0.0f);
+    p.repair = 1;
+    return p;
 }
 
 EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {

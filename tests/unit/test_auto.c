@@ -91,28 +91,33 @@ TEST(sample_count_picks_the_model) {
     CHECK(same(f.out, f.out2));
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp"); /* nbg names its model too */
 
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, NULL, f.out, what, sizeof what), EW_OK);
+    static const param fast4[] = {{"quality", 0}, {NULL, 0}};
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, fast4, f.out, what, sizeof what), EW_OK);
     CHECK(strstr(what, "nbg 2layer-3grid (") != NULL);
     CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 0}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
 
-    /* quality fast (the default) stays on the grids and nbg; balanced and
-     * high climb to kpcn at 16 spp, high also at 4 spp; the output is
-     * kpcn's own */
+    /* quality fast stays on the grids and nbg; balanced (the default)
+     * climbs to kpcn at 16 spp, not at 1 spp; high to kpcn-large at every
+     * count; the output is that model's own */
     static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
                        high[] = {{"quality", 2}, {NULL, 0}};
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out2, what, sizeof what), EW_OK);
-    CHECK(same(f.out, f.out2));
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, balanced, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "kpcn kpcn (16 spp, quality balanced)");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, balanced, f.out2, what, sizeof what), EW_OK);
+    CHECK(same(f.out, f.out2));
     CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, NULL, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, high, f.out, what, sizeof what), EW_OK);
-    CHECK_STR_CONTAINS(what, "kpcn kpcn (4 spp, quality high)");
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, high, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, balanced, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, high, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (4 spp, quality high)");
+    CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, (const param[]){{"model", 2}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
+    CHECK(same(f.out, f.out2));
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, high, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (1 spp, quality high)");
     /* without the features kpcn cannot run: the grid, whatever the quality */
     CHECK_EQ_INT(run(dev, "auto", &f, 0, 16, high, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid");
