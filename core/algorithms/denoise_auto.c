@@ -16,10 +16,10 @@
  *
  * The "quality" parameter says how far up the ladder it may climb: fast is
  * the table above; balanced, the default, runs the kernel-predicting network
- * kpcn (16 channels) at levels 1 and 2, where it measured better by 0.3-0.4
- * dB for about three times nbg's time; high runs kpcn-large (24 channels) at
- * every level, where it measured better than or level with both (the rows
- * below). Without albedo, normal and depth every quality is the grid.
+ * kpcn-large (24 channels) at levels 1 and 2, where it measured better by
+ * 0.6-0.9 dB for about twice the fast rungs' time; high runs it at every
+ * level, also where it measured level or a little better (the rows below).
+ * Without albedo, normal and depth every quality is the grid.
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
  * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
@@ -59,9 +59,9 @@ static const ew_image_desc images[] = {
 static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 16777216.0f, "samples per pixel of the render (0: unknown, estimate the noise)"},
     {"quality", EW_PARAM_INT, 1.0f, 0.0f, 2.0f,
-     "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn at 3-32 spp, "
-     "where it measured better on the held-out scenes, about 3x nbg's time), high (kpcn-large at every sample "
-     "count, about 2x kpcn's time); kpcn needs albedo, normal and depth"},
+     "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn-large at "
+     "3-32 spp, where it measured 0.6-0.9 dB better on the held-out scenes, about 2x the time), high (kpcn-large "
+     "at every sample count); kpcn needs albedo, normal and depth"},
 };
 
 static const char *const quality_names[] = {"fast", "balanced", "high", NULL};
@@ -81,19 +81,22 @@ typedef struct {
     float spatial, range, prepass, color_weight;
 } level_choice;
 
-#define KPCN_16 0 /* kpcn's built-in models (algorithms/kpcn.h) */
-#define KPCN_24 2
+#define KPCN_24 2 /* kpcn's built-in model kpcn-large (algorithms/kpcn.h) */
 
 /* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md):
  * on 28 held-out scenes (the render cache's val split and held-out training
  * scenes), against the fast rungs, at 1 / 4 / 16 / 64 spp: kpcn (16
  * channels) -0.4 / +0.3 / +0.4 / +0.0 dB, kpcn-large +0.0 / +0.6 / +0.9 /
- * +0.5 dB. Balanced climbs where kpcn wins, high wherever kpcn-large is at
- * least level. kpcn-small is not used: it did not beat the fast rungs. */
+ * +0.5 dB. Balanced climbs where kpcn-large wins clearly, high wherever it
+ * is at least level. kpcn (16 channels) is not used: kpcn-large is 0.3-0.5
+ * dB better at every level for 1.9x the multiply-adds, and kpcn alone fell
+ * below the noisy input on a depth-of-field frame at 4 spp (the stability
+ * suite) and below the fast rungs on glass; kpcn-small did not beat the fast
+ * rungs at all. */
 static const level_choice levels[] = {
     {-1, KPCN_24, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
-    {KPCN_16, KPCN_24, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
-    {KPCN_16, KPCN_24, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
+    {KPCN_24, KPCN_24, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
+    {KPCN_24, KPCN_24, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
     {-1, KPCN_24, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
 };
 
@@ -273,9 +276,9 @@ const ew_op_type ew_denoise_auto = {
     .kind = "denoiser",
     .name = "auto",
     .summary = "picks the cheapest method that reaches the best quality for the frame's noise level (sample "
-               "count, or a noise estimate), its passes and the quality setting: with albedo/normal/depth kpcn "
-               "at 3-32 spp (quality balanced, the default) and nbg at 1-2 spp, else a bilateral grid as fine as "
-               "the frame allows",
+               "count, or a noise estimate), its passes and the quality setting: with albedo/normal/depth "
+               "kpcn-large at 3-32 spp (quality balanced, the default) and nbg at 1-2 spp, else a bilateral grid as "
+               "fine as the frame allows",
     .images = images,
     .num_images = (int)(sizeof images / sizeof images[0]),
     .params = params,

@@ -183,7 +183,7 @@ def steps(tmp):
         if not engine.state["redraw"]:
             break
         yield 0.25
-    check(not engine.state["redraw"] and "ViewLayer: kpcn kpcn (" in engine.state["last_note"],
+    check(not engine.state["redraw"] and "ViewLayer: kpcn kpcn-large (" in engine.state["last_note"],
           "the panel was redrawn after F12 to show: Last: %s" % engine.state["last_note"])
     drawn[:] = []
     for _ in redraw_panels():

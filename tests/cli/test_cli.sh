@@ -116,7 +116,7 @@ picks() { # NAME EXPECTED_SUBSTRING ARGS...
   if grep -qF "$want" "$T/err"; then ok "$name"; else bad "$name (stderr: $(head -c 300 "$T/err"))"; fi
 }
 picks auto_1spp_nbg_1spp_model "nbg 2layer-3grid-1spp (1 spp)" "$SAMPLE/cornell/f0001_spp0001.exr"
-picks auto_4spp_kpcn "kpcn kpcn (4 spp, quality balanced)" "$SAMPLE/cornell/f0001_spp0004.exr"
+picks auto_4spp_kpcn "kpcn kpcn-large (4 spp, quality balanced)" "$SAMPLE/cornell/f0001_spp0004.exr"
 picks auto_4spp_fast_nbg "nbg 2layer-3grid (4 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --quality fast
 picks auto_4spp_high_kpcn_large "kpcn kpcn-large (4 spp, quality high)" "$SAMPLE/cornell/f0001_spp0004.exr" --quality high
 picks auto_samples_option_overrides "bgrid finest grid 2/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64

@@ -127,8 +127,8 @@ class TestGraphs(TempDirTest):
         for n in ("given", "from_file", "estimated", "plain"):
             g.add("output", id="o_" + n, image=g.node(n)["output"])
         methods = g.run()["frames"][0]["methods"]
-        self.assertEqual(methods["given"], "kpcn kpcn (4 spp, quality balanced)")
-        self.assertEqual(methods["from_file"], "kpcn kpcn (4 spp, quality balanced)")
+        self.assertEqual(methods["given"], "kpcn kpcn-large (4 spp, quality balanced)")
+        self.assertEqual(methods["from_file"], "kpcn kpcn-large (4 spp, quality balanced)")
         self.assertIn("noise estimate", methods["estimated"])
         self.assertEqual(methods["plain"], "bgrid")
 

@@ -98,17 +98,17 @@ TEST(sample_count_picks_the_model) {
     CHECK(same(f.out, f.out2));
 
     /* quality fast stays on the grids and nbg; balanced (the default)
-     * climbs to kpcn at 16 spp, not at 1 spp; high to kpcn-large at every
-     * count; the output is that model's own */
+     * climbs to kpcn-large at 16 spp, not at 1 spp; high at every count;
+     * the output is that model's own */
     static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
                        high[] = {{"quality", 2}, {NULL, 0}};
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
-    CHECK_STR_CONTAINS(what, "kpcn kpcn (16 spp, quality balanced)");
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (16 spp, quality balanced)");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, balanced, f.out2, what, sizeof what), EW_OK);
     CHECK(same(f.out, f.out2));
-    CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, NULL, f.out2, NULL, 0), EW_OK);
+    CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, (const param[]){{"model", 2}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, balanced, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
