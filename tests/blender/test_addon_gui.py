@@ -71,8 +71,9 @@ def render_job(animation=False):
 
 
 def saved_result(scene, path, out):
-    """save_result once Blender allows writing the scene again (not while the job winds down)."""
-    for _ in range(40):
+    """save_result once Blender allows writing the scene again (not while the job winds down; on a
+    loaded machine that took over 10 s once after the add-on's kpcn-large pass)."""
+    for _ in range(160):
         try:
             out.append(save_result(scene, path))
             return

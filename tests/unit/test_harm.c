@@ -118,7 +118,9 @@ TEST(a_lone_extreme_firefly_does_not_survive) {
         }
         fprintf(stderr, "  %s: peak %.2f without the stage, %.3f with it (surface <= 0.48); mean %.3f of the "
                 "reference's\n", methods[m], peak_off, peak_on, mean_on / mean_ref);
-        CHECK(peak_off > 4.8);  /* what the methods did alone: above 10x the surface */
+        /* what the grid methods did alone: above 10x the surface (auto's
+         * default rung, kpcn-large, already removes it by itself) */
+        if (strcmp(methods[m], "auto") != 0) CHECK(peak_off > 4.8);
         CHECK(peak_on < 4.8);   /* at most 10x the surface's brightest */
         CHECK(mean_on / mean_ref > 0.95 && mean_on / mean_ref < 1.10);
     }
