@@ -343,11 +343,23 @@ static int on_this_stack(uintptr_t p) {
     pthread_attr_destroy(&attr);
     return p >= (uintptr_t)lo && p < (uintptr_t)lo + size;
 }
+/* AddressSanitizer's shadow memory on x86-64 (from (0x7fff8000 >> 3) +
+ * 0x7fff8000 up to the start of its high memory): mapped and readable, but
+ * never a buffer; an int and the padding after it (nplanes 3, padding
+ * 0xfff) read as one word land there. */
+static int in_sanitizer_shadow(uintptr_t p) {
+#if defined(__SANITIZE_ADDRESS__) && defined(__x86_64__)
+    return p >= 0x7fff8000ull && p < 0x10007fff8000ull;
+#else
+    (void)p;
+    return 0;
+#endif
+}
 static int readable(uintptr_t p) {
     /* An int and the struct padding after it read as one word can hold a
      * stale stack address in the padding's half; no buffer a kernel is
      * given lives on the caller's stack, so such words are not reported. */
-    if (p < (uintptr_t)page_size() || on_this_stack(p)) return 0;
+    if (p < (uintptr_t)page_size() || on_this_stack(p) || in_sanitizer_shadow(p)) return 0;
     char byte;
     struct iovec local = {&byte, 1}, remote = {(void *)p, 1};
     if (process_vm_readv(getpid(), &local, 1, &remote, 1, 0) == 1) return 1;
