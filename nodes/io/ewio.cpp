@@ -10,6 +10,7 @@
  *   - no global mutable state.
  */
 #include "ewio.h"
+#include "exr_header_scan.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -326,6 +327,27 @@ std::string check_bytes(long long w, long long h, long long channels) {
     return std::string();
 }
 
+/* An OpenEXR file's headers against its size and the limits, before
+ * OpenImageIO opens it ("" when plausible or not an EXR file). */
+std::string exr_header_check(const char *path, long long size) {
+    FILE *fp = fopen(path, "rbe");
+    if (!fp) return std::string(); /* the open that follows reports it */
+    ewio_exr_layout lay;
+    char why[256];
+    const int bad = ewio_exr_header_scan(fp, size, &lay, why, sizeof why);
+    fclose(fp);
+    if (bad) return why;
+    if (!lay.is_exr || lay.width == 0) return std::string();
+    std::string d = check_dims(lay.width, lay.height);
+    if (d.empty()) d = check_bytes(lay.width, lay.height, std::max(1LL, lay.channels));
+    if (d.empty() && lay.tile_width * lay.tile_height > lay.width * lay.height) {
+        d = check_dims(lay.tile_width, lay.tile_height);
+        if (d.empty()) d = check_bytes(lay.tile_width, lay.tile_height, std::max(1LL, lay.channels));
+        if (!d.empty()) d = "tiles larger than the image: " + d;
+    }
+    return d;
+}
+
 /* ----------------------------------------------------------- attributes */
 
 void set_attr_text(ewio_file &f, const ParamValue &p) {
@@ -488,6 +510,14 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
         return 1;
     }
 
+    /* OpenEXR allocates what its headers declare while opening; what the
+     * file cannot hold, or the limits refuse, stops here first. */
+    std::string d = exr_header_check(path, (long long)st.st_size);
+    if (!d.empty()) {
+        msg = "cannot read " + q(p) + ": " + d;
+        return 1;
+    }
+
     auto in = ImageInput::open(p);
     if (!in) {
         msg = "cannot read " + q(p) + ": not an image file or unsupported format (" +
@@ -505,7 +535,7 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
         msg = "cannot read " + q(p) + ": volume (3D) images are not supported";
         return 1;
     }
-    std::string d = check_dims(s0.width, s0.height);
+    d = check_dims(s0.width, s0.height);
     if (!d.empty()) {
         msg = "cannot read " + q(p) + ": " + d;
         return 1;

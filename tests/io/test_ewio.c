@@ -777,6 +777,46 @@ TEST(bad_huge_dimensions) {
     rm_tree(dir);
 }
 
+/* Headers that declare more than the file holds are refused before
+ * OpenImageIO opens the file: OpenEXR would first allocate what they
+ * declare (a 302-byte file asked for 1.9 GB through one string length). */
+TEST(bad_header_sizes_beyond_the_file) {
+    char dir[4096], p[4200], err[512];
+    CHECK(make_tmpdir(dir, sizeof dir));
+    snprintf(p, sizeof p, "%s/long_string.exr", dir);
+    FILE *fp = fopen(p, "wb");
+    CHECK(fp != NULL);
+    put_u32(fp, 20000630u);
+    put_u32(fp, 2u);
+    put_attr(fp, "comments", "string", 1952540018u);
+    fwrite("only a few bytes follow", 1, 23, fp);
+    CHECK(fclose(fp) == 0);
+    ewio_file *f = (ewio_file *)1;
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK(f == NULL);
+    CHECK_STR_CONTAINS(err, "long_string.exr");
+    CHECK_STR_CONTAINS(err, "'comments' declares 1952540018 bytes, but the file has 23 left");
+    ewio_header h;
+    CHECK(ewio_read_header(p, &h, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "declares 1952540018 bytes");
+
+    /* 4 x 60000 is within every limit, but its 60000 line offsets are not in the file */
+    snprintf(p, sizeof p, "%s/short_table.exr", dir);
+    CHECK(write_exr_header(p, 4, 60000) == 0);
+    CHECK(truncate(p, 400) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK(f == NULL);
+    CHECK_STR_CONTAINS(err, "at least 60000 chunks");
+    CHECK_STR_CONTAINS(err, "offset table");
+
+    /* an empty data window */
+    snprintf(p, sizeof p, "%s/empty.exr", dir);
+    CHECK(write_exr_header(p, 0, 4) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "data window is empty (0 x 4 pixels)");
+    rm_tree(dir);
+}
+
 TEST(bad_missing_pass) {
     char err[1024];
     ewio_file *f = make_blender_like(4, 4, "ViewLayer");
