@@ -6,12 +6,12 @@ and optionally the peak memory of a one-shot 3840x2160 denoise.
 
 The frame: --input (a Cycles multilayer EXR with Denoising Albedo/Normal/Depth; default the committed
 samples/cornell 4-spp render) resized to --size with oiiotool. On it, one after the other in this process:
-the library's "kpcn" op with each built-in model (the largest and the smallest; through the Python
+the library's "kpcn" op with each built-in model (kpcn-large, kpcn, kpcn-small; through the Python
 package, so the time includes the op's commit), with the do-no-harm stage (as a user gets it) and
 without it (the method alone, as OIDN's figure is its network alone), then OIDN's network
 (../shared/tools/oidn_torch.py: PyTorch with OIDN's official rt_hdr_alb_nrm weights, see its docstring), each the fastest of --repeat runs. Printed: wall and CPU ms per frame (CPU: the process's
 threads together, less inflated by other work on a shared machine) and each kpcn's time over OIDN's,
-against the targets (largest <= 1/4, smallest <= 1/10). Then `train_kpcn --bench W H THREADS`: the
+against the targets (the largest, kpcn-large, <= 1/4; the smallest, kpcn-small, <= 1/10). Then `train_kpcn --bench W H THREADS`: the
 convolutions' GFLOP/s against the FMA peak it measures in the same run (target >= 50 %).
 --uhd: the same input resized to 3840x2160, `edgewise denoise --method kpcn` once per model under
 /usr/bin/time -v: peak RSS of the whole CLI (EXR in and out included).
@@ -29,7 +29,8 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TARGET = {0: 0.25, 1: 0.10}  # kpcn model -> the largest fraction of OIDN's time (issue targets)
+# built-in kpcn model -> (name, role, the largest fraction of OIDN's time it may take; None: no target)
+MODELS = {2: ('kpcn-large', 'largest', 0.25), 0: ('kpcn', 'middle', None), 1: ('kpcn-small', 'smallest', 0.10)}
 
 
 def build_kind(build):
@@ -89,14 +90,14 @@ def main():
         normal, depth = p['Denoising Normal'].copy(), p['Denoising Depth'].copy()
         dev = ew.Device(threads=a.threads)
         times = {}
-        for m in (0, 1):
+        for m in MODELS:
             for stage in (1, 0):  # as a user gets it (the do-no-harm stage around it), and the method alone
                 kw = dict(method='kpcn', model=m, color=color, albedo=albedo, normal=normal, depth=depth, device=dev)
                 if not stage:
                     kw.update(do_no_harm=False, outlier_k=0.0)
                 times[m, stage] = best_of(a.repeat, lambda: ew.run_node('denoise', **kw))
-                print('  kpcn model %d (%s)%s: %8.0f ms wall, %8.0f ms CPU' %
-                      (m, 'largest' if m == 0 else 'smallest', ' with the do-no-harm stage' if stage else ' alone',
+                print('  %-10s (model %d, %s)%s: %8.0f ms wall, %8.0f ms CPU' %
+                      (MODELS[m][0], m, MODELS[m][1], ' with the do-no-harm stage' if stage else ' alone',
                        times[m, stage][0] * 1e3, times[m, stage][1] * 1e3), flush=True)
         net = None
         if not a.no_oidn:
@@ -110,12 +111,14 @@ def main():
             t_oidn = best_of(a.repeat, lambda: net(color, albedo, normal))
             print('  OIDN (oidn_torch.py, PyTorch %s): %8.0f ms wall, %8.0f ms CPU' %
                   (oidn_torch.torch.__version__, t_oidn[0] * 1e3, t_oidn[1] * 1e3))
-            for m in (0, 1):
+            for m in MODELS:
+                name, _, target = MODELS[m]
                 for stage in (1, 0):
                     rw, rc = times[m, stage][0] / t_oidn[0], times[m, stage][1] / t_oidn[1]
-                    print('  kpcn model %d%s / OIDN = %.3f wall, %.3f CPU (target <= %.2f: %s)' %
-                          (m, ' with the stage' if stage else ' alone', rw, rc, TARGET[m],
-                           'met' if max(rw, rc) <= TARGET[m] else 'met in CPU time' if rc <= TARGET[m] else 'NOT met'))
+                    verdict = 'no target' if target is None else 'target <= %.2f: %s' % (
+                        target, 'met' if max(rw, rc) <= target else 'met in CPU time' if rc <= target else 'NOT met')
+                    print('  %-10s%s / OIDN = %.3f wall, %.3f CPU (%s)' %
+                          (name, ' with the stage' if stage else ' alone', rw, rc, verdict))
         print('convolutions against the FMA peak (train_kpcn --bench %d %d %d):' % (w, h, a.threads), flush=True)
         out = subprocess.run([os.path.join(build, 'bin', 'train_kpcn'), '--bench', str(w), str(h), str(a.threads)],
                              check=True, capture_output=True, text=True).stdout
@@ -130,17 +133,17 @@ def main():
         if a.uhd:
             big = resized(a.input, (3840, 2160), tmp)
             cli = os.path.join(build, 'bin', 'edgewise')
-            for m in (0, 1):
+            for m in MODELS:
                 r = subprocess.run(['/usr/bin/time', '-v', cli, 'denoise', big, '-o', os.path.join(tmp, 'out.exr'),
-                                    '--method', 'kpcn', '--model', ('kpcn', 'kpcn-small')[m], '--threads', str(a.threads), '-q'],
+                                    '--method', 'kpcn', '--model', MODELS[m][0], '--threads', str(a.threads), '-q'],
                                    capture_output=True, text=True)
                 rss = re.search(r'Maximum resident set size \(kbytes\): (\d+)', r.stderr)
                 wall = re.search(r'Elapsed \(wall clock\) time.*: (\S+)', r.stderr)
                 if r.returncode != 0 or not rss:
-                    print('  3840x2160 kpcn model %d failed:\n%s' % (m, r.stderr[-2000:]))
+                    print('  3840x2160 %s failed:\n%s' % (MODELS[m][0], r.stderr[-2000:]))
                     continue
-                print('  3840x2160 kpcn model %d: peak RSS %.0f MiB, %s wall (edgewise denoise, EXR in and out)' %
-                      (m, int(rss.group(1)) / 1024.0, wall.group(1) if wall else '?'), flush=True)
+                print('  3840x2160 %s: peak RSS %.0f MiB, %s wall (edgewise denoise, EXR in and out)' %
+                      (MODELS[m][0], int(rss.group(1)) / 1024.0, wall.group(1) if wall else '?'), flush=True)
 
 
 if __name__ == '__main__':

@@ -67,10 +67,10 @@ typedef struct {
     float *scale_mem;       /* the scale buffers of one region */
     size_t scale_floats;
     int lw, lh;             /* the region size sb is laid out for (0: none yet) */
-    ew_gn_planes sb[EW_KPCN_SCALES];
-    float *rad[EW_KPCN_SCALES], *out[EW_KPCN_SCALES]; /* scales 1, 2: 3 planes each */
+    ew_gn_planes sb[EW_KPCN_MAX_SCALES];
+    float *rad[EW_KPCN_MAX_SCALES], *out[EW_KPCN_MAX_SCALES]; /* scales below full resolution: 3 planes each */
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
-    int sw[EW_KPCN_SCALES], sh[EW_KPCN_SCALES];
+    int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
     void *dmem;
     double *rows;
@@ -111,7 +111,7 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_kpc
     const size_t frame = frame_floats(net, w, h);
     /* below a 256-pixel core the halos would more than double the work:
      * such a tile's region is the least the tiles get */
-    const int least = MIN_CORE + 2 * EW_KPCN_HALO;
+    const int least = MIN_CORE + 2 * ew_kpcn_halo(net);
     const size_t floor = ew_kpcn_device_floats(net, least, least) + (size_t)TILE_EXTRA_FLOATS * least * least;
     const size_t tiles = budget > frame + floor ? budget - frame : floor;
     ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, t);
@@ -186,12 +186,12 @@ static ew_result commit(ew_op *op) {
     s->clamped = p; p += n * 3;
     b->guide = p; p += n;
     /* the region's buffers */
-    int rsw[EW_KPCN_SCALES], rsh[EW_KPCN_SCALES];
-    ew_kpcn_scale_sizes(tiling.rw, tiling.rh, rsw, rsh);
+    int rsw[EW_KPCN_MAX_SCALES], rsh[EW_KPCN_MAX_SCALES];
+    ew_kpcn_scale_sizes(net, tiling.rw, tiling.rh, rsw, rsh);
     s->scale_mem = p;
-    for (int k = 0; k < EW_KPCN_SCALES; k++) p += ew_gn_planes_floats(rsw[k], rsh[k], net->nplanes[k]) + 16;
+    for (int k = 0; k < net->scales; k++) p += ew_gn_planes_floats(rsw[k], rsh[k], net->nplanes[k]) + 16;
     s->scale_floats = (size_t)(p - s->scale_mem);
-    for (int k = 1; k < EW_KPCN_SCALES; k++) {
+    for (int k = 1; k < net->scales; k++) {
         s->rad[k] = p; p += 3 * (size_t)rsw[k] * rsh[k];
         s->out[k] = p; p += 3 * (size_t)rsw[k] * rsh[k];
     }
@@ -231,9 +231,9 @@ static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes
 static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
     if (s->lw == rw && s->lh == rh) return EW_OK;
     const ew_kpcn_net *net = net_of(s->m);
-    ew_kpcn_scale_sizes(rw, rh, s->sw, s->sh);
+    ew_kpcn_scale_sizes(net, rw, rh, s->sw, s->sh);
     float *p = s->scale_mem;
-    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+    for (int k = 0; k < net->scales; k++) {
         ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], net->nplanes[k]);
         p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
     }
@@ -260,39 +260,41 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     (void)EW_RUN(dev, kpcn_input, &ia);
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the network (algorithms/kpcn.h's layer list) */
-    conv(dev, s, 0);
-    pool(dev, &s->sb[0], net->h0, &s->sb[1], net->p1, C);
-    conv(dev, s, 1);
-    pool(dev, &s->sb[1], net->h1, &s->sb[2], net->p2, C);
-    conv(dev, s, 2);
-    conv(dev, s, 3);
-    conv(dev, s, 4);
-    up(dev, &s->sb[2], net->h2b, &s->sb[1], net->u1, C);
-    conv(dev, s, 5);
-    conv(dev, s, 6);
-    if (!ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    up(dev, &s->sb[1], net->d1, &s->sb[0], net->u0, C);
-    conv(dev, s, 7);
-    if (!ew_op_report(op, p0 + 0.6 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    conv(dev, s, 8);
+    const int S = net->scales;
+    conv(dev, s, net->enc[0]);
+    for (int k = 1; k < S - 1; k++) {
+        pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
+        conv(dev, s, net->enc[k]);
+    }
+    pool(dev, &s->sb[S - 2], net->h[S - 2], &s->sb[S - 1], net->in[S - 1], C);
+    conv(dev, s, net->enc_a);
+    conv(dev, s, net->enc_b);
+    conv(dev, s, net->lhead[S - 1]);
+    for (int k = S - 2; k >= 0; k--) {
+        if (k == 0 && !ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        up(dev, &s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->sb[k], net->u[k], C);
+        conv(dev, s, net->dec[k]);
+        if (k == 0 && !ew_op_report(op, p0 + 0.6 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        conv(dev, s, net->lhead[k]);
+    }
     if (!ew_op_report(op, p0 + 0.85 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the radiance pyramid, then the filters coarse to fine */
     const ew_kpcn_tensor rad0 = {(float *)radiance + at * 3, 3, 3L * W, 1};
     ew_kpcn_tensor prev = rad0;
-    for (int sc = 1; sc < EW_KPCN_SCALES; sc++) {
+    for (int sc = 1; sc < S; sc++) {
         ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
                                 flat_t(s->rad[sc], s->sw[sc], s->sh[sc])};
         (void)EW_RUN(dev, kpcn_pool, &pa);
         prev = pa.dst;
     }
-    for (int sc = EW_KPCN_SCALES - 1; sc >= 0; sc--) {
+    for (int sc = S - 1; sc >= 0; sc--) {
         ew_kpcn_filter_args fa;
         memset(&fa, 0, sizeof fa);
         fa.width = s->sw[sc];
         fa.height = s->sh[sc];
-        fa.logits = planes_t(&s->sb[sc], sc == 0 ? net->k0 : sc == 1 ? net->k1 : net->k2);
+        fa.logits = planes_t(&s->sb[sc], net->head[sc]);
         fa.radiance = sc == 0 ? rad0 : flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
-        if (sc + 1 < EW_KPCN_SCALES) {
+        if (sc + 1 < S) {
             fa.coarse = flat_t(s->out[sc + 1], s->sw[sc + 1], s->sh[sc + 1]);
             fa.cw = s->sw[sc + 1];
             fa.ch = s->sh[sc + 1];

@@ -16,47 +16,72 @@
 /* ---- architecture ------------------------------------------------------- */
 int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen) {
     memset(net, 0, sizeof *net);
-    int c = 0, used = 0;
-    if (!arch || sscanf(arch, "kpcn-c%d%n", &c, &used) != 1 || c < EW_KPCN_MIN_CH || c > EW_KPCN_MAX_CH ||
-        (arch[used] != '\0' && strcmp(arch + used, "-noise") != 0)) {
-        snprintf(err, errlen, "unknown kpcn architecture '%s' (expected kpcn-c<C> or kpcn-c<C>-noise, C in %d..%d)",
-                 arch ? arch : "", EW_KPCN_MIN_CH, EW_KPCN_MAX_CH);
+    int c = 0, used = 0, S = EW_KPCN_DEFAULT_SCALES, noise = 0;
+    int ok = arch && sscanf(arch, "kpcn-c%d%n", &c, &used) == 1 && c >= EW_KPCN_MIN_CH && c <= EW_KPCN_MAX_CH;
+    const char *rest = ok ? arch + used : "";
+    if (ok && strncmp(rest, "-noise", 6) == 0) {
+        noise = 1;
+        rest += 6;
+    }
+    if (ok && rest[0] == '-') {
+        int sused = 0;
+        ok = sscanf(rest, "-s%d%n", &S, &sused) == 1 && rest[sused] == '\0' && S > EW_KPCN_DEFAULT_SCALES &&
+             S <= EW_KPCN_MAX_SCALES;
+    } else if (ok) {
+        ok = rest[0] == '\0';
+    }
+    if (!ok) {
+        snprintf(err, errlen,
+                 "unknown kpcn architecture '%s' (expected kpcn-c<C>[-noise][-s<S>], C in %d..%d, S in %d..%d)",
+                 arch ? arch : "", EW_KPCN_MIN_CH, EW_KPCN_MAX_CH, EW_KPCN_DEFAULT_SCALES + 1, EW_KPCN_MAX_SCALES);
         return 1;
     }
-    net->noise = arch[used] != '\0';
-    net->inputs = net->noise ? EW_KPCN_MAX_INPUTS : EW_KPCN_INPUTS;
-    snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s", c, net->noise ? "-noise" : "");
+    net->noise = noise;
+    net->inputs = noise ? EW_KPCN_MAX_INPUTS : EW_KPCN_INPUTS;
+    net->scales = S;
+    net->nlayers = 3 * S;
+    if (S == EW_KPCN_DEFAULT_SCALES) snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s", c, noise ? "-noise" : "");
+    else snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s-s%d", c, noise ? "-noise" : "", S);
     net->ch = c;
-    net->h0 = net->inputs;
-    net->u0 = net->h0 + c;
-    net->d0 = net->u0 + c;
-    net->k0 = net->d0 + c;
-    net->nplanes[0] = net->k0 + EW_KPCN_HEAD;
-    net->p1 = 0;
-    net->h1 = c;
-    net->u1 = 2 * c;
-    net->d1 = 3 * c;
-    net->k1 = 4 * c;
-    net->nplanes[1] = net->k1 + EW_KPCN_HEAD;
-    net->p2 = 0;
-    net->h2a = c;
-    net->h2b = 2 * c;
-    net->k2 = 3 * c;
-    net->nplanes[2] = net->k2 + EW_KPCN_TAPS;
+    /* planes (the layout in kpcn.h) */
+    for (int k = 0; k < S - 1; k++) {
+        net->in[k] = 0;
+        net->h[k] = k == 0 ? net->inputs : c;
+        net->u[k] = net->h[k] + c;
+        net->d[k] = net->u[k] + c;
+        net->head[k] = net->d[k] + c;
+        net->nplanes[k] = net->head[k] + EW_KPCN_HEAD;
+    }
+    net->in[S - 1] = 0;
+    net->h[S - 1] = c;
+    net->hb = 2 * c;
+    net->head[S - 1] = 3 * c;
+    net->u[S - 1] = net->d[S - 1] = -1;
+    net->nplanes[S - 1] = net->head[S - 1] + EW_KPCN_TAPS;
+    /* layers, in the order of kpcn.h */
     const int L = EW_ACT_LEAKY, N = EW_ACT_NONE;
-    const ew_kpcn_layer spec[EW_KPCN_NLAYERS] = {
-        {0, 0, net->inputs, net->h0, c, L, 0, 0},
-        {1, net->p1, c, net->h1, c, L, 0, 0},
-        {2, net->p2, c, net->h2a, c, L, 0, 0},
-        {2, net->h2a, c, net->h2b, c, L, 0, 0},
-        {2, net->h2b, c, net->k2, EW_KPCN_TAPS, N, 0, 0},
-        {1, net->h1, 2 * c, net->d1, c, L, 0, 0},
-        {1, net->d1, c, net->k1, EW_KPCN_HEAD, N, 0, 0},
-        {0, net->h0, 2 * c, net->d0, c, L, 0, 0},
-        {0, net->d0, c, net->k0, EW_KPCN_HEAD, N, 0, 0},
-    };
+    int l = 0;
+    ew_kpcn_layer spec[EW_KPCN_MAX_LAYERS];
+    memset(spec, 0, sizeof spec);
+    for (int k = 0; k < S - 1; k++) {
+        net->enc[k] = l;
+        spec[l++] = (ew_kpcn_layer){k, net->in[k], k == 0 ? net->inputs : c, net->h[k], c, L, 0, 0};
+    }
+    net->enc_a = l;
+    spec[l++] = (ew_kpcn_layer){S - 1, net->in[S - 1], c, net->h[S - 1], c, L, 0, 0};
+    net->enc_b = l;
+    spec[l++] = (ew_kpcn_layer){S - 1, net->h[S - 1], c, net->hb, c, L, 0, 0};
+    net->lhead[S - 1] = l;
+    spec[l++] = (ew_kpcn_layer){S - 1, net->hb, c, net->head[S - 1], EW_KPCN_TAPS, N, 0, 0};
+    net->enc[S - 1] = net->dec[S - 1] = -1;
+    for (int k = S - 2; k >= 0; k--) {
+        net->dec[k] = l;
+        spec[l++] = (ew_kpcn_layer){k, net->h[k], 2 * c, net->d[k], c, L, 0, 0};
+        net->lhead[k] = l;
+        spec[l++] = (ew_kpcn_layer){k, net->d[k], c, net->head[k], EW_KPCN_HEAD, N, 0, 0};
+    }
     size_t off = 0;
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (l = 0; l < net->nlayers; l++) {
         net->layers[l] = spec[l];
         net->layers[l].w_off = off;
         off += (size_t)spec[l].cin * spec[l].cout * 25;
@@ -77,7 +102,7 @@ static uint64_t splitmix(uint64_t *s) {
 void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params) {
     uint64_t s = seed * 0x2545F4914F6CDD1Dull + 7;
     memset(params, 0, net->nparams * sizeof(float));
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (int l = 0; l < net->nlayers; l++) {
         const ew_kpcn_layer *L = &net->layers[l];
         double bound = sqrt(6.0 / ((1.0 + (double)EW_LEAKY_SLOPE * EW_LEAKY_SLOPE) * L->cin * 25.0));
         if (L->act == EW_ACT_NONE) bound *= 0.1;
@@ -89,7 +114,7 @@ void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params) {
 
 double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net) {
     double m = 0.0;
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (int l = 0; l < net->nlayers; l++) {
         const ew_kpcn_layer *L = &net->layers[l];
         m += 25.0 * L->cin * L->cout / (double)(1 << (2 * L->scale));
     }
@@ -99,7 +124,7 @@ double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net) {
 int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, char *err, size_t errlen) {
     *params = NULL;
     if (strncmp(w->arch, "kpcn-", 5) != 0) {
-        snprintf(err, errlen, "weights are for '%s', not kpcn (expected 'kpcn-c<C>[-noise]')", w->arch);
+        snprintf(err, errlen, "weights are for '%s', not kpcn (expected 'kpcn-c<C>[-noise][-s<S>]')", w->arch);
         return 1;
     }
     if (ew_kpcn_init(net, w->arch, err, errlen) != 0) return 1;
@@ -108,7 +133,7 @@ int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, 
         snprintf(err, errlen, "out of memory for %zu kpcn parameters", net->nparams);
         return 1;
     }
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (int l = 0; l < net->nlayers; l++) {
         const ew_kpcn_layer *L = &net->layers[l];
         if (ew_weights_get_conv(w, l, L->cin, L->cout, p, L->w_off, L->b_off, err, errlen) != 0) {
             free(p);
@@ -120,10 +145,10 @@ int ew_kpcn_from_weights(ew_kpcn_net *net, const ew_weights *w, float **params, 
 }
 
 int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t *size) {
-    ew_tensor t[2 * EW_KPCN_NLAYERS];
+    ew_tensor t[2 * EW_KPCN_MAX_LAYERS];
     memset(t, 0, sizeof t);
     int n = 0;
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++, n += 2) {
+    for (int l = 0; l < net->nlayers; l++, n += 2) {
         const ew_kpcn_layer *L = &net->layers[l];
         ew_weights_put_conv(&t[n], l, L->cin, L->cout, params, L->w_off, L->b_off);
     }
@@ -135,10 +160,10 @@ int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t
     return ew_weights_serialize(&w, out, size);
 }
 
-void ew_kpcn_scale_sizes(int w, int h, int *sw, int *sh) {
+void ew_kpcn_scale_sizes(const ew_kpcn_net *net, int w, int h, int *sw, int *sh) {
     sw[0] = w;
     sh[0] = h;
-    for (int s = 1; s < EW_KPCN_SCALES; s++) {
+    for (int s = 1; s < net->scales; s++) {
         sw[s] = ew_kpcn_half(sw[s - 1]);
         sh[s] = ew_kpcn_half(sh[s - 1]);
     }
@@ -165,13 +190,70 @@ void ew_kpcn_layer_args(const ew_kpcn_net *net, int l, const float *params, cons
 }
 
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
-    int sw[EW_KPCN_SCALES], sh[EW_KPCN_SCALES];
-    ew_kpcn_scale_sizes(w, h, sw, sh);
+    int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
+    ew_kpcn_scale_sizes(net, w, h, sw, sh);
     size_t f = 0;
-    for (int s = 0; s < EW_KPCN_SCALES; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
-    /* radiance and output of scales 1 and 2, 3 planes each */
-    for (int s = 1; s < EW_KPCN_SCALES; s++) f += 2 * 3 * (size_t)sw[s] * sh[s];
+    for (int s = 0; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
+    /* radiance and output of the scales below full resolution, 3 planes each */
+    for (int s = 1; s < net->scales; s++) f += 2 * 3 * (size_t)sw[s] * sh[s];
     return f;
+}
+
+/* ---- how far an output pixel's inputs reach ---------------------------------
+ * Intervals of one axis: which pixels of a plane at scale k a set of pixels
+ * [lo, hi] of another plane reads, down to the full-resolution inputs
+ * (network features and radiance alike), following kernels/kpcn.h: a 5x5
+ * convolution or kernel reads +-2 at its scale, a 2x2 pooling of coarse c
+ * reads fine 2c, 2c + 1, the upsampling of fine x reads coarse
+ * floor((x - 1) / 2) .. floor((x + 1) / 2). */
+typedef struct {
+    int lo, hi;
+} span;
+
+static span span_union(span a, span b) {
+    return (span){a.lo < b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi};
+}
+static span conv_span(span a) { return (span){a.lo - 2, a.hi + 2}; }
+static span up_span(span a) { return (span){(a.lo - 1) >> 1, (a.hi + 1) >> 1}; } /* fine -> the coarse it reads */
+static span pool_span(span a) { return (span){2 * a.lo, 2 * a.hi + 1}; }        /* coarse -> the fine it reads */
+
+static span full_res(span a, int k) { /* a pooled plane of scale k: its full-resolution pixels */
+    return (span){a.lo << k, (a.hi << k) + (1 << k) - 1};
+}
+
+static span reach_encoder(const ew_kpcn_net *net, int k, span a); /* h[k] (and hb via the caller) */
+static span reach_in(const ew_kpcn_net *net, int k, span a) {
+    return k == 0 ? a : reach_encoder(net, k - 1, pool_span(a));
+}
+static span reach_encoder(const ew_kpcn_net *net, int k, span a) { return reach_in(net, k, conv_span(a)); }
+static span reach_hb(const ew_kpcn_net *net, span a) { return reach_encoder(net, net->scales - 1, conv_span(a)); }
+/* the plane scale k's decoder upsamples: hb at the coarsest scale, else d */
+static span reach_next(const ew_kpcn_net *net, int k, span a);
+static span reach_decoder(const ew_kpcn_net *net, int k, span a) {
+    const span in = conv_span(a);
+    return span_union(reach_encoder(net, k, in), reach_next(net, k + 1, up_span(in)));
+}
+static span reach_next(const ew_kpcn_net *net, int k, span a) {
+    return k == net->scales - 1 ? reach_hb(net, a) : reach_decoder(net, k, a);
+}
+static span reach_output(const ew_kpcn_net *net, int k, span a) {
+    span r = reach_next(net, k, conv_span(a));              /* the head's input */
+    r = span_union(r, full_res(conv_span(a), k));           /* the kernel's taps on the radiance of scale k */
+    if (k + 1 < net->scales) r = span_union(r, reach_output(net, k + 1, up_span(a)));
+    return r;
+}
+
+int ew_kpcn_align(const ew_kpcn_net *net) { return 1 << (net->scales - 1); }
+
+int ew_kpcn_halo(const ew_kpcn_net *net) {
+    const int align = ew_kpcn_align(net), base = 64 * align; /* far from the frame's edges */
+    int halo = 0;
+    for (int x = base; x < base + align; x++) {
+        const span r = reach_output(net, 0, (span){x, x});
+        if (x - r.lo > halo) halo = x - r.lo;
+        if (r.hi - x > halo) halo = r.hi - x;
+    }
+    return (halo + align - 1) / align * align; /* regions start on the pooling grid too */
 }
 
 static size_t region_floats(const ew_kpcn_net *net, int w, int h, size_t extra) {
@@ -180,19 +262,19 @@ static size_t region_floats(const ew_kpcn_net *net, int w, int h, size_t extra) 
 
 /* Core size n split into tiles of side t (a multiple of 4): the regions'
  * summed length along that axis. */
-static long regions_length(int n, int t) {
+static long regions_length(int n, int t, int halo) {
     long sum = 0;
     for (int c = 0; c < n; c += t) {
-        const int r0 = c - EW_KPCN_HALO < 0 ? 0 : c - EW_KPCN_HALO;
-        const int r1 = c + t + EW_KPCN_HALO > n ? n : c + t + EW_KPCN_HALO;
+        const int r0 = c - halo < 0 ? 0 : c - halo;
+        const int r1 = c + t + halo > n ? n : c + t + halo;
         sum += r1 - r0;
     }
     return sum;
 }
 
-static int region_side(int n, int t) {
+static int region_side(int n, int t, int halo) {
     if (t >= n) return n;
-    const int r = t + 2 * EW_KPCN_HALO;
+    const int r = t + 2 * halo;
     return r > n ? n : r;
 }
 
@@ -203,38 +285,41 @@ void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_flo
     t->height = h;
     t->tw = w;
     t->th = h;
+    const int halo = t->halo = ew_kpcn_halo(net), A = t->align = ew_kpcn_align(net);
     if (region_floats(net, w, h, region_extra_floats) > budget_floats) {
         /* for each tile width, the tallest tile that fits; keep the plan
          * with the fewest region pixels (the work, halos included) */
         double best = -1.0;
         int last = 0;
         for (int nx = 1; nx <= (w + EW_KPCN_MIN_TILE - 1) / EW_KPCN_MIN_TILE; nx++) {
-            const int tw = ((w + nx - 1) / nx + 3) / 4 * 4;
+            const int tw = ((w + nx - 1) / nx + A - 1) / A * A;
             if (tw == last || tw < EW_KPCN_MIN_TILE) continue;
             last = tw;
-            const int rw = region_side(w, tw);
-            int lo = 0, hi = (h + 3) / 4; /* th = 4 * k: the largest k whose region fits */
+            const int rw = region_side(w, tw, halo);
+            int lo = 0, hi = (h + A - 1) / A; /* th = A * k: the largest k whose region fits */
             while (lo < hi) {
                 const int mid = (lo + hi + 1) / 2;
-                if (region_floats(net, rw, region_side(h, 4 * mid), region_extra_floats) <= budget_floats) lo = mid;
-                else hi = mid - 1;
+                if (region_floats(net, rw, region_side(h, A * mid, halo), region_extra_floats) <= budget_floats)
+                    lo = mid;
+                else
+                    hi = mid - 1;
             }
-            if (4 * lo < EW_KPCN_MIN_TILE) continue;
-            const double cost = (double)regions_length(w, tw) * (double)regions_length(h, 4 * lo);
+            if (A * lo < EW_KPCN_MIN_TILE) continue;
+            const double cost = (double)regions_length(w, tw, halo) * (double)regions_length(h, A * lo, halo);
             if (best < 0.0 || cost < best) {
                 best = cost;
                 t->tw = tw;
-                t->th = 4 * lo;
+                t->th = A * lo;
             }
         }
-        if (best < 0.0) t->tw = t->th = EW_KPCN_MIN_TILE;
+        if (best < 0.0) t->tw = t->th = (EW_KPCN_MIN_TILE + A - 1) / A * A;
         if (t->tw > w) t->tw = w;
         if (t->th > h) t->th = h;
     }
     t->nx = (w + t->tw - 1) / t->tw;
     t->ny = (h + t->th - 1) / t->th;
-    t->rw = region_side(w, t->tw);
-    t->rh = region_side(h, t->th);
+    t->rw = region_side(w, t->tw, halo);
+    t->rh = region_side(h, t->th, halo);
 }
 
 void ew_kpcn_tile_at(const ew_kpcn_tiling *t, int i, ew_kpcn_tile *tile) {
@@ -243,17 +328,38 @@ void ew_kpcn_tile_at(const ew_kpcn_tiling *t, int i, ew_kpcn_tile *tile) {
     tile->cy = iy * t->th;
     tile->cw = ew_mini(t->tw, t->width - tile->cx);
     tile->ch = ew_mini(t->th, t->height - tile->cy);
-    tile->rx = ew_maxi(tile->cx - EW_KPCN_HALO, 0);
-    tile->ry = ew_maxi(tile->cy - EW_KPCN_HALO, 0);
-    tile->rw = ew_mini(tile->cx + tile->cw + EW_KPCN_HALO, t->width) - tile->rx;
-    tile->rh = ew_mini(tile->cy + tile->ch + EW_KPCN_HALO, t->height) - tile->ry;
+    tile->rx = ew_maxi(tile->cx - t->halo, 0);
+    tile->ry = ew_maxi(tile->cy - t->halo, 0);
+    tile->rw = ew_mini(tile->cx + tile->cw + t->halo, t->width) - tile->rx;
+    tile->rh = ew_mini(tile->cy + tile->ch + t->halo, t->height) - tile->ry;
 }
 
-/* Which channel of src's layer input i of net's layer is, or -1 for a channel
- * src does not have: a decoder's input is [skip (C), upsampled (C)], so
- * its second half moves when the width changes. */
-static int src_input_channel(const ew_kpcn_net *net, const ew_kpcn_net *src, int l, int i) {
-    const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[l];
+/* The layer of src that net's layer l continues, or -1 for a new one; *skip:
+ * l is the decoder of src's coarsest scale, which continues src's enc_b
+ * reading only the skip half of its input. */
+static int src_layer(const ew_kpcn_net *net, const ew_kpcn_net *src, int l, int *skip) {
+    const int Sd = net->scales, Ss = src->scales;
+    *skip = 0;
+    if (l == net->enc_a) return Sd == Ss ? src->enc_a : -1;
+    if (l == net->enc_b) return Sd == Ss ? src->enc_b : -1;
+    for (int k = 0; k < Sd; k++) {
+        if (l == net->lhead[k]) return k < Ss ? src->lhead[k] : -1;
+        if (k < Sd - 1 && l == net->enc[k]) return k < Ss - 1 ? src->enc[k] : (k == Ss - 1 ? src->enc_a : -1);
+        if (k < Sd - 1 && l == net->dec[k]) {
+            if (k < Ss - 1) return src->dec[k];
+            *skip = k == Ss - 1;
+            return *skip ? src->enc_b : -1;
+        }
+    }
+    return -1;
+}
+
+/* Which channel of src layer sl's input is input i of net's layer l, or -1
+ * for a channel src does not have: a decoder's input is [skip (C),
+ * upsampled (C)], so its second half moves when the width changes. */
+static int src_input_channel(const ew_kpcn_net *net, const ew_kpcn_net *src, int l, int sl, int skip, int i) {
+    const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[sl];
+    if (skip) return i < net->ch && i < src->ch ? i : -1;
     if (D->cin == 2 * net->ch && S->cin == 2 * src->ch) {
         const int half = i >= net->ch, k = half ? i - net->ch : i;
         return k < src->ch ? (half ? src->ch + k : k) : -1;
@@ -262,19 +368,26 @@ static int src_input_channel(const ew_kpcn_net *net, const ew_kpcn_net *src, int
 }
 
 void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params) {
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
-        const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[l];
+    if (src->scales > net->scales) return; /* fewer scales: nothing continues; the trainer refuses it */
+    for (int l = 0; l < net->nlayers; l++) {
+        int skip;
+        const int sl = src_layer(net, src, l, &skip);
+        if (sl < 0) continue; /* a new scale's layer: random */
+        const ew_kpcn_layer *D = &net->layers[l], *S = &src->layers[sl];
         for (int o = 0; o < D->cout; o++) {
             const int old_out = o < S->cout;
+            /* the blend logit of src's coarsest head, now a middle one: weight 0, the bias leaves the blend
+             * near 0 */
+            const int new_blend = !old_out && S->cout == EW_KPCN_TAPS && o == EW_KPCN_TAPS;
             for (int i = 0; i < D->cin; i++) {
                 float *w = params + D->w_off + ((size_t)o * D->cin + i) * 25;
-                const int si = src_input_channel(net, src, l, i);
+                const int si = src_input_channel(net, src, l, sl, skip, i);
                 if (old_out && si >= 0)
                     memcpy(w, src_params + S->w_off + ((size_t)o * S->cin + si) * 25, 25 * sizeof(float));
-                else if (old_out)
+                else if (old_out || new_blend)
                     memset(w, 0, 25 * sizeof(float));
             }
-            params[D->b_off + o] = old_out ? src_params[S->b_off + o] : 0.0f;
+            params[D->b_off + o] = old_out ? src_params[S->b_off + o] : (new_blend ? EW_KPCN_NEW_SCALE_BIAS : 0.0f);
         }
     }
 }
@@ -354,12 +467,12 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
 
 /* ---- scratch -------------------------------------------------------------- */
 struct ew_kpcn_scratch {
-    int size, inputs;
-    ew_gn_planes buf[EW_KPCN_SCALES], dbuf[EW_KPCN_SCALES];
-    float *rad[EW_KPCN_SCALES]; /* 3 planes each */
-    float *out[EW_KPCN_SCALES], *dout[EW_KPCN_SCALES];
+    int size, inputs, scales;
+    ew_gn_planes buf[EW_KPCN_MAX_SCALES], dbuf[EW_KPCN_MAX_SCALES];
+    float *rad[EW_KPCN_MAX_SCALES]; /* 3 planes each */
+    float *out[EW_KPCN_MAX_SCALES], *dout[EW_KPCN_MAX_SCALES];
     float *albedo_f, *ref; /* 3 planes each, scale 0 */
-    void *mem[2 * EW_KPCN_SCALES + 1];
+    void *mem[2 * EW_KPCN_MAX_SCALES + 1];
 };
 
 ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
@@ -367,8 +480,9 @@ ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
     if (!s) return NULL;
     s->size = size;
     s->inputs = net->inputs;
+    s->scales = net->scales;
     size_t flat = 0;
-    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+    for (int k = 0; k < net->scales; k++) {
         const int P = size >> k;
         const size_t fl = ew_gn_planes_floats(P, P, net->nplanes[k]);
         s->mem[2 * k] = aligned_alloc(64, (fl * sizeof(float) + 63) / 64 * 64);
@@ -383,12 +497,12 @@ ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
     }
     flat += 2 * 3 * (size_t)size * size;
     float *p = (float *)calloc(flat, sizeof(float));
-    s->mem[2 * EW_KPCN_SCALES] = p;
+    s->mem[2 * EW_KPCN_MAX_SCALES] = p;
     if (!p) {
         ew_kpcn_scratch_destroy(s);
         return NULL;
     }
-    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+    for (int k = 0; k < net->scales; k++) {
         const size_t np = (size_t)(size >> k) * (size >> k);
         s->rad[k] = p; p += 3 * np;
         s->out[k] = p; p += 3 * np;
@@ -401,7 +515,7 @@ ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
 
 void ew_kpcn_scratch_destroy(ew_kpcn_scratch *s) {
     if (!s) return;
-    for (int i = 0; i < 2 * EW_KPCN_SCALES + 1; i++) free(s->mem[i]);
+    for (int i = 0; i < 2 * EW_KPCN_MAX_SCALES + 1; i++) free(s->mem[i]);
     free(s);
 }
 
@@ -430,7 +544,7 @@ void ew_kpcn_model_free(ew_kpcn_model *m) {
 void ew_kpcn_model_prepare(ew_kpcn_model *m, const float *params) {
     const ew_kpcn_net *net = m->net;
     m->params = params;
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (int l = 0; l < net->nlayers; l++) {
         const ew_kpcn_layer *L = &net->layers[l];
         ew_conv_cpu_wt_layout(L->cin, L->cout, params + L->w_off, m->wt + L->w_off);
         ew_conv5_flip_weights(L->cin, L->cout, params + L->w_off, m->flip + L->w_off);
@@ -547,13 +661,12 @@ static void up_planes_bwd(const ew_gn_planes *dcoarse, int cp, const ew_gn_plane
 
 static ew_kpcn_filter_args filter_args(const ew_kpcn_net *net, ew_kpcn_scratch *s, int k) {
     const int P = s->size >> k;
-    const int kp = k == 0 ? net->k0 : k == 1 ? net->k1 : net->k2;
     ew_kpcn_filter_args a;
     memset(&a, 0, sizeof a);
     a.width = a.height = P;
-    a.logits = planes_t(&s->buf[k], kp);
+    a.logits = planes_t(&s->buf[k], net->head[k]);
     a.radiance = flat_t(s->rad[k], P, P);
-    if (k + 1 < EW_KPCN_SCALES) {
+    if (k + 1 < net->scales) {
         a.coarse = flat_t(s->out[k + 1], P / 2, P / 2);
         a.cw = a.ch = P / 2;
     }
@@ -572,28 +685,30 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
     const int C = net->ch, P = size;
     const long np = (long)P * P;
     load_patch(&frames[p->frame], p, P, s, ref_override);
-    /* network */
-    conv_fwd(m, 0, s->buf);
-    pool_planes(&s->buf[0], net->h0, &s->buf[1], net->p1, C);
-    conv_fwd(m, 1, s->buf);
-    pool_planes(&s->buf[1], net->h1, &s->buf[2], net->p2, C);
-    conv_fwd(m, 2, s->buf);
-    conv_fwd(m, 3, s->buf);
-    conv_fwd(m, 4, s->buf);
-    up_planes(&s->buf[2], net->h2b, &s->buf[1], net->u1, C);
-    conv_fwd(m, 5, s->buf);
-    conv_fwd(m, 6, s->buf);
-    up_planes(&s->buf[1], net->d1, &s->buf[0], net->u0, C);
-    conv_fwd(m, 7, s->buf);
-    conv_fwd(m, 8, s->buf);
+    const int S = net->scales;
+    /* network (the layer list of kpcn.h) */
+    conv_fwd(m, net->enc[0], s->buf);
+    for (int k = 1; k < S - 1; k++) {
+        pool_planes(&s->buf[k - 1], net->h[k - 1], &s->buf[k], net->in[k], C);
+        conv_fwd(m, net->enc[k], s->buf);
+    }
+    pool_planes(&s->buf[S - 2], net->h[S - 2], &s->buf[S - 1], net->in[S - 1], C);
+    conv_fwd(m, net->enc_a, s->buf);
+    conv_fwd(m, net->enc_b, s->buf);
+    conv_fwd(m, net->lhead[S - 1], s->buf);
+    for (int k = S - 2; k >= 0; k--) {
+        up_planes(&s->buf[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->buf[k], net->u[k], C);
+        conv_fwd(m, net->dec[k], s->buf);
+        conv_fwd(m, net->lhead[k], s->buf);
+    }
     /* radiance pyramid and the filters, coarse to fine */
-    for (int k = 1; k < EW_KPCN_SCALES; k++) {
+    for (int k = 1; k < S; k++) {
         const int Pf = P >> (k - 1), Pc = P >> k;
         ew_kpcn_pool_args a = {Pf, Pf, Pc, Pc, 3, flat_t(s->rad[k - 1], Pf, Pf), flat_t(s->rad[k], Pc, Pc)};
         for (int y = 0; y < Pc; y++)
             for (int x = 0; x < Pc; x++) ew_kpcn_pool_px(x, y, &a);
     }
-    for (int k = EW_KPCN_SCALES - 1; k >= 0; k--) {
+    for (int k = S - 1; k >= 0; k--) {
         ew_kpcn_filter_args a = filter_args(net, s, k);
         const int Pk = P >> k;
         for (int y = 0; y < Pk; y++)
@@ -613,19 +728,19 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
         }
     if (!grad) return sum / (double)(np * 3);
 
-    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+    for (int k = 0; k < S; k++) {
         const ew_gn_planes *d = &s->dbuf[k];
         memset(ew_gn_plane_row(d, 0, -EW_CONV_R) - 8, 0, sizeof(float) * (size_t)d->ps * d->nplanes);
         if (k > 0) memset(s->dout[k], 0, sizeof(float) * 3 * (size_t)(P >> k) * (P >> k));
     }
     /* filters, fine to coarse */
-    for (int k = 0; k < EW_KPCN_SCALES; k++) {
+    for (int k = 0; k < S; k++) {
         ew_kpcn_filter_args a = filter_args(net, s, k);
         const int Pk = P >> k;
         const long nk = (long)Pk * Pk;
-        const ew_kpcn_tensor dl = planes_t(&s->dbuf[k], k == 0 ? net->k0 : k == 1 ? net->k1 : net->k2);
+        const ew_kpcn_tensor dl = planes_t(&s->dbuf[k], net->head[k]);
         ew_kpcn_tensor dc = {NULL, 1, 0, 0};
-        if (k + 1 < EW_KPCN_SCALES) dc = flat_t(s->dout[k + 1], Pk / 2, Pk / 2);
+        if (k + 1 < S) dc = flat_t(s->dout[k + 1], Pk / 2, Pk / 2);
         for (int y = 0; y < Pk; y++)
             for (int x = 0; x < Pk; x++) {
                 const long q = (long)y * Pk + x;
@@ -634,19 +749,18 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
             }
     }
     /* network, last layer first */
-    conv_bwd(m, 8, s->buf, s->dbuf, grad);
-    conv_bwd(m, 7, s->buf, s->dbuf, grad);
-    up_planes_bwd(&s->dbuf[1], net->d1, &s->dbuf[0], net->u0, C);
-    conv_bwd(m, 6, s->buf, s->dbuf, grad);
-    conv_bwd(m, 5, s->buf, s->dbuf, grad);
-    up_planes_bwd(&s->dbuf[2], net->h2b, &s->dbuf[1], net->u1, C);
-    conv_bwd(m, 4, s->buf, s->dbuf, grad);
-    conv_bwd(m, 3, s->buf, s->dbuf, grad);
-    conv_bwd(m, 2, s->buf, s->dbuf, grad);
-    pool_planes_bwd(&s->dbuf[1], net->h1, &s->dbuf[2], net->p2, C);
-    conv_bwd(m, 1, s->buf, s->dbuf, grad);
-    pool_planes_bwd(&s->dbuf[0], net->h0, &s->dbuf[1], net->p1, C);
-    conv_bwd(m, 0, s->buf, s->dbuf, grad);
+    for (int k = 0; k < S - 1; k++) {
+        conv_bwd(m, net->lhead[k], s->buf, s->dbuf, grad);
+        conv_bwd(m, net->dec[k], s->buf, s->dbuf, grad);
+        up_planes_bwd(&s->dbuf[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->dbuf[k], net->u[k], C);
+    }
+    conv_bwd(m, net->lhead[S - 1], s->buf, s->dbuf, grad);
+    conv_bwd(m, net->enc_b, s->buf, s->dbuf, grad);
+    conv_bwd(m, net->enc_a, s->buf, s->dbuf, grad);
+    for (int k = S - 1; k >= 1; k--) {
+        pool_planes_bwd(&s->dbuf[k - 1], net->h[k - 1], &s->dbuf[k], net->in[k], C);
+        conv_bwd(m, net->enc[k - 1], s->buf, s->dbuf, grad);
+    }
     return sum / (double)(np * 3);
 }
 
@@ -661,7 +775,7 @@ struct ew_kpcn_trainer {
 };
 
 ew_kpcn_trainer *ew_kpcn_trainer_create(ew_device *dev, const ew_kpcn_net *net, int batch, int size, int loss) {
-    if (size < 16 || size % 4 != 0) return NULL;
+    if (size < 16 || size % ew_kpcn_align(net) != 0) return NULL;
     ew_kpcn_trainer *t = (ew_kpcn_trainer *)calloc(1, sizeof *t);
     if (!t) return NULL;
     t->dev = dev;

@@ -1,14 +1,17 @@
 /*
- * kpcn.h — the kernel-predicting denoiser "kpcn": a small three-scale U-Net
- * of 5x5 convolutions predicts, at full, half and quarter resolution, a 5x5
- * softmax kernel per pixel that filters the albedo-demodulated radiance of
- * that scale, and per pixel of the two finer scales a weight blending in the
- * coarser scale's (bilinearly upsampled) result (kernels/kpcn.h). The albedo
- * is multiplied back at the end. The quarter scale's 5x5 kernel spans 20x20
- * full-resolution pixels, and an output pixel sees +-36 pixels, at a cost
- * dominated by the full-resolution layers.
+ * kpcn.h — the kernel-predicting denoiser "kpcn": a small U-Net of 5x5
+ * convolutions over S scales (3 by default; 4 or 5) predicts, at full
+ * resolution and every coarser scale (each half the last), a 5x5 softmax
+ * kernel per pixel that filters the albedo-demodulated radiance of that
+ * scale, and per pixel of every scale but the coarsest a weight blending in
+ * the next coarser scale's (bilinearly upsampled) result (kernels/kpcn.h).
+ * The albedo is multiplied back at the end. The coarsest scale's 5x5 kernel
+ * spans 5 * 2^(S-1) full-resolution pixels (20 at S = 3, 40 at 4, 80 at 5:
+ * the low-frequency noise of a diffuse room at 16-64 spp needs the wide
+ * ones), at a cost dominated by the full-resolution layers either way.
  *
- * Layers (all 5x5 SAME convolutions with biases; C = the width):
+ * Layers (all 5x5 SAME convolutions with biases; C = the width), S = 3
+ * shown; another S repeats the middle scale's encoder, decoder and head:
  *   0 enc0  scale 0  inputs (10|11)  -> h0 (C)  LeakyReLU
  *   1 enc1  scale 1  pool(h0) (C)    -> h1 (C)  LeakyReLU
  *   2 enc2a scale 2  pool(h1) (C)    -> h2a (C) LeakyReLU
@@ -18,18 +21,21 @@
  *   6 head1 scale 1  d1              -> 25 kernel logits + 1 blend logit
  *   7 dec0  scale 0  [h0, up(d1)]    -> d0 (C)  LeakyReLU
  *   8 head0 scale 0  d0              -> 25 + 1
+ * In general: enc_k (k < S-1), the coarsest scale's enc_a, enc_b and head,
+ * then dec_k, head_k for k = S-2 down to 0: 3S layers.
  *
- * Weights file (src/weights.h): arch "kpcn-c<C>" (10 inputs) or
- * "kpcn-c<C>-noise" (11: the frame's noise level too), tensors conv<l>.weight
- * [cout, cin, 5, 5] and conv<l>.bias [cout], l = 0..8.
+ * Weights file (src/weights.h): arch "kpcn-c<C>" (10 inputs),
+ * "kpcn-c<C>-noise" (11: the frame's noise level too), either followed by
+ * "-s<S>" for S != 3; tensors conv<l>.weight [cout, cin, 5, 5] and
+ * conv<l>.bias [cout], l = 0..3S-1 in the order above.
  *
  * Per scale, one zero-padded plane buffer (algorithms/guidenet.h's
  * ew_gn_planes) holds every plane of that scale, laid out so that each
  * convolution's input is one contiguous run of planes (the decoders' skip
  * concatenation costs nothing):
- *   scale 0: inputs (10|11) | h0 | up(d1) | d0 | head0 (26)
- *   scale 1: pool(h0) | h1 | up(h2b) | d1 | head1 (26)
- *   scale 2: pool(h1) | h2a | h2b | head2 (25)
+ *   scale 0:          inputs (10|11) | h | up(d or h_b of the next scale) | d | head (26)
+ *   scale 0 < k < S-1: pool(h of k-1) | h | up(...) | d | head (26)
+ *   scale S-1:        pool(h of S-2) | h_a | h_b | head (25)
  */
 #ifndef EW_ALGORITHMS_KPCN_H
 #define EW_ALGORITHMS_KPCN_H
@@ -42,8 +48,9 @@
 #include "kernels/kpcn.h"
 #include "src/weights.h"
 
-#define EW_KPCN_NLAYERS 9
-#define EW_KPCN_SCALES 3
+#define EW_KPCN_DEFAULT_SCALES 3
+#define EW_KPCN_MAX_SCALES 5
+#define EW_KPCN_MAX_LAYERS (3 * EW_KPCN_MAX_SCALES)
 #define EW_KPCN_MIN_CH 4
 #define EW_KPCN_MAX_CH 32
 
@@ -53,18 +60,28 @@ typedef struct ew_kpcn_layer {
 } ew_kpcn_layer;
 
 typedef struct ew_kpcn_net {
-    char arch[32]; /* "kpcn-c<C>" or "kpcn-c<C>-noise" */
+    char arch[40]; /* "kpcn-c<C>[-noise][-s<S>]" */
     int ch;
     int noise;  /* 1: the network also sees the frame's noise level (kernels/kpcn.h) */
     int inputs; /* input planes: EW_KPCN_INPUTS, + 1 with noise */
-    int nplanes[EW_KPCN_SCALES];
-    /* plane indices */
-    int h0, u0, d0, k0, p1, h1, u1, d1, k1, p2, h2a, h2b, k2;
-    ew_kpcn_layer layers[EW_KPCN_NLAYERS];
+    int scales, nlayers;
+    int nplanes[EW_KPCN_MAX_SCALES];
+    /* plane indices per scale k: in (scale 0: the inputs; else the pooled
+     * encoder output of k-1), h (the encoder's output; the coarsest scale's
+     * first encoder), u (the next scale's output upsampled; k < S-1), d (the
+     * decoder's; k < S-1), head (the kernel logits); hb: the coarsest
+     * scale's second encoder */
+    int in[EW_KPCN_MAX_SCALES], h[EW_KPCN_MAX_SCALES], u[EW_KPCN_MAX_SCALES], d[EW_KPCN_MAX_SCALES],
+        head[EW_KPCN_MAX_SCALES], hb;
+    /* layer indices: enc[k] (k < S-1), enc_a, enc_b (the coarsest scale),
+     * dec[k] (k < S-1), lhead[k] (every scale) */
+    int enc[EW_KPCN_MAX_SCALES], enc_a, enc_b, dec[EW_KPCN_MAX_SCALES], lhead[EW_KPCN_MAX_SCALES];
+    ew_kpcn_layer layers[EW_KPCN_MAX_LAYERS];
     size_t nparams;
 } ew_kpcn_net;
 
-/* "kpcn-c<C>[-noise]" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH]. 0 or non-zero + message. */
+/* "kpcn-c<C>[-noise][-s<S>]" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH], S in
+ * [3, EW_KPCN_MAX_SCALES]. 0 or non-zero + message. */
 int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen);
 /* Kaiming-uniform for the LeakyReLU layers, heads 10x smaller (kernels start
  * near a box filter, blends near one half), zero biases; a pure function of
@@ -77,7 +94,14 @@ int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t
  * an old channel's weights from a new input (a wider net's extra channels,
  * the noise plane) are zero, and a new channel keeps its random weights. So
  * the net computes src's output until trained, and the new channels still
- * get gradients (their consumers' weights start at zero, not their own). */
+ * get gradients (their consumers' weights start at zero, not their own).
+ * More scales than src (S > src's): src's coarsest scale becomes a middle
+ * one (its enc_a the encoder, its enc_b the decoder reading the skip half,
+ * its head the head, with a blend logit of weight 0 and bias
+ * EW_KPCN_NEW_SCALE_BIAS), the new coarser scales keep random weights: the
+ * output moves by that blend's sigmoid (1.8 %) toward the new scales', and
+ * they are trained from the first step. */
+#define EW_KPCN_NEW_SCALE_BIAS (-4.0f)
 void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params);
 /* The noise plane's value of a frame: EW_REDUCE_NOISE over its (clamped,
  * demodulated) radiance, 3 floats a pixel. */
@@ -87,8 +111,8 @@ double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net);
 /* The convolution of layer l on the scale buffers buf[scale]. */
 void ew_kpcn_layer_args(const ew_kpcn_net *net, int l, const float *params, const ew_gn_planes *buf,
                         ew_conv_args *a);
-/* Sizes of the three scales of a w x h frame. */
-void ew_kpcn_scale_sizes(int w, int h, int *sw, int *sh);
+/* Sizes of the net's scales of a w x h frame. */
+void ew_kpcn_scale_sizes(const ew_kpcn_net *net, int w, int h, int *sw, int *sh);
 
 /* ---- built-in models ------------------------------------------------- */
 #define EW_KPCN_NUM_MODELS 3
@@ -104,27 +128,31 @@ extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
 
 /* ---- inference on a device -------------------------------------------- */
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
- * the three scale buffers, radiance pyramid and outputs of scales 1-2. */
+ * the scale buffers, radiance pyramid and outputs of the scales below 0. */
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
 
 /* ---- tiles -------------------------------------------------------------
  * A frame whose planes exceed a memory budget runs in tiles: each tile's
- * core is computed on a region that adds EW_KPCN_HALO pixels on every side
- * inside the frame, and only the core is kept. An output pixel depends on
- * the inputs within +-36 pixels of it (counted through the layer list
- * above: the longest path runs head0, dec0, up, dec1, up, enc2b, enc2a,
- * pool, enc1, pool, enc0), and a region reads zero padding or clamped taps
+ * core is computed on a region that adds ew_kpcn_halo pixels on every side
+ * inside the frame, and only the core is kept. The halo is how far an
+ * output pixel's inputs reach, counted by following every path of the
+ * layer list above (convolutions, poolings, upsamplings, the kernels' taps
+ * on the radiance pyramid) from each pixel phase: 36 pixels at S = 3 (the
+ * longest path runs head0, dec0, up, dec1, up, enc2b, enc2a, pool, enc1,
+ * pool, enc0; 32 would not do). A region reads zero padding or clamped taps
  * only at its own edges, so with that halo every core pixel sees what it
- * sees in the whole frame. Core and region origins are multiples of 4, so
- * the 2x2 poolings of a region pair the same pixels as the whole frame's;
- * the output is the same bits as one whole-frame pass (tests/unit/
- * test_kpcn.c; 32 pixels would not do). */
-#define EW_KPCN_HALO 36
+ * sees in the whole frame. Core and region origins are multiples of
+ * ew_kpcn_align (2^(S-1)), so the 2x2 poolings of a region pair the same
+ * pixels as the whole frame's; the output is the same bits as one
+ * whole-frame pass (tests/unit/test_kpcn.c). */
+int ew_kpcn_halo(const ew_kpcn_net *net);
+int ew_kpcn_align(const ew_kpcn_net *net);
 #define EW_KPCN_MIN_TILE 8 /* smallest core side: below it the halo is nearly all the work */
 
 typedef struct ew_kpcn_tiling {
     int width, height; /* the frame */
-    int tw, th;        /* core size of every tile but the last of a row / column (multiples of 4) */
+    int tw, th;        /* core size of every tile but the last of a row / column (multiples of the alignment) */
+    int halo, align;
     int nx, ny;
     int rw, rh;        /* the largest region */
 } ew_kpcn_tiling;
@@ -180,7 +208,7 @@ typedef struct ew_kpcn_patch {
 } ew_kpcn_patch;
 
 /*
- * Forward and backward of one patch (size a multiple of 4): returns the
+ * Forward and backward of one patch (size a multiple of ew_kpcn_align): returns the
  * mean L1 loss over pixels and channels and adds the gradient to grad
  * (NULL: forward only). out_rgb (size^2 * 3, may be NULL): the denoised
  * colour. ref_override (size^2 * 3 linear colour, may be NULL) replaces the

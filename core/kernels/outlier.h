@@ -185,6 +185,18 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     if (n < EW_OUTLIER_MIN_SIMILAR) return;
     float centre, spread;
     if (robust) {
+        /* Most pixels lie far below their bound, and the bound grows with the
+         * median (the spread is at least sigma_floor * centre and abs_floor):
+         * a median of t or more already puts the bound above lum, and the
+         * median is at least t exactly when at most (n - 1) / 2 neighbours lie
+         * below t. That count decides those pixels without the two
+         * selections. t is raised by 1e-4 lum above the smallest such median
+         * so that the rounding of the exact test cannot disagree with it. */
+        const float sf = ew_maxf(p->sigma_floor, 0.0f), af = ew_maxf(p->abs_floor, 0.0f);
+        const float t = ew_minf(lum / (1.0f + p->k * sf), lum - p->k * af) + 1e-4f * lum;
+        int below = 0;
+        for (int i = 0; i < n; i++) below += window[i] < t;
+        if (below <= (n - 1) / 2) return;
         centre = ew_outlier_select(window, n, (n - 1) / 2);
         for (int i = 0; i < n; i++) window[i] = fabsf(window[i] - centre);
         spread = EW_OUTLIER_MAD_SCALE * ew_outlier_select(window, n, (n - 1) / 2);

@@ -200,10 +200,10 @@ static void scene_free(scene *s) {
     free(s->color); free(s->albedo); free(s->normal); free(s->depth); free(s->ref);
 }
 
-TEST(patch_gradient_matches_finite_differences) {
+static void patch_gradient_case(const char *arch) {
     ew_kpcn_net net;
     char err[128];
-    CHECK(ew_kpcn_init(&net, "kpcn-c4", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&net, arch, err, sizeof err) == 0);
     scene sc;
     scene_make(&sc, 24, 20, 3);
     ew_kpcn_frame f;
@@ -213,7 +213,7 @@ TEST(patch_gradient_matches_finite_differences) {
     ew_kpcn_random(&net, 9, params);
     /* larger head weights than the initialisation, so kernels and blends
      * are far from uniform and every path carries gradient */
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++)
+    for (int l = 0; l < net.nlayers; l++)
         if (net.layers[l].act == EW_ACT_NONE)
             for (size_t i = 0; i < (size_t)net.layers[l].cin * net.layers[l].cout * 25; i++)
                 params[net.layers[l].w_off + i] *= 10.0f;
@@ -227,9 +227,9 @@ TEST(patch_gradient_matches_finite_differences) {
     const ew_kpcn_patch p = {0, 5, 3, 5};
     ew_kpcn_model_prepare(&m, params);
     ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, grad, NULL, ref);
-    double errs[4 * EW_KPCN_NLAYERS];
+    double errs[4 * EW_KPCN_MAX_LAYERS];
     int checked = 0, layers_ok = 0;
-    for (int l = 0; l < EW_KPCN_NLAYERS; l++) {
+    for (int l = 0; l < net.nlayers; l++) {
         int good = 0;
         const ew_kpcn_layer *L = &net.layers[l];
         const size_t nw = (size_t)L->cin * L->cout * 25;
@@ -272,11 +272,17 @@ TEST(patch_gradient_matches_finite_differences) {
                 errs[i] = errs[j];
                 errs[j] = t;
             }
-    fprintf(stderr, "  median relative error %.1e, layers with >= 3 of 4 within 10%%: %d of %d\n", errs[checked / 2],
-            layers_ok, EW_KPCN_NLAYERS);
-    CHECK_EQ_INT(layers_ok, EW_KPCN_NLAYERS);
+    fprintf(stderr, "  %s: median relative error %.1e, layers with >= 3 of 4 within 10%%: %d of %d\n", arch,
+            errs[checked / 2], layers_ok, net.nlayers);
+    CHECK_EQ_INT(layers_ok, net.nlayers);
     CHECK(errs[checked / 2] < 0.01);
 }
+
+TEST(patch_gradient_matches_finite_differences) { patch_gradient_case("kpcn-c4"); }
+
+/* Four scales: the middle scales' encoder, decoder and head repeat, and the
+ * upsampling/pooling chain gets one more link. */
+TEST(patch_gradient_matches_finite_differences_4_scales) { patch_gradient_case("kpcn-c4-noise-s4"); }
 
 /* The output stays within [min, max] of the demodulated radiance times the
  * albedo factor: kernels and blends are convex. */
@@ -386,6 +392,8 @@ static void op_matches_training_forward_for(const char *arch) {
 TEST(op_matches_training_forward) {
     op_matches_training_forward_for("kpcn-c8");
     op_matches_training_forward_for("kpcn-c24-noise");
+    op_matches_training_forward_for("kpcn-c8-noise-s4");
+    op_matches_training_forward_for("kpcn-c4-s5");
 }
 
 static void patch_forward(const ew_kpcn_net *net, const float *params, const ew_kpcn_frame *f, int P, float *grad,
@@ -445,6 +453,79 @@ TEST(warm_start_keeps_output_and_trains_new_channels) {
     free(ow);
 }
 
+/* A warm start into more scales: the old coarsest scale becomes a middle
+ * one whose blend starts at sigmoid(EW_KPCN_NEW_SCALE_BIAS), so the image
+ * moves by at most that share of the radiance's range, and the new scale
+ * trains from the first step: its head and the decoder's weights reading
+ * its upsampled output get gradients. */
+TEST(warm_start_into_more_scales_stays_close_and_trains_them) {
+    ew_kpcn_net three, four;
+    char err[128];
+    CHECK(ew_kpcn_init(&three, "kpcn-c8-noise", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&four, "kpcn-c8-noise-s4", err, sizeof err) == 0);
+    CHECK_EQ_INT(four.nlayers, 12);
+    const int P = 32;
+    scene sc;
+    scene_make(&sc, P, P, 6);
+    ew_kpcn_frame f;
+    CHECK(ew_kpcn_frame_init(&f, sc.w, sc.h, sc.color, sc.albedo, sc.normal, sc.depth, sc.ref, 3.0f) == 0);
+    float *p3 = malloc(sizeof(float) * three.nparams), *p4 = malloc(sizeof(float) * four.nparams);
+    float *g4 = calloc(four.nparams, sizeof(float));
+    ew_kpcn_random(&three, 3, p3);
+    for (size_t i = 0; i < three.nparams; i++) p3[i] *= 5.0f;
+    ew_kpcn_random(&four, 4, p4);
+    ew_kpcn_params_from(&four, p4, &three, p3);
+    float *o3 = malloc(sizeof(float) * P * P * 3), *o4 = malloc(sizeof(float) * P * P * 3);
+    patch_forward(&three, p3, &f, P, NULL, o3);
+    patch_forward(&four, p4, &f, P, g4, o4);
+    double worst = 0, mx = 0;
+    for (int i = 0; i < P * P * 3; i++) {
+        worst = fmax(worst, fabs((double)o4[i] - o3[i]));
+        mx = fmax(mx, fabs((double)o3[i]));
+    }
+    const double share = 1.0 / (1.0 + exp(-(double)EW_KPCN_NEW_SCALE_BIAS));
+    fprintf(stderr, "  c8-noise -> c8-noise-s4: worst difference %.3g of an output range %.3g (blend %.3f)\n", worst, mx,
+            share);
+    CHECK(worst > 0);
+    CHECK(worst <= 2.0 * share * mx);
+    const ew_kpcn_layer *H = &four.layers[four.lhead[3]], *D = &four.layers[four.dec[2]];
+    double gh = 0, gd = 0;
+    for (size_t i = 0; i < (size_t)H->cin * H->cout * 25; i++) gh += fabs(g4[H->w_off + i]);
+    for (int o = 0; o < D->cout; o++)
+        for (int i = four.ch; i < D->cin; i++) /* the upsampled half: the new scale's output */
+            for (int t = 0; t < 25; t++) gd += fabs(g4[D->w_off + (o * (size_t)D->cin + i) * 25 + t]);
+    CHECK(gh > 0);
+    CHECK(gd > 0);
+    ew_kpcn_frame_free(&f);
+    scene_free(&sc);
+    free(p3);
+    free(p4);
+    free(g4);
+    free(o3);
+    free(o4);
+}
+
+/* The halo is counted through the layer list: 36 pixels for the three-scale
+ * models (the tiles test below fails with 32), more with each scale. */
+TEST(halo_grows_with_the_scales) {
+    ew_kpcn_net net;
+    char err[128];
+    int last = 0;
+    const char *arch[] = {"kpcn-c8", "kpcn-c8-s4", "kpcn-c8-s5"};
+    for (int i = 0; i < 3; i++) {
+        CHECK(ew_kpcn_init(&net, arch[i], err, sizeof err) == 0);
+        const int halo = ew_kpcn_halo(&net);
+        fprintf(stderr, "  %s: halo %d, alignment %d\n", arch[i], halo, ew_kpcn_align(&net));
+        if (i == 0) CHECK_EQ_INT(halo, 36);
+        CHECK(halo > last);
+        CHECK_EQ_INT(halo % ew_kpcn_align(&net), 0);
+        last = halo;
+    }
+    CHECK(ew_kpcn_init(&net, "kpcn-c8-s3", err, sizeof err) != 0); /* the default is written without -s */
+    CHECK(ew_kpcn_init(&net, "kpcn-c8-s6", err, sizeof err) != 0);
+    CHECK(ew_kpcn_init(&net, "kpcn-c8-noise-s", err, sizeof err) != 0);
+}
+
 /* The weights compiled into the library are the files in models/kpcn. */
 TEST(builtin_weights_match_model_files) {
     static const int channels[EW_KPCN_NUM_MODELS] = {16, 8, 24};
@@ -491,10 +572,11 @@ TEST(builtin_weights_match_model_files) {
 /* The plan's tiles cover the frame once, start on multiples of 4, and each
  * region holds its core plus the halo (clipped to the frame) within the
  * budget, unless the budget is below the smallest tile. */
-TEST(tiling_plan_covers_frame_within_budget) {
+static void tiling_plan_case(const char *arch) {
     ew_kpcn_net net;
     char err[128];
-    CHECK(ew_kpcn_init(&net, "kpcn-c12-noise", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&net, arch, err, sizeof err) == 0);
+    const int A = ew_kpcn_align(&net), HALO = ew_kpcn_halo(&net);
     const int sizes[][2] = {{1, 1}, {7, 5}, {97, 203}, {640, 360}, {1283, 721}, {3840, 2160}};
     const size_t budgets[] = {1, 200000, 3000000, 50000000, (size_t)1 << 40};
     for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++)
@@ -507,11 +589,11 @@ TEST(tiling_plan_covers_frame_within_budget) {
             for (int i = 0; i < t.nx * t.ny; i++) {
                 ew_kpcn_tile c;
                 ew_kpcn_tile_at(&t, i, &c);
-                ok &= c.cx % 4 == 0 && c.cy % 4 == 0 && c.rx % 4 == 0 && c.ry % 4 == 0 && c.cw > 0 && c.ch > 0;
-                ok &= c.rx == (c.cx > EW_KPCN_HALO ? c.cx - EW_KPCN_HALO : 0);
-                ok &= c.ry == (c.cy > EW_KPCN_HALO ? c.cy - EW_KPCN_HALO : 0);
-                ok &= c.rx + c.rw == (c.cx + c.cw + EW_KPCN_HALO < w ? c.cx + c.cw + EW_KPCN_HALO : w);
-                ok &= c.ry + c.rh == (c.cy + c.ch + EW_KPCN_HALO < h ? c.cy + c.ch + EW_KPCN_HALO : h);
+                ok &= c.cx % A == 0 && c.cy % A == 0 && c.rx % A == 0 && c.ry % A == 0 && c.cw > 0 && c.ch > 0;
+                ok &= c.rx == (c.cx > HALO ? c.cx - HALO : 0);
+                ok &= c.ry == (c.cy > HALO ? c.cy - HALO : 0);
+                ok &= c.rx + c.rw == (c.cx + c.cw + HALO < w ? c.cx + c.cw + HALO : w);
+                ok &= c.ry + c.rh == (c.cy + c.ch + HALO < h ? c.cy + c.ch + HALO : h);
                 ok &= c.rw <= t.rw && c.rh <= t.rh;
                 for (int y = c.cy; ok && y < c.cy + c.ch; y++)
                     for (int x = c.cx; x < c.cx + c.cw; x++) cover[(long)y * w + x]++;
@@ -527,6 +609,11 @@ TEST(tiling_plan_covers_frame_within_budget) {
             CHECK(need <= budgets[bi] || smallest || t.nx * t.ny == 1);
             if (budgets[bi] == (size_t)1 << 40) CHECK_EQ_INT(t.nx * t.ny, 1);
         }
+}
+
+TEST(tiling_plan_covers_frame_within_budget) {
+    tiling_plan_case("kpcn-c12-noise");
+    tiling_plan_case("kpcn-c12-noise-s4");
 }
 
 /* Denoise a w x h scene with weights `bytes` and a memory budget; the
@@ -558,10 +645,10 @@ static void denoise_budget(const scene *sc, const void *bytes, size_t size, int 
  * right and bottom, tiles of three widths and heights) gives the same bits
  * tiled as in one pass: the halo covers everything a core pixel sees, and
  * the noise level and the firefly clamp come from the whole frame. */
-TEST(tiles_give_the_untiled_output) {
+static void tiles_case(const char *arch) {
     ew_kpcn_net net;
     char err[128];
-    CHECK(ew_kpcn_init(&net, "kpcn-c8-noise", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&net, arch, err, sizeof err) == 0);
     float *params = malloc(sizeof(float) * net.nparams);
     ew_kpcn_random(&net, 29, params);
     for (size_t i = 0; i < net.nparams; i++) params[i] *= 5.0f;
@@ -576,7 +663,7 @@ TEST(tiles_give_the_untiled_output) {
     char what_whole[128], what_tiled[128];
     denoise_budget(&sc, bytes, size, 1024, whole, what_whole, sizeof what_whole);
     denoise_budget(&sc, bytes, size, 1, tiled, what_tiled, sizeof what_tiled); /* the smallest tiles */
-    fprintf(stderr, "  untiled: %s; tiled: %s\n", what_whole, what_tiled);
+    fprintf(stderr, "  %s untiled: %s; tiled: %s\n", arch, what_whole, what_tiled);
     CHECK(strstr(what_whole, "tiles") == NULL);
     CHECK_STR_CONTAINS(what_tiled, "tiles");
     size_t differ = 0, first = n3;
@@ -591,6 +678,11 @@ TEST(tiles_give_the_untiled_output) {
     free(bytes);
     free(params);
     scene_free(&sc);
+}
+
+TEST(tiles_give_the_untiled_output) {
+    tiles_case("kpcn-c8-noise");
+    tiles_case("kpcn-c8-noise-s4"); /* a 76-pixel halo and regions on multiples of 8 */
 }
 
 /* At 3840x2160 the default budget keeps the op under 2 GiB (the do-no-harm
