@@ -148,11 +148,17 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
-/* Make s->inner a fresh op of method `name` with the frame's images. */
+/* Make s->inner an op of method `name` with the frame's images: the last
+ * commit's when it is that method (a graph commits every frame, and the op
+ * keeps its buffers when the size is the same; its parameters are set again
+ * by every caller), else a fresh one. */
 static ew_result bind(ew_op *op, state *s, const char *name) {
-    ew_op_destroy(s->inner);
-    s->inner = NULL;
-    ew_result r = ew_op_create_kind(op->dev, "denoiser", name, &s->inner);
+    ew_result r = EW_OK;
+    if (!s->inner || strcmp(s->inner->type->name, name) != 0) {
+        ew_op_destroy(s->inner);
+        s->inner = NULL;
+        r = ew_op_create_kind(op->dev, "denoiser", name, &s->inner);
+    }
     if (r == EW_OK) ew_harm_forward(op, s->inner); /* the method runs the do-no-harm stage */
     for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
         r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));

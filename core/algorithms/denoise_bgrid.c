@@ -47,6 +47,7 @@ typedef struct {
     float *clamped;         /* device: radiance after firefly suppression */
     double *row_out;        /* device: reduce_rows output, 2 x height */
     void *dmem;             /* the one device allocation */
+    size_t dmem_bytes;
     double *rows;           /* host: row_out read back */
     float *stage;           /* host staging, or NULL when views need none */
     double host[];          /* rows, then stage */
@@ -95,10 +96,21 @@ static ew_result commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
-    if (op->state) release(op);
+    void *old = NULL; /* the previous commit's device block (ew_dev_block) */
+    size_t old_bytes = 0;
+    if (op->state) {
+        state *o = (state *)op->state;
+        old = o->dmem, old_bytes = o->dmem_bytes, o->dmem = NULL;
+        release(op);
+    }
     state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
     op->state = s;
-    if (s) s->dmem = ew_dev_alloc(dev, row_bytes + need * sizeof(float));
+    if (s) {
+        s->dmem = ew_dev_block(dev, old, old_bytes, row_bytes + need * sizeof(float));
+        s->dmem_bytes = s->dmem ? row_bytes + need * sizeof(float) : 0;
+    } else {
+        ew_dev_free(dev, old);
+    }
     if (!s || !s->dmem)
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: denoising %dx%d needs %.1f MiB",
                         s ? dev->backend->name : "host", w, h, (double)need * sizeof(float) / 1048576.0);

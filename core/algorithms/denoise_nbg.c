@@ -65,6 +65,7 @@ typedef struct {
     int band_rows;
     double *row_out;         /* device: reduce_rows output, 2 x height */
     void *dmem;              /* the one device allocation */
+    size_t dmem_bytes;
     double *rows;            /* host: row_out read back */
     float *stage;            /* host staging, or NULL when views need none */
     char choice[96];         /* ew_denoiser_describe: the model in use */
@@ -100,7 +101,6 @@ static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
     const int w = color->width, h = color->height;
-    if (op->state) release(op);
 
     ew_net_model *builtin = NULL;
     const ew_net_model *m = NULL;
@@ -126,9 +126,21 @@ static ew_result commit(ew_op *op) {
     const size_t need = ew_nbg_device_floats(net, w, h, &grid_floats, &band_floats);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
+    void *old = NULL; /* the previous commit's device block (ew_dev_block) */
+    size_t old_bytes = 0;
+    if (op->state) {
+        state *o = (state *)op->state;
+        old = o->dmem, old_bytes = o->dmem_bytes, o->dmem = NULL;
+        release(op);
+    }
     state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
     op->state = s;
-    if (s) s->dmem = ew_dev_alloc(dev, row_bytes + need * sizeof(float));
+    if (s) {
+        s->dmem = ew_dev_block(dev, old, old_bytes, row_bytes + need * sizeof(float));
+        s->dmem_bytes = s->dmem ? row_bytes + need * sizeof(float) : 0;
+    } else {
+        ew_dev_free(dev, old);
+    }
     if (!s || !s->dmem) {
         ew_net_model_free(builtin);
         if (s) s->builtin = NULL;

@@ -49,9 +49,7 @@ static ew_result commit(ew_op *op) {
     const int has_n = ew_op_image(op, "normal") != NULL, has_d = ew_op_image(op, "depth") != NULL;
     const size_t n = (size_t)w * (size_t)h;
     size_t need = n * (size_t)EW_BF_CH * 3 + (has_n ? n * 3 : 0) + (has_d ? n : 0);
-    if (op->state) release(op);
-    state *s = (state *)malloc(sizeof(state) + need * sizeof(float));
-    op->state = s;
+    state *s = (state *)ew_op_state_block(op, sizeof(state) + need * sizeof(float));
     if (!s)
         return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory: filtering %dx%d needs %.1f MiB", w, h,
                         (double)need * sizeof(float) / 1048576.0);

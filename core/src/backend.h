@@ -151,6 +151,11 @@ void ew_cpu_device_release(ew_device *dev);
  * and device memory. */
 void *ew_dev_alloc(ew_device *dev, size_t bytes);
 void ew_dev_free(ew_device *dev, void *ptr);
+/* A commit's device block of `bytes`: `old` (the previous commit's, of
+ * old_bytes) when that is the size — a graph commits its ops again every
+ * frame with the same images, and a new block would be mapped and faulted
+ * in again — else a new one, `old` freed first. Contents are not kept. */
+void *ew_dev_block(ew_device *dev, void *old, size_t old_bytes, size_t bytes);
 /* Host staging floats an op must allocate at commit to move views of n
  * pixels x c channels: 0 when the device reads host memory or the views
  * are device pointers. */

@@ -19,6 +19,12 @@ void ew_dev_free(ew_device *dev, void *ptr) {
     if (ptr) dev->backend->mem_free(dev, ptr);
 }
 
+void *ew_dev_block(ew_device *dev, void *old, size_t old_bytes, size_t bytes) {
+    if (old && old_bytes == bytes) return old;
+    ew_dev_free(dev, old);
+    return ew_dev_alloc(dev, bytes);
+}
+
 size_t ew_dev_stage_floats(const ew_device *dev, size_t n, int c) {
     return dev->device_memory && !dev->device_images ? n * (size_t)c : 0;
 }

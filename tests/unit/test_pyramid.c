@@ -1058,3 +1058,4 @@ static void commit_keeps_block(const char *method) {
 
 TEST(commit_at_the_same_size_keeps_the_scratch_pyramid) { commit_keeps_block("pyramid"); }
 TEST(commit_at_the_same_size_keeps_the_scratch_dof) { commit_keeps_block("dof"); }
+TEST(commit_at_the_same_size_keeps_the_scratch_atrous) { commit_keeps_block("atrous"); }

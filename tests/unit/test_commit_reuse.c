@@ -1,0 +1,111 @@
+/* A graph commits its ops again every frame with the same images: the
+ * denoisers (and auto's rung, and the do-no-harm stage) then keep the
+ * device memory of the last commit instead of allocating it again — a new
+ * block is mapped and faulted in afresh every frame — and the second run's
+ * output is the first's. Device allocations are counted through a copy of
+ * the CPU backend's table whose mem_alloc counts. */
+#include "ew_test.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "edgewise/edgewise.h"
+#include "src/backend.h"
+#include "src/internal.h"
+
+static int allocs;
+static void *(*real_alloc)(ew_device *dev, size_t bytes);
+
+static void *counting_alloc(ew_device *dev, size_t bytes) {
+    allocs++;
+    return real_alloc(dev, bytes);
+}
+
+static float pattern(int i, int k) { return (float)((i * 37 + k * 11) % 101) / 100.0f; }
+
+static void commit_again_allocates_nothing(const char *method) {
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = 2;
+    ew_device *dev = NULL;
+    CHECK(ew_device_create(&desc, &dev) == EW_OK);
+    const ew_backend *orig = dev->backend;
+    ew_backend counting = *orig;
+    real_alloc = orig->mem_alloc;
+    counting.mem_alloc = counting_alloc;
+    dev->backend = &counting;
+
+    const int w = 96, h = 64, n = w * h;
+    float *color = malloc(sizeof(float) * 3 * (size_t)n), *albedo = malloc(sizeof(float) * 3 * (size_t)n);
+    float *normal = malloc(sizeof(float) * 3 * (size_t)n), *depth = malloc(sizeof(float) * (size_t)n);
+    float *out[2] = {malloc(sizeof(float) * 3 * (size_t)n), malloc(sizeof(float) * 3 * (size_t)n)};
+    CHECK(color && albedo && normal && depth && out[0] && out[1]);
+    for (int i = 0; i < 3 * n; i++) {
+        color[i] = pattern(i, 0);
+        albedo[i] = 0.2f + 0.5f * pattern(i / 3, 1);
+        normal[i] = i % 3 == 2 ? 1.0f : 0.0f;
+    }
+    for (int i = 0; i < n; i++) depth[i] = 2.0f + (float)(i % 53) / 5.0f;
+    ew_image c = ew_image_packed(color, w, h, 3), a = ew_image_packed(albedo, w, h, 3);
+    ew_image nm = ew_image_packed(normal, w, h, 3), d = ew_image_packed(depth, w, h, 1);
+
+    ew_op *op = NULL;
+    CHECK(ew_op_create(dev, method, &op) == EW_OK);
+    CHECK(ew_op_set_image(op, "color", &c) == EW_OK);
+    CHECK(ew_op_set_image(op, "albedo", &a) == EW_OK);
+    CHECK(ew_op_set_image(op, "normal", &nm) == EW_OK);
+    CHECK(ew_op_set_image(op, "depth", &d) == EW_OK);
+    int first = 0;
+    for (int k = 0; k < 2; k++) {
+        ew_image o = ew_image_packed(out[k], w, h, 3);
+        CHECK(ew_op_set_image(op, "output", &o) == EW_OK);
+        CHECK(ew_op_commit(op) == EW_OK);
+        CHECK(ew_op_execute(op) == EW_OK);
+        if (k == 0) {
+            first = allocs;
+            CHECK(first > 0); /* the counting table is the one in use */
+        }
+    }
+    CHECK_EQ_INT(allocs, first);
+    CHECK(memcmp(out[0], out[1], sizeof(float) * 3 * (size_t)n) == 0);
+
+    /* another size: new memory, the same as a fresh op's result */
+    const int w2 = 80, n2 = w2 * h;
+    ew_image c2 = ew_image_packed(color, w2, h, 3), a2 = ew_image_packed(albedo, w2, h, 3);
+    ew_image nm2 = ew_image_packed(normal, w2, h, 3), d2 = ew_image_packed(depth, w2, h, 1);
+    ew_image o2 = ew_image_packed(out[0], w2, h, 3);
+    CHECK(ew_op_set_image(op, "color", &c2) == EW_OK);
+    CHECK(ew_op_set_image(op, "albedo", &a2) == EW_OK);
+    CHECK(ew_op_set_image(op, "normal", &nm2) == EW_OK);
+    CHECK(ew_op_set_image(op, "depth", &d2) == EW_OK);
+    CHECK(ew_op_set_image(op, "output", &o2) == EW_OK);
+    CHECK(ew_op_commit(op) == EW_OK);
+    CHECK(ew_op_execute(op) == EW_OK);
+    CHECK(allocs > first);
+    ew_op *fresh = NULL;
+    CHECK(ew_op_create(dev, method, &fresh) == EW_OK);
+    ew_image of = ew_image_packed(out[1], w2, h, 3);
+    CHECK(ew_op_set_image(fresh, "color", &c2) == EW_OK);
+    CHECK(ew_op_set_image(fresh, "albedo", &a2) == EW_OK);
+    CHECK(ew_op_set_image(fresh, "normal", &nm2) == EW_OK);
+    CHECK(ew_op_set_image(fresh, "depth", &d2) == EW_OK);
+    CHECK(ew_op_set_image(fresh, "output", &of) == EW_OK);
+    CHECK(ew_op_commit(fresh) == EW_OK);
+    CHECK(ew_op_execute(fresh) == EW_OK);
+    CHECK(memcmp(out[0], out[1], sizeof(float) * 3 * (size_t)n2) == 0);
+
+    ew_op_destroy(fresh);
+    ew_op_destroy(op);
+    dev->backend = orig;
+    ew_device_destroy(dev);
+    free(color);
+    free(albedo);
+    free(normal);
+    free(depth);
+    free(out[0]);
+    free(out[1]);
+}
+
+TEST(bgrid_commit_again_allocates_nothing) { commit_again_allocates_nothing("bgrid"); }
+TEST(nbg_commit_again_allocates_nothing) { commit_again_allocates_nothing("nbg"); }
+TEST(kpcn_commit_again_allocates_nothing) { commit_again_allocates_nothing("kpcn"); }
+TEST(auto_commit_again_allocates_nothing) { commit_again_allocates_nothing("auto"); }
