@@ -354,7 +354,7 @@ static ew_result execute(ew_op *op) {
      * clamp off (k 0), since the kernels are convex combinations of the
      * radiance: one non-finite tap would blank its whole neighbourhood */
     const ew_outlier_params fp = ew_kpcn_clamp_params(w, h, k);
-    const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3};
+    const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, ew_harm_clamp_removed(op)};
     dev->backend->outlier_guided(dev, &fp, &fb);
     float *radiance = s->clamped;
     float noise = 0.0f;

@@ -218,7 +218,7 @@ static ew_result execute(ew_op *op) {
         /* the shared outlier definition (kernels/outlier.h) with the
          * statistics this clamp always had: mean and standard deviation */
         const ew_outlier_params fp = ew_outlier_plain_params(b->width, b->height, 2, k);
-        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3};
+        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, ew_harm_clamp_removed(op)};
         dev->backend->outlier_guided(dev, &fp, &fb);
         radiance = s->clamped;
     }

@@ -57,7 +57,7 @@ int ew_train_frame_init(ew_train_frame *f, int width, int height, const float *c
     b.guide = raw + n * 3;
     for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, &b);
     const ew_outlier_params fp = ew_outlier_plain_params(width, height, 2, firefly_k);
-    const ew_outlier_buffers fb = {raw, NULL, NULL, f->radiance, 3};
+    const ew_outlier_buffers fb = {raw, NULL, NULL, f->radiance, 3, NULL};
     for (int y = 0; y < height; y++)
         for (int x = 0; x < width; x++) {
             if (firefly_k > 0.0f)

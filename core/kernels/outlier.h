@@ -35,7 +35,12 @@
  *     colour of its similar finite neighbours, else of all finite
  *     neighbours, else 0; without it, it is left as it is (later stages
  *     treat it as missing). k <= 0 only repairs;
- *   - a feature pass that is NULL, or non-finite at the pixel, is not used.
+ *   - a feature pass that is NULL, or non-finite at the pixel, is not used;
+ *   - removed (optional): what the clamp took from each pixel's RGB (0
+ *     where it took nothing, or rebuilt a non-finite pixel), so that a
+ *     caller can give the energy back elsewhere (src/harm_stage.c returns
+ *     the denoisers' own clamp's share, spread, after the method) while the
+ *     clamped colour itself stays what the method was trained on.
  */
 #ifndef EW_KERNELS_OUTLIER_H
 #define EW_KERNELS_OUTLIER_H
@@ -68,6 +73,7 @@ typedef struct ew_outlier_buffers {
     const float *normal; /* 3 per pixel or NULL */
     float *out;          /* channels per pixel; must not alias color */
     int channels;        /* floats per pixel of color and out, >= 3: the ones past RGB (alpha) are copied */
+    float *removed;      /* 3 per pixel, or NULL: color - out in RGB where clamped, else 0 */
 } ew_outlier_buffers;
 
 /* The parameters of the denoisers' own firefly_k clamp (bgrid, nbg): mean
@@ -144,6 +150,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     const float *c0 = b->color + j * cc;
     float *o = b->out + j * cc;
     const int finite = ew_outlier_finite3(c0);
+    if (b->removed) b->removed[j * 3] = b->removed[j * 3 + 1] = b->removed[j * 3 + 2] = 0.0f;
     const float lum = finite ? ew_luminance(c0) : 0.0f;
     for (int c = 0; c < cc; c++) o[c] = c0[c];
     if (finite && (p->k <= 0.0f || lum <= 0.0f)) return; /* nothing to judge */
@@ -212,6 +219,8 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
         o[0] = c0[0] * s;
         o[1] = c0[1] * s;
         o[2] = c0[2] * s;
+        if (b->removed)
+            for (int c = 0; c < 3; c++) b->removed[j * 3 + c] = c0[c] - o[c];
     }
 }
 

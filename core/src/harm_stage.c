@@ -21,8 +21,14 @@
  *      (kernels/harm.h says why that estimates the blend of least error).
  *      The input blended toward is the input after step 1, so a rejected
  *      firefly does not come back.
+ *   3. energy return: the light the clamps took (step 1's, at most twice
+ *      what it left, and all that the method's own firefly_k clamp took,
+ *      recorded through ew_harm_clamp_removed) is given back over a 49x49
+ *      window in proportion to the output there (kernels/harm.h). The
+ *      method still reads the clamped colour it was trained on (kpcn's
+ *      input preparation is unchanged); the frame keeps its mean.
  *
- * Both run on the op's device through the backend's `harm` and
+ * All run on the op's device through the backend's `harm` and
  * `outlier_guided` entries, in buffers allocated at commit. With both
  * parameters at 0 the op runs exactly as it would without the stage.
  */
@@ -48,6 +54,12 @@
 #define HARM_BLEND_THETA 0.4f     /* no blend while D is below 0.4 of N + D */
 #define HARM_BLEND_KAPPA 1.0f     /* the residual's Haar detail is all noise */
 #define HARM_BLEND_THETA_N 0.2f   /* ... no blend from it while D is below 0.2 of R (1 spp: random) */
+#define HARM_REJECT_KEEP 0.75     /* a rejection that took more of the frame's mean runs again */
+#define HARM_GIVE_RADIUS 24       /* clamped light comes back over 49x49 pixels */
+#define HARM_GIVE_LIMIT 30.0      /* a pixel gives back at most 30x the output frame's mean luminance */
+#define HARM_GIVE_CAP 2.0f        /* of the rejection's share: at most 2x the luminance it left */
+#define HARM_GIVE_GAIN 0.5f       /* and no pixel grows by more than half */
+#define HARM_TAKE_FLOOR 0.1        /* of the rejection's share: at most 2x the luminance it left */
 
 static const ew_param_desc stage_on[] = {
     {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
@@ -89,6 +101,7 @@ typedef struct ew_harm_state {
     int w, h, cc, has_a, has_n, pre;
     void *dmem;
     float *col, *alb, *nrm, *a, *b, *clamped;
+    float *removed; /* what the method's own firefly clamp took (ew_harm_clamp_removed), then what comes back */
     double *row_out;
     float *stage;   /* host staging for views, or NULL */
     float *hclamp;  /* host copy of the clamped colour handed to a method on a device with memory of its own */
@@ -111,7 +124,7 @@ static int slot(const ew_op *op, const char *name) {
 
 /* The stage's device floats for a colour of cc channels (see the commit). */
 static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre) {
-    return n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 3 + EW_HARM_STATS_FLOATS + (pre ? (size_t)cc : 0));
+    return n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 3 + EW_HARM_STATS_FLOATS + (pre ? (size_t)cc : 0) + 3);
 }
 
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
@@ -142,7 +155,8 @@ ew_result ew_harm_commit(ew_op *op) {
     ew_harm_release(op);
     const size_t n = (size_t)w * (size_t)h;
     /* col (cc), albedo, normal, a (radiance, then the method's output), b
-     * (rejected radiance, then the residual statistics), clamped (cc) */
+     * (rejected radiance, then the residual statistics, then the spread's
+     * row sums), clamped (cc), removed (3) */
     const size_t floats = stage_floats(n, cc, has_a, has_n, pre);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
@@ -169,31 +183,51 @@ ew_result ew_harm_commit(ew_op *op) {
     s->nrm = has_n ? m : NULL; m += has_n ? n * 3 : 0;
     s->a = m; m += n * 3;
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
-    s->clamped = pre ? m : NULL;
+    s->clamped = pre ? m : NULL; m += pre ? n * (size_t)cc : 0;
+    s->removed = m;
     return EW_OK;
 }
 
-/* Step 1 into s->clamped; returns the frame's mean demodulated luminance
- * through the row reduction (the floor of the spread). */
+/* The frame's mean demodulated luminance of buf (3 per pixel). */
+static ew_result frame_mean(ew_harm_state *s, ew_device *dev, const float *buf, double *mean) {
+    dev->backend->reduce_rows(dev, EW_REDUCE_LUM_SUM, s->w, s->h, buf, s->row_out);
+    ew_result r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)s->h * 2 * sizeof(double));
+    double sum = 0.0;
+    for (int y = 0; r == EW_OK && y < s->h; y++) sum += s->rows[2 * y];
+    *mean = sum / ((double)s->w * (double)s->h);
+    return r;
+}
+
+/* Step 1 into s->clamped. The floor of the spread is the frame's mean
+ * radiance; when the rejection itself took more than a quarter of it, that
+ * mean was the outliers' own (one 6e4 sample in a 64x64 frame lifts it 16
+ * units), so the rejection runs again with the mean of what it left, at
+ * most twice more. */
 static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     ew_device *dev = op->dev;
     dev->backend->harm(dev, EW_HARM_DEMOD, ha);
-    dev->backend->reduce_rows(dev, EW_REDUCE_LUM_SUM, s->w, s->h, s->a, s->row_out);
-    ew_result r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)s->h * 2 * sizeof(double));
-    if (r != EW_OK) return r;
-    double sum = 0.0;
-    for (int y = 0; y < s->h; y++) sum += s->rows[2 * y];
-    const double mean = sum / ((double)s->w * (double)s->h);
+    double mean;
+    ew_result r = frame_mean(s, dev, s->a, &mean);
     ew_outlier_params p = ew_outlier_plain_params(s->w, s->h, HARM_OUTLIER_RADIUS, ew_op_param(op, "outlier_k"));
     p.robust = 1;
     p.albedo_tol = HARM_ALBEDO_TOL;
     p.normal_cos = HARM_NORMAL_COS;
     p.sigma_floor = HARM_SIGMA_FLOOR;
-    p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
-    const ew_outlier_buffers ob = {s->a, s->alb, s->nrm, s->b, 3};
-    dev->backend->outlier_guided(dev, &p, &ob);
-    dev->backend->harm(dev, EW_HARM_REMOD, ha);
-    return EW_OK;
+    const ew_outlier_buffers ob = {s->a, s->alb, s->nrm, s->b, 3, NULL};
+    for (int pass = 0; r == EW_OK; pass++) {
+        p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
+        dev->backend->outlier_guided(dev, &p, &ob);
+        double left;
+        if (pass == 2 || (r = frame_mean(s, dev, s->b, &left)) != EW_OK || left >= HARM_REJECT_KEEP * mean) break;
+        mean = left;
+    }
+    if (r == EW_OK) dev->backend->harm(dev, EW_HARM_REMOD, ha);
+    return r;
+}
+
+float *ew_harm_clamp_removed(const ew_op *op) {
+    const ew_harm_state *s = (const ew_harm_state *)op->harm;
+    return s ? s->removed : NULL;
 }
 
 ew_result ew_harm_execute(ew_op *op) {
@@ -233,15 +267,34 @@ ew_result ew_harm_execute(ew_op *op) {
             op->images[ci] = ew_image_packed(s->clamped, s->w, s->h, s->cc);
         }
     }
+    r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
+    if (r != EW_OK) return r;
     r = op->type->execute(op);
     op->images[ci] = saved;
-    if (r != EW_OK || ew_op_param(op, "do_no_harm") == 0.0f) return r;
+    if (r != EW_OK) return r;
     const ew_image *out = ew_op_image(op, "output");
     ha.out = s->a;
     ha.stats = s->b;
     r = ew_dev_put_view(dev, out, 3, s->a, s->stage);
     if (r != EW_OK) return r;
-    dev->backend->harm(dev, EW_HARM_STATS, &ha);
-    dev->backend->harm(dev, EW_HARM_BLEND, &ha);
+    ha.give = s->removed;
+    if (ew_op_param(op, "do_no_harm") != 0.0f) {
+        dev->backend->harm(dev, EW_HARM_STATS, &ha);
+        dev->backend->harm(dev, EW_HARM_BLEND, &ha);
+    }
+    /* the light the clamps took, back where it was taken (kernels/harm.h) */
+    ha.spread = s->b;
+    ha.give_radius = HARM_GIVE_RADIUS;
+    ha.give_cap = HARM_GIVE_CAP;
+    double out_mean;
+    r = frame_mean(s, dev, s->a, &out_mean);
+    if (r != EW_OK) return r;
+    ha.give_limit = (float)(HARM_GIVE_LIMIT * out_mean);
+    ha.give_gain = HARM_GIVE_GAIN;
+    dev->backend->harm(dev, EW_HARM_SUM_H, &ha);
+    dev->backend->harm(dev, EW_HARM_SUM_V, &ha);
+    dev->backend->harm(dev, EW_HARM_GIVE, &ha);
+    dev->backend->harm(dev, EW_HARM_SPREAD_H, &ha);
+    dev->backend->harm(dev, EW_HARM_SPREAD_V, &ha);
     return ew_dev_get_view(dev, s->a, 3, out, s->stage);
 }

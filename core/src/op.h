@@ -162,6 +162,11 @@ const ew_param_desc *ew_op_type_param(const ew_op_type *t, int i);
 ew_result ew_harm_commit(ew_op *op);
 ew_result ew_harm_execute(ew_op *op);
 void ew_harm_release(ew_op *op);
+/* Where a denoiser's own firefly clamp records what it took from each pixel
+ * (ew_outlier_buffers.removed; the stage gives it back after the method),
+ * or NULL when the op runs without the stage. A device buffer of 3 floats
+ * per pixel, zeroed before every execute. */
+float *ew_harm_clamp_removed(const ew_op *op);
 /* The stage's allocations for images of w x h (ew_op_memory adds them). */
 uint64_t ew_harm_memory(const ew_op *op, int w, int h);
 /* Copy the stage's parameters of one op to another (auto -> its method). */

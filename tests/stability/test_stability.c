@@ -458,7 +458,8 @@ TEST(frame_8k) {
  * issue's targets above are not met (BENCHMARKS.md lists them). Checked:
  * the stage never makes a method worse — output - input at least the
  * stage-off figure - 0.1 dB; on the firefly render no peak above the
- * input's own; and at 16 spp every method at least as good as its input. */
+ * input's own, and at 64 spp the mean within 0.85-1.10; and at 16 spp
+ * every method at least as good as its input. */
 
 static int is_denoising(const ew_method_spec *s) {
     return s->kind && (!strcmp(s->kind, "denoiser") || (strcmp(s->name, "dof") && strcmp(s->name, "outlier")));
@@ -518,8 +519,9 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
         }
         int ok, target;
         if (firefly) {
-            target = fig[1][0] >= 0.85 && fig[1][0] <= 1.10 && fig[1][1] <= 10.0;
-            ok = fig[1][1] <= in_peak;
+            const int energy = fig[1][0] >= 0.85 && fig[1][0] <= 1.10;
+            target = energy && fig[1][1] <= 10.0;
+            ok = fig[1][1] <= in_peak && (!must_meet || energy);
             fprintf(stderr, "    %-10s lum %.3fx peak %7.2fx   (stage off: lum %.3fx peak %7.2fx)%s%s\n",
                     all_specs[m].label, fig[1][0], fig[1][1], fig[0][0], fig[0][1], target ? "" : "  target missed",
                     ok ? "" : "  FAIL");
@@ -541,7 +543,9 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
 TEST(firefly_energy_1spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 1, 1, 0.0, 0), 0); }
 TEST(firefly_energy_4spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 4, 1, 0.0, 0), 0); }
 TEST(firefly_energy_16spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 16, 1, 0.0, 0), 0); }
-TEST(firefly_energy_64spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 64, 1, 0.0, 0), 0); }
+/* 64 spp: the mean within 0.85-1.10 checked (the clamps' light given back;
+ * 0.75-0.84 before) */
+TEST(firefly_energy_64spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 64, 1, 0.0, 1), 0); }
 /* 16 spp: every method at least as good as its input (checked); 64 spp:
  * within 0.2 dB of it (printed, not yet met by every method) */
 TEST(glossy_no_harm_16spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 16, 0, 0.0, 1), 0); }

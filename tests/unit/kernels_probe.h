@@ -107,7 +107,7 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     for (int y = 0; y < EW_PH; y++)
         for (int x = 0; x < EW_PW; x++) {
             const ew_outlier_params fp = ew_outlier_plain_params(EW_PW, EW_PH, 2, 1.0f);
-            const ew_outlier_buffers fb = {image, NULL, NULL, clamped, 3};
+            const ew_outlier_buffers fb = {image, NULL, NULL, clamped, 3, NULL};
             ew_outlier_guided_px(x, y, &fp, &fb);
         }
     for (int i = 0; i < EW_PN * 3; i++) out[o++] = clamped[i];

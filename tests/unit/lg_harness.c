@@ -209,6 +209,8 @@ static void lg_harm(ew_device *dev, int step, const ew_harm_args *a) {
     DEV(a->clamped);
     DEV(a->out);
     DEV(a->stats);
+    DEV(a->give);
+    DEV(a->spread);
     const ew_harm_args av = *a;
     WALK(ew_kl_harm(&av), ew_kb_harm(&t, step, &av));
 }
@@ -218,6 +220,7 @@ static void lg_outlier_guided(ew_device *dev, const ew_outlier_params *p, const 
     DEV(b->albedo);
     DEV(b->normal);
     DEV(b->out);
+    DEV(b->removed);
     const ew_outlier_params pv = *p;
     const ew_outlier_buffers bv = *b;
     WALK(ew_kl_outlier_guided(&pv), ew_kb_outlier_guided(&t, &pv, &bv));

@@ -294,7 +294,7 @@ TEST(outlier_clamp) {
     for (size_t i = 0; i < N * 3; i++) albedo[i] = albedo[i] < 0.5f ? 0.2f : 0.8f;
     float *out = hnan(N * 3), *dout = dnan(p.dut, N * 3);
     ew_outlier_params op = ew_outlier_plain_params(W, H, 2, 3.0f);
-    ew_outlier_buffers h = {in, NULL, NULL, out, 3}, d = {dup_to(p.dut, in, N * 3), NULL, NULL, dout, 3};
+    ew_outlier_buffers h = {in, NULL, NULL, out, 3, NULL}, d = {dup_to(p.dut, in, N * 3), NULL, NULL, dout, 3, NULL};
     ew_cpu_backend.outlier_guided(p.cpu, &op, &h);
     p.dut->backend->outlier_guided(p.dut, &op, &d);
     int ok = match(back(p.dut, dout, N * 3), out, N * 3, "clamped");
@@ -341,6 +341,11 @@ TEST(harm_stage_steps) {
     h.theta = 0.4f;
     h.kappa = 1.0f;
     h.theta_n = 0.2f;
+    h.give = hrand(N * 3, 0.0f, 1.0f, 41); /* what a method's clamp took */
+    h.spread = hnan(N * 3);
+    h.give_radius = 3;
+    h.give_cap = 2.0f;
+    h.give_limit = 5.0f;
     ew_harm_args d = h;
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);
@@ -349,8 +354,11 @@ TEST(harm_stage_steps) {
     d.clamped = dnan(p.dut, N * 4);
     d.out = dup_to(p.dut, out, N * 3);
     d.stats = dnan(p.dut, N * EW_HARM_STATS_FLOATS);
-    /* the rejection keeps most pixels: the radiance itself, then a few changed */
-    for (int step = EW_HARM_DEMOD; step <= EW_HARM_BLEND; step++) {
+    d.give = dup_to(p.dut, h.give, N * 3);
+    d.spread = dnan(p.dut, N * 3);
+    /* the rejection keeps most pixels: the radiance itself, then a few
+     * changed; then the blend and the energy return */
+    for (int step = EW_HARM_DEMOD; step <= EW_HARM_SPREAD_V; step++) {
         if (step == EW_HARM_REMOD) {
             for (size_t i = 0; i < N * 3; i++) rejected[i] = h.radiance[i] * (i % 17 == 3 ? 0.5f : 1.0f);
             h.rejected = rejected;
@@ -362,7 +370,8 @@ TEST(harm_stage_steps) {
     int ok = match(back(p.dut, d.radiance, N * 3), h.radiance, N * 3, "demodulated");
     ok = ok && match(back(p.dut, d.clamped, N * 4), h.clamped, N * 4, "remodulated");
     ok = ok && match(back(p.dut, d.stats, N * EW_HARM_STATS_FLOATS), h.stats, N * EW_HARM_STATS_FLOATS, "residual statistics");
-    ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended");
+    ok = ok && match(back(p.dut, d.give, N * 3), h.give, N * 3, "shares given back");
+    ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended, light given back");
     close_pair(&p);
     CHECK(ok);
     CHECK_NO_MISUSE();
@@ -378,7 +387,7 @@ TEST(outlier_guided_with_alpha_and_holes) {
     for (size_t i = 0; i < N * 3; i++)
         if (isfinite(albedo[i])) albedo[i] = albedo[i] < 0.5f ? 0.2f : 0.8f;
     const ew_outlier_params op = {W, H, 2, 3.0f, 0.1f, 0.5f, 0.1f, 0.0f, 0, 1, 1};
-    ew_outlier_buffers h = {color, albedo, normal, hnan(N * 4), 4}, d = h;
+    ew_outlier_buffers h = {color, albedo, normal, hnan(N * 4), 4, NULL}, d = h;
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);
     d.normal = dup_to(p.dut, normal, N * 3);

@@ -92,6 +92,11 @@ EW_HD void ew_kb_harm(const ew_thread *t, int step, const ew_harm_args *a) {
     case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
     case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
     case EW_HARM_STATS: ew_harm_stats_px(x, y, a); break;
+    case EW_HARM_SUM_H: ew_harm_sum_h_px(x, y, a); break;
+    case EW_HARM_SUM_V: ew_harm_sum_v_px(x, y, a); break;
+    case EW_HARM_GIVE: ew_harm_give_px(x, y, a); break;
+    case EW_HARM_SPREAD_H: ew_harm_spread_h_px(x, y, a); break;
+    case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, y, a); break;
     default: ew_harm_blend_px(x, y, a); break;
     }
 }
