@@ -57,6 +57,10 @@ static const char *const test_scenes[] = {"a_cornell_119_", "a_cornell_122_", "b
 
 static int holdout; /* --holdout K */
 static int only_val; /* --eval: read validation scenes only */
+/* --scenes FILE: only the scene folders it names load (a run's MODEL.scenes
+ * repeats that run's data: the render cache keeps growing) */
+static char (*allowed)[256];
+static int nallowed;
 static int auto_quality; /* the "auto" row of --eval */
 
 static int is_test_scene(const char *name) {
@@ -84,14 +88,18 @@ static const char usage[] =
     "  --val-every N         validate every N steps (default 250)\n"
     "  --val-max N           validate on at most N scenes (default 12)\n"
     "  --rescan              look for new scenes at every validation\n"
+    "  --scenes FILE         load only the scene folders FILE names (one a line; the last word's last path\n"
+    "                        component counts, so a run's MODEL.scenes, which every validation rewrites, repeats\n"
+    "                        its data)\n"
     "  --holdout K           also validate on the --train scenes of render_cache.sh whose scene index i\n"
     "                        and family index k (seed = base + 16 i + k) have (i + k) %% K == 0\n"
     "  --checkpoint PATH     default MODEL.ckpt; --checkpoint-minutes M (default 3)\n"
     "  --resume              continue from the checkpoint if it exists\n"
-    "  --time-limit MIN      checkpoint and stop after MIN minutes\n";
+    "  --time-limit MIN      checkpoint and stop after MIN minutes; the learning rate then follows the clock when\n"
+    "                        that comes before --steps, so only a run that ends by --steps repeats step for step\n";
 
 typedef struct {
-    const char *arch, *out, *eval, *shared, *loss_name, *init;
+    const char *arch, *out, *eval, *shared, *loss_name, *init, *scenes;
     const char *train[MAX_DIRS], *val[MAX_DIRS];
     int ntrain_dirs, nval_dirs;
     char checkpoint[1024], csv[1024];
@@ -140,6 +148,7 @@ static int parse(int argc, char **argv, options *o) {
         else if (!strcmp(a, "--resume")) o->resume = 1;
         else if (!strcmp(a, "--rescan")) o->rescan = 1;
         else if (!strcmp(a, "--holdout")) { VAL(); holdout = atoi(v); }
+        else if (!strcmp(a, "--scenes")) { VAL(); o->scenes = v; }
         else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(usage, stdout); exit(0); }
         else { fprintf(stderr, "train_kpcn: unknown option '%s'\n%s", a, usage); return 0; }
 #undef VAL
@@ -314,6 +323,41 @@ static int load_scene(scene_t *s) {
     return s->nframes ? 0 : 1;
 }
 
+static int is_allowed(const char *name) {
+    if (!allowed) return 1;
+    for (int i = 0; i < nallowed; i++)
+        if (!strcmp(allowed[i], name)) return 1;
+    return 0;
+}
+
+/* --scenes: the last word of each line, its last path component */
+static int read_allowed(const char *path) {
+    FILE *f = fopen(path, "r");
+    if (!f) return 1;
+    allowed = calloc(MAX_SCENES, sizeof *allowed);
+    char line[2048];
+    while (allowed && nallowed < MAX_SCENES && fgets(line, sizeof line, f)) {
+        char *e = line + strcspn(line, "\r\n");
+        while (e > line && (e[-1] == ' ' || e[-1] == '\t')) e--;
+        *e = '\0';
+        char *w = e;
+        while (w > line && w[-1] != ' ' && w[-1] != '\t' && w[-1] != '/') w--;
+        if (*w && line[0] != '#') snprintf(allowed[nallowed++], 256, "%.255s", w);
+    }
+    fclose(f);
+    return allowed ? 0 : 1;
+}
+
+/* MODEL.scenes: the scenes this run has loaded, for --scenes */
+static void write_scenes(const char *model) {
+    char path[1100];
+    snprintf(path, sizeof path, "%s.scenes", model);
+    FILE *f = fopen(path, "w");
+    if (!f) return;
+    for (int i = 0; i < nscenes; i++) fprintf(f, "%s %s/%s\n", scenes[i].val ? "val" : "train", scenes[i].dir, scenes[i].name);
+    fclose(f);
+}
+
 static int known(const char *dir, const char *name) {
     for (int i = 0; i < nscenes; i++)
         if (!strcmp(scenes[i].name, name) && !strcmp(scenes[i].dir, dir)) return 1;
@@ -365,7 +409,7 @@ static int scan_dir(const char *dir, int val, int shared, int val_max) {
             long seed = u2 ? strtol(u2 + 1, NULL, 10) : 0, off = seed % 50000; /* base 150000 or 250000 */
             if ((off / 16 + off % 16) % holdout == 0) as_val = 1;
         }
-        if (known(dir, found[i]) || nscenes >= MAX_SCENES) continue;
+        if (known(dir, found[i]) || nscenes >= MAX_SCENES || !is_allowed(found[i])) continue;
         if (as_val && nval >= val_max) continue;
         if (only_val && !as_val) continue;
         scene_t *s = &scenes[nscenes];
@@ -767,6 +811,10 @@ int main(int argc, char **argv) {
         return 1;
     }
     char err[256];
+    if (o.scenes && read_allowed(o.scenes) != 0) {
+        fprintf(stderr, "train_kpcn: cannot read --scenes '%s'\n", o.scenes);
+        return 2;
+    }
     if (o.eval) {
         only_val = 1;
         for (int i = 0; i < o.nval_dirs; i++) scan_dir(o.val[i], 1, 0, o.val_max);
@@ -879,6 +927,7 @@ int main(int argc, char **argv) {
             size_t size;
             if (ew_kpcn_save(&net, params, &bytes, &size) == 0) {
                 write_file_atomic(o.out, bytes, size);
+                write_scenes(o.out);
                 double per[4] = {0, 0, 0, 0}, all = 0;
                 int ns = 0;
                 ns = nscenes - ntscenes;
