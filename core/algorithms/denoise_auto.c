@@ -302,3 +302,4 @@ const ew_op_type ew_denoise_auto = {
     .choices = (const ew_param_choices[]){{"quality", quality_names}, {NULL, NULL}},
     .flags = EW_METHOD_HOST,
 };
+EW_REGISTER_OP(ew_denoise_auto, 10);

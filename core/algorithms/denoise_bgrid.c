@@ -223,3 +223,4 @@ const ew_op_type ew_denoise_bgrid = {
     .inplace_inputs = (const char *const[]){"color", NULL},
     .flags = EW_METHOD_HOST,
 };
+EW_REGISTER_OP(ew_denoise_bgrid, 20);

@@ -407,3 +407,4 @@ const ew_op_type ew_denoise_kpcn = {
     .data_params = (const char *const[]){"model", "weights", NULL},
     .flags = EW_METHOD_HOST,
 };
+EW_REGISTER_OP(ew_denoise_kpcn, 40);

@@ -285,3 +285,4 @@ const ew_op_type ew_denoise_nbg = {
     .data_params = (const char *const[]){"model", "weights", NULL},
     .flags = EW_METHOD_HOST,
 };
+EW_REGISTER_OP(ew_denoise_nbg, 30);

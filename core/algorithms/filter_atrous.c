@@ -99,3 +99,4 @@ const ew_op_type ew_filter_atrous = {
     .flags = EW_METHOD_HOST,
     .denoises = 1,
 };
+EW_REGISTER_OP(ew_filter_atrous, 80);

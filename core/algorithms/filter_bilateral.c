@@ -27,3 +27,4 @@ const ew_op_type ew_filter_bilateral = {
     .filters_alpha = 1,
     .alpha_guides = ew_bf_op_alpha_guides,
 };
+EW_REGISTER_OP(ew_filter_bilateral, 60);

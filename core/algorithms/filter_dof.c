@@ -204,3 +204,4 @@ const ew_op_type ew_filter_dof = {
     .data_params = (const char *const[]){"weights", "weights", NULL},
     .flags = EW_METHOD_HOST,
 };
+EW_REGISTER_OP(ew_filter_dof, 90);

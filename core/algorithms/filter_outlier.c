@@ -123,3 +123,4 @@ const ew_op_type ew_filter_outlier = {
     .inplace_inputs = (const char *const[]){"color", NULL},
     .flags = EW_METHOD_HOST, /* before any filter of the host's */
 };
+EW_REGISTER_OP(ew_filter_outlier, 110);

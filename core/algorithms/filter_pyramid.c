@@ -34,3 +34,4 @@ const ew_op_type ew_filter_pyramid = {
     .flags = EW_METHOD_HOST,
     .denoises = 1,
 };
+EW_REGISTER_OP(ew_filter_pyramid, 50);

@@ -140,3 +140,4 @@ const ew_op_type ew_filter_temporal = {
     .device_memory = 1,
     .inplace_inputs = (const char *const[]){"color", NULL},
 };
+EW_REGISTER_OP(ew_filter_temporal, 100);

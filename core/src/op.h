@@ -127,6 +127,11 @@ struct ew_op {
 
 /* Registry of every method, by kind. NULL-terminated. */
 extern const ew_op_type *const ew_op_types[];
+/* EW_REGISTER_OP(type, order); after an op type's definition lists it in
+ * ew_op_types: the build collects these lines (cmake/ew_op_registry.cmake)
+ * and tools show the methods by ascending order (the denoisers 10-40, the
+ * filters 50-110 today), so a new method edits no list. */
+#define EW_REGISTER_OP(TYPE, ORDER) extern const ew_op_type TYPE
 /* kind NULL: a method of any kind (names are unique across kinds). */
 const ew_op_type *ew_op_type_find(const char *kind, const char *name);
 

@@ -75,3 +75,4 @@ const ew_op_type ew_filter_gain = {
     .noop_at_zero = NULL,
     .flags = EW_METHOD_HOST,
 };
+EW_REGISTER_OP(ew_filter_gain, 120);

@@ -1,17 +1,29 @@
 #!/usr/bin/env bash
 # The guide's example method reaches every front with no front edited.
-#   test_gain_fronts.sh GAIN_LIB_DIR EDGEWISE_BIN MAKE_FIXTURES OFX_DESCRIBE_TEST PYTHON_DIR PYTHON3
+#   test_gain_fronts.sh GAIN_LIB_DIR EDGEWISE_BIN MAKE_FIXTURES OFX_DESCRIBE_TEST PYTHON_DIR PYTHON3 GAIN_SRC_DIR GUIDE
 # GAIN_LIB_DIR holds a libedgewise with the "gain" filter (tests/gain). The
 # CLI, the node library, the Python package and the OFX bundle are the
 # ordinary builds; LD_LIBRARY_PATH / EDGEWISE_LIB make them load that
 # library instead of build/lib's. Each check first proves the swap worked
 # (the front shows gain), then that it works (runs it, shows its enum names).
 set -u
-LIB="$1"; EW="$2"; FIX="$3"; OFX="$4"; PY="$5"; PY3="${6:-}"
+LIB="$1"; EW="$2"; FIX="$3"; OFX="$4"; PY="$5"; PY3="${6:-}"; SRC="$7"; GUIDE="$8"
 T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 pass=0; fail=0
 ok()  { pass=$((pass+1)); echo "ok   $1"; }
 bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     /' "$T/err" | head -20; }
+
+# ---- the example is the files the guide counts: kernel, op file, test (the
+# rest of tests/gain is this harness: its CMakeLists.txt and this script)
+ls "$SRC" | grep -vx -e CMakeLists.txt -e test_gain_fronts.sh | sort >"$T/files"
+printf '%s\n' filter_gain.c gain_px.h test_gain.c >"$T/want"
+n=$(wc -l <"$T/files")
+if diff "$T/want" "$T/files" >"$T/err" && grep -q "That is \*\*$n files\*\* for a method that runs on the CPU" "$GUIDE"; then
+  ok example_is_the_guides_files
+else
+  echo "the guide ($GUIDE) should count these $n files" >>"$T/err"; bad example_is_the_guides_files
+fi
+rm -f "$T/err"
 export LD_LIBRARY_PATH="$LIB${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 
 # the ordinary CLI without the swap does not know gain: the test can fail
