@@ -83,15 +83,31 @@ __attribute__((format(printf, 3, 4))) static int refuse(char *why, size_t whylen
     return 1;
 }
 
-/* Counts the entries of a channel list value of `size` bytes. */
-static long long count_channels(FILE *f, long long size) {
+/* A channel list entry the reader cannot take: OpenImageIO aborts the
+ * process on a pixel type other than UINT, HALF and FLOAT (0, 1, 2). */
+typedef struct {
+    int found; /* 0 none, 1 pixel type, 2 sampling below 1 */
+    long long value;
+    char name[kNameMax];
+} bad_channel;
+
+/* Counts the entries of a channel list value of `size` bytes; the first bad
+ * entry goes to *bad. */
+static long long count_channels(FILE *f, long long size, bad_channel *bad) {
     long long n = 0, left = size;
     char name[kNameMax];
+    unsigned char e[16];
     while (left > 0) {
         const int len = get_name(f, name, &left);
         if (len <= 0) break; /* the list's end (or a malformed entry) */
-        if (left < 16 || fseeko(f, 16, SEEK_CUR) != 0) break;
+        if (left < 16 || !get_bytes(f, e, 16)) break;
         left -= 16;
+        const long long type = le32(e), xs = le32(e + 8), ys = le32(e + 12);
+        if (!bad->found && (type < 0 || type > 2 || xs < 1 || ys < 1)) {
+            bad->found = type < 0 || type > 2 ? 1 : 2;
+            bad->value = bad->found == 1 ? type : (xs < 1 ? xs : ys);
+            memcpy(bad->name, name, kNameMax);
+        }
         n++;
     }
     return left > 0 && fseeko(f, (off_t)left, SEEK_CUR) != 0 ? -1 : n;
@@ -151,8 +167,17 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                 if (!get_bytes(f, (unsigned char *)t, (size_t)used)) return 0;
                 p.tiled = !strcmp(t, "tiledimage") || !strcmp(t, "deeptile");
             } else if (!strcmp(name, "channels") && !strcmp(type, "chlist")) {
-                const long long n = count_channels(f, size);
+                bad_channel bad;
+                memset(&bad, 0, sizeof bad);
+                const long long n = count_channels(f, size, &bad);
                 if (n < 0) return 0;
+                if (bad.found == 1)
+                    return refuse(why, whylen,
+                                  "the header's channel '%s' has pixel type %lld (EXR knows 0 uint, 1 half, 2 float)",
+                                  bad.name, bad.value);
+                if (bad.found == 2)
+                    return refuse(why, whylen, "the header's channel '%s' has a sampling of %lld (at least 1)",
+                                  bad.name, bad.value);
                 p.channels = n;
                 used = size;
             }

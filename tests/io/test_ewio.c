@@ -718,14 +718,14 @@ static void put_attr(FILE *fp, const char *name, const char *type, uint32_t size
 
 /* A scanline EXR header claiming w x h pixels, one half channel "R", no
  * compression, followed by a line offset table of zeros and no pixel data. */
-static int write_exr_header(const char *path, int w, int h) {
+static int write_exr_header_typed(const char *path, int w, int h, uint32_t pixel_type) {
     FILE *fp = fopen(path, "wb");
     if (!fp) return 1;
     put_u32(fp, 20000630u); /* magic */
     put_u32(fp, 2u);        /* version 2, scanline, short names */
     put_attr(fp, "channels", "chlist", 18 + 1);
     fwrite("R", 1, 2, fp);
-    put_u32(fp, 1); /* HALF */
+    put_u32(fp, pixel_type); /* 1: HALF */
     put_u32(fp, 0); /* pLinear + reserved */
     put_u32(fp, 1);
     put_u32(fp, 1);
@@ -753,6 +753,8 @@ static int write_exr_header(const char *path, int w, int h) {
     for (int i = 0; i < 2 * h; i++) put_u32(fp, 0);
     return fclose(fp) != 0;
 }
+
+static int write_exr_header(const char *path, int w, int h) { return write_exr_header_typed(path, w, h, 1); }
 
 TEST(bad_huge_dimensions) {
     char dir[4096], p[4200], err[512];
@@ -814,6 +816,13 @@ TEST(bad_header_sizes_beyond_the_file) {
     CHECK(write_exr_header(p, 0, 4) == 0);
     CHECK(ewio_read(p, &f, err, sizeof err) != 0);
     CHECK_STR_CONTAINS(err, "data window is empty (0 x 4 pixels)");
+
+    /* a pixel type EXR does not have: OpenImageIO aborts the process on it */
+    snprintf(p, sizeof p, "%s/type3.exr", dir);
+    CHECK(write_exr_header_typed(p, 4, 4, 3) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK(f == NULL);
+    CHECK_STR_CONTAINS(err, "channel 'R' has pixel type 3");
     rm_tree(dir);
 }
 
