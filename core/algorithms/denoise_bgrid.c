@@ -46,8 +46,7 @@ typedef struct {
     float *grid;            /* device */
     float *clamped;         /* device: radiance after firefly suppression */
     double *row_out;        /* device: reduce_rows output, 2 x height */
-    void *dmem;             /* the one device allocation */
-    size_t dmem_bytes;
+    ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
     double *rows;           /* host: row_out read back */
     float *stage;           /* host staging, or NULL when views need none */
     double host[];          /* rows, then stage */
@@ -55,7 +54,7 @@ typedef struct {
 
 static void release(ew_op *op) {
     state *s = (state *)op->state;
-    if (s) ew_dev_free(op->dev, s->dmem);
+    if (s) ew_dev_free(op->dev, s->dmem.mem);
     free(s);
     op->state = NULL;
 }
@@ -96,28 +95,17 @@ static ew_result commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
-    void *old = NULL; /* the previous commit's device block (ew_dev_block) */
-    size_t old_bytes = 0;
-    if (op->state) {
-        state *o = (state *)op->state;
-        old = o->dmem, old_bytes = o->dmem_bytes, o->dmem = NULL;
-        release(op);
-    }
+    const ew_dev_kept old = ew_dev_kept_take(op->state ? &((state *)op->state)->dmem : NULL);
+    release(op);
     state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
     op->state = s;
-    if (s) {
-        s->dmem = ew_dev_block(dev, old, old_bytes, row_bytes + need * sizeof(float));
-        s->dmem_bytes = s->dmem ? row_bytes + need * sizeof(float) : 0;
-    } else {
-        ew_dev_free(dev, old);
-    }
-    if (!s || !s->dmem)
+    if (!ew_dev_keep(dev, s ? &s->dmem : NULL, old, row_bytes + need * sizeof(float)))
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: denoising %dx%d needs %.1f MiB",
                         s ? dev->backend->name : "host", w, h, (double)need * sizeof(float) / 1048576.0);
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
-    s->row_out = (double *)s->dmem;
-    float *m = (float *)(void *)((char *)s->dmem + row_bytes);
+    s->row_out = (double *)s->dmem.mem;
+    float *m = (float *)(void *)((char *)s->dmem.mem + row_bytes);
     ew_denoise_buffers *b = &s->buf;
     memset(b, 0, sizeof *b);
     b->width = w;

@@ -73,8 +73,7 @@ typedef struct {
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
-    void *dmem;
-    size_t dmem_bytes;
+    ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
     double *rows;
     float *stage;
     char choice[96];
@@ -84,7 +83,7 @@ typedef struct {
 static void release(ew_op *op) {
     state *s = (state *)op->state;
     if (s) {
-        ew_dev_free(op->dev, s->dmem);
+        ew_dev_free(op->dev, s->dmem.mem);
         ew_net_model_free(s->builtin);
     }
     free(s);
@@ -150,22 +149,11 @@ static ew_result commit(ew_op *op) {
     const size_t need = plan(op, net, w, h, &tiling);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
-    void *old = NULL; /* the previous commit's device block (ew_dev_block) */
-    size_t old_bytes = 0;
-    if (op->state) {
-        state *o = (state *)op->state;
-        old = o->dmem, old_bytes = o->dmem_bytes, o->dmem = NULL;
-        release(op);
-    }
+    const ew_dev_kept old = ew_dev_kept_take(op->state ? &((state *)op->state)->dmem : NULL);
+    release(op);
     state *s = (state *)calloc(1, sizeof(state) + row_bytes + stage_floats * sizeof(float));
     op->state = s;
-    if (s) {
-        s->dmem = ew_dev_block(dev, old, old_bytes, row_bytes + need * sizeof(float));
-        s->dmem_bytes = s->dmem ? row_bytes + need * sizeof(float) : 0;
-    } else {
-        ew_dev_free(dev, old);
-    }
-    if (!s || !s->dmem) {
+    if (!ew_dev_keep(dev, s ? &s->dmem : NULL, old, row_bytes + need * sizeof(float))) {
         ew_net_model_free(builtin);
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of %s memory: kpcn on %dx%d needs %.1f MiB",
                         s ? dev->backend->name : "host", w, h, (double)(need * sizeof(float) + row_bytes) / 1048576.0);
@@ -183,8 +171,8 @@ static ew_result commit(ew_op *op) {
     }
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
-    s->row_out = (double *)s->dmem;
-    float *p = (float *)(void *)((char *)s->dmem + row_bytes);
+    s->row_out = (double *)s->dmem.mem;
+    float *p = (float *)(void *)((char *)s->dmem.mem + row_bytes);
     s->params = p; p += (net->nparams + 15) / 16 * 16;
     ew_denoise_buffers *b = &s->buf;
     memset(b, 0, sizeof *b);

@@ -151,11 +151,21 @@ void ew_cpu_device_release(ew_device *dev);
  * and device memory. */
 void *ew_dev_alloc(ew_device *dev, size_t bytes);
 void ew_dev_free(ew_device *dev, void *ptr);
-/* A commit's device block of `bytes`: `old` (the previous commit's, of
- * old_bytes) when that is the size — a graph commits its ops again every
- * frame with the same images, and a new block would be mapped and faulted
- * in again — else a new one, `old` freed first. Contents are not kept. */
-void *ew_dev_block(ew_device *dev, void *old, size_t old_bytes, size_t bytes);
+/* A device block an op keeps from one commit to the next: a graph commits
+ * its ops again every frame with the same images, and a new block would be
+ * mapped and faulted in again. */
+typedef struct ew_dev_kept {
+    void *mem;
+    size_t bytes;
+} ew_dev_kept;
+/* The previous commit's block, taken out of the op's state (which is then
+ * released without freeing it); empty when there is no state. */
+ew_dev_kept ew_dev_kept_take(ew_dev_kept *k);
+/* *k becomes a block of `bytes`: old's when that is its size, else a new
+ * one (NULL when out of memory) and old freed first. Contents are not kept.
+ * k NULL (the new state could not be allocated): old is freed. Returns
+ * k->mem. */
+void *ew_dev_keep(ew_device *dev, ew_dev_kept *k, ew_dev_kept old, size_t bytes);
 /* Host staging floats an op must allocate at commit to move views of n
  * pixels x c channels: 0 when the device reads host memory or the views
  * are device pointers. */

@@ -19,10 +19,29 @@ void ew_dev_free(ew_device *dev, void *ptr) {
     if (ptr) dev->backend->mem_free(dev, ptr);
 }
 
-void *ew_dev_block(ew_device *dev, void *old, size_t old_bytes, size_t bytes) {
-    if (old && old_bytes == bytes) return old;
-    ew_dev_free(dev, old);
-    return ew_dev_alloc(dev, bytes);
+ew_dev_kept ew_dev_kept_take(ew_dev_kept *k) {
+    ew_dev_kept t = {NULL, 0};
+    if (k) {
+        t = *k;
+        k->mem = NULL;
+        k->bytes = 0;
+    }
+    return t;
+}
+
+void *ew_dev_keep(ew_device *dev, ew_dev_kept *k, ew_dev_kept old, size_t bytes) {
+    if (!k) {
+        ew_dev_free(dev, old.mem);
+        return NULL;
+    }
+    if (old.mem && old.bytes == bytes) {
+        *k = old;
+        return k->mem;
+    }
+    ew_dev_free(dev, old.mem);
+    k->mem = ew_dev_alloc(dev, bytes);
+    k->bytes = k->mem ? bytes : 0;
+    return k->mem;
 }
 
 size_t ew_dev_stage_floats(const ew_device *dev, size_t n, int c) {
