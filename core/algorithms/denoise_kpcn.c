@@ -1,8 +1,8 @@
 /*
  * denoise_kpcn.c — denoiser "kpcn": a kernel-predicting network
- * (algorithms/kpcn.h). A three-scale U-Net of 5x5 convolutions predicts
- * per-pixel 5x5 softmax kernels at full, half and quarter resolution that
- * filter the albedo-demodulated, firefly-clamped radiance, and blends the
+ * (algorithms/kpcn.h). A U-Net of 5x5 convolutions over three scales (four
+ * for kpcn-large) predicts per-pixel 5x5 softmax kernels at full, half,
+ * quarter (and eighth) resolution that filter the albedo-demodulated, firefly-clamped radiance, and blends the
  * scales coarse to fine; the albedo is multiplied back. Demodulation,
  * firefly clamp and remodulation are the "bgrid" method's own steps
  * (kernels/denoise_px.h, outlier.h), so the output cannot hold more energy
@@ -41,7 +41,8 @@ static const ew_param_desc params[] = {
      "shipped models were trained with 3)"},
     {"max_memory_mb", EW_PARAM_INT, 1024.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose network planes would exceed it "
-     "runs in tiles with a 36-pixel halo, giving the same output; the frame-sized buffers (68 bytes a pixel) and "
+     "runs in tiles with a halo of the network's reach (36 pixels at three scales, 80 for kpcn-large's four), giving "
+     "the same output; the frame-sized buffers (68 bytes a pixel) and "
      "a 256x256 tile come first, so a small budget can be exceeded"},
 };
 
@@ -377,8 +378,8 @@ static const char *describe(const ew_op *op) {
 const ew_op_type ew_denoise_kpcn = {
     .kind = "denoiser",
     .name = "kpcn",
-    .summary = "kernel-predicting network: a three-scale U-Net predicts per-pixel 5x5 softmax kernels that filter "
-               "the albedo-demodulated radiance at full, half and quarter resolution, blended coarse to fine",
+    .summary = "kernel-predicting network: a U-Net over three scales (four for kpcn-large) predicts per-pixel 5x5 "
+               "softmax kernels that filter the albedo-demodulated radiance at each scale, blended coarse to fine",
     .images = images,
     .num_images = (int)(sizeof images / sizeof images[0]),
     .params = params,
