@@ -54,6 +54,8 @@
 #define HARM_BLEND_THETA 0.4f     /* no blend while D is below 0.4 of N + D */
 #define HARM_BLEND_KAPPA 1.0f     /* the residual's Haar detail is all noise */
 #define HARM_BLEND_THETA_N 0.2f   /* ... no blend from it while D is below 0.2 of R (1 spp: random) */
+#define HARM_QUIET_NOISE 0.007    /* a frame of noise level (EW_REDUCE_NOISE) up to this: theta_n 0 ... */
+#define HARM_NOISY_NOISE 0.011    /* ... from this: theta_n as above, in between a ramp */
 #define HARM_REJECT_KEEP 0.75     /* a rejection that took more of the frame's mean runs again */
 #define HARM_GIVE_RADIUS 24       /* clamped light comes back over 49x49 pixels */
 #define HARM_GIVE_LIMIT 30.0      /* a pixel gives back at most 30x the output frame's mean luminance */
@@ -198,14 +200,39 @@ static ew_result frame_mean(ew_harm_state *s, ew_device *dev, const float *buf, 
     return r;
 }
 
-/* Step 1 into s->clamped. The floor of the spread is the frame's mean
+/* The frame's noise level (kernels/reduce.h EW_REDUCE_NOISE: the mean
+ * diagonal Haar detail of compressed luminance) of buf (3 per pixel). */
+static ew_result frame_noise(ew_harm_state *s, ew_device *dev, const float *buf, double *noise) {
+    dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, s->w, s->h, buf, s->row_out);
+    ew_result r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)s->h * 2 * sizeof(double));
+    double sum = 0.0, count = 0.0;
+    for (int y = 0; r == EW_OK && y < s->h; y++) {
+        sum += s->rows[2 * y];
+        count += s->rows[2 * y + 1];
+    }
+    *noise = count > 0.0 ? sum / count : 0.0;
+    return r;
+}
+
+/* The second estimate's threshold theta_n for a frame of this noise level.
+ * It is there for 1-4 spp, where a window's Haar detail and residual are a
+ * few bright samples and their ratio scatters; on a quiet frame (16-64
+ * spp) the ratio is steady and every bit of the method's error it reads is
+ * worth blending away. On the 11 training scenes, theta_n 0 on every frame
+ * gained 0.1-0.6 dB on the frames below 0.009 and lost 0.1-1.8 dB on those
+ * above 0.010 (1 spp is 0.011-0.11). */
+static float quiet_theta_n(double noise) {
+    const double t = (noise - HARM_QUIET_NOISE) / (HARM_NOISY_NOISE - HARM_QUIET_NOISE);
+    return HARM_BLEND_THETA_N * (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
+}
+
+/* Step 1 into s->clamped (s->a holds the demodulated radiance). The floor of the spread is the frame's mean
  * radiance; when the rejection itself took more than a quarter of it, that
  * mean was the outliers' own (one 6e4 sample in a 64x64 frame lifts it 16
  * units), so the rejection runs again with the mean of what it left, at
  * most twice more. */
 static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     ew_device *dev = op->dev;
-    dev->backend->harm(dev, EW_HARM_DEMOD, ha);
     double mean;
     ew_result r = frame_mean(s, dev, s->a, &mean);
     ew_outlier_params p = ew_outlier_plain_params(s->w, s->h, HARM_OUTLIER_RADIUS, ew_op_param(op, "outlier_k"));
@@ -253,7 +280,12 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.z = HARM_BLEND_Z;
     ha.theta = HARM_BLEND_THETA;
     ha.kappa = HARM_BLEND_KAPPA;
-    ha.theta_n = HARM_BLEND_THETA_N;
+    /* the input's noise level, in demodulated radiance as kpcn measures it */
+    double noise;
+    dev->backend->harm(dev, EW_HARM_DEMOD, &ha);
+    r = frame_noise(s, dev, s->a, &noise);
+    if (r != EW_OK) return r;
+    ha.theta_n = quiet_theta_n(noise);
     const ew_image saved = op->images[ci];
     if (s->pre) {
         r = reject(op, s, &ha);

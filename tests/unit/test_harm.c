@@ -189,8 +189,9 @@ TEST(converged_detail_is_not_smoothed_below_the_input) {
                 100.0 * noise[k] / 2.0, p_in, p_off, p_on);
         if (k == 0) {
             /* what the method does alone: 40 dB below a 64 dB input; the stage
-             * takes back most of it (measured 23.6 -> 41.5 dB), not all: alpha
-             * stays a little above 0 (kernels/harm.h, theta) */
+             * takes back most of it (measured 23.6 -> 50.2 dB), not all: the
+             * error at the stripes' edges is at the scale of one pixel, where
+             * the blend's estimates read it as noise */
             CHECK(p_off < p_in - 10.0);
             CHECK(p_on > p_off + 10.0);
         } else {
