@@ -227,6 +227,11 @@ static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes
     (void)EW_RUN(dev, kpcn_up, &a);
 }
 
+/* Where the full-resolution filter's output goes: the filtered radiance,
+ * which denoise_finish multiplies by the albedo, or with a remodulation
+ * kernel the output colour itself (the filter remodulates). */
+static float *tile_target(const state *s, const ew_kpcn_net *net) { return net->remod ? s->buf.out : s->buf.sliced; }
+
 /* Lays the scale buffers out for a rw x rh region; zeroes them when the
  * layout changes (the planes' zero padding is written once a layout: the
  * entries only write inside the planes). */
@@ -245,7 +250,7 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
 }
 
 /* The network and the filters on one tile's region, keeping its core in
- * b->sliced; progress from p0 over the span dp. */
+ * tile_target (the filtered radiance, or the colour); progress from p0 over the span dp. */
 static ew_result run_tile(ew_op *op, const float *radiance, float noise, const ew_kpcn_tile *tile, double p0,
                           double dp) {
     state *s = (state *)op->state;
@@ -303,8 +308,12 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
         }
         if (sc == 0) {
             /* one tile writes the frame; several write their region, and keep the core */
-            ew_kpcn_tensor o = {s->tile_out ? s->tile_out : b->sliced, 3, 3L * rw, 1};
+            ew_kpcn_tensor o = {s->tile_out ? s->tile_out : tile_target(s, net), 3, 3L * rw, 1};
             fa.out = o;
+            if (net->remod) { /* the filter remodulates: its output is the colour */
+                const ew_kpcn_tensor al = {(float *)b->albedo + at * 3, 3, 3L * W, 1};
+                fa.albedo = al;
+            }
         } else {
             fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
         }
@@ -313,7 +322,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     if (s->tile_out) {
         const size_t row = (size_t)tile->cw * 3 * sizeof(float);
         for (int y = tile->cy; y < tile->cy + tile->ch && r == EW_OK; y++)
-            r = dev->backend->mem_copy(dev, b->sliced + ((long)y * W + tile->cx) * 3,
+            r = dev->backend->mem_copy(dev, tile_target(s, net) + ((long)y * W + tile->cx) * 3,
                                        s->tile_out + ((long)(y - tile->ry) * rw + (tile->cx - tile->rx)) * 3, row);
     }
     return r;
@@ -364,7 +373,7 @@ static ew_result execute(ew_op *op) {
         r = run_tile(op, radiance, noise, &tile, (double)i / ntiles, 1.0 / ntiles);
         if (r != EW_OK) return r;
     }
-    dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
+    if (!net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
     return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
 }
 

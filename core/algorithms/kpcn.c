@@ -16,32 +16,37 @@
 /* ---- architecture ------------------------------------------------------- */
 int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen) {
     memset(net, 0, sizeof *net);
-    int c = 0, used = 0, S = EW_KPCN_DEFAULT_SCALES, noise = 0;
+    int c = 0, used = 0, S = EW_KPCN_DEFAULT_SCALES, noise = 0, remod = 0;
     int ok = arch && sscanf(arch, "kpcn-c%d%n", &c, &used) == 1 && c >= EW_KPCN_MIN_CH && c <= EW_KPCN_MAX_CH;
     const char *rest = ok ? arch + used : "";
     if (ok && strncmp(rest, "-noise", 6) == 0) {
         noise = 1;
         rest += 6;
     }
-    if (ok && rest[0] == '-') {
+    if (ok && strncmp(rest, "-s", 2) == 0) {
         int sused = 0;
-        ok = sscanf(rest, "-s%d%n", &S, &sused) == 1 && rest[sused] == '\0' && S > EW_KPCN_DEFAULT_SCALES &&
-             S <= EW_KPCN_MAX_SCALES;
-    } else if (ok) {
-        ok = rest[0] == '\0';
+        ok = sscanf(rest, "-s%d%n", &S, &sused) == 1 && S > EW_KPCN_DEFAULT_SCALES && S <= EW_KPCN_MAX_SCALES;
+        rest += sused;
     }
+    if (ok && strcmp(rest, "-ra") == 0) {
+        remod = 1;
+        rest += 3;
+    }
+    ok = ok && rest[0] == '\0';
     if (!ok) {
         snprintf(err, errlen,
-                 "unknown kpcn architecture '%s' (expected kpcn-c<C>[-noise][-s<S>], C in %d..%d, S in %d..%d)",
+                 "unknown kpcn architecture '%s' (expected kpcn-c<C>[-noise][-s<S>][-ra], C in %d..%d, S in %d..%d)",
                  arch ? arch : "", EW_KPCN_MIN_CH, EW_KPCN_MAX_CH, EW_KPCN_DEFAULT_SCALES + 1, EW_KPCN_MAX_SCALES);
         return 1;
     }
     net->noise = noise;
+    net->remod = remod;
     net->inputs = noise ? EW_KPCN_MAX_INPUTS : EW_KPCN_INPUTS;
     net->scales = S;
     net->nlayers = 3 * S;
-    if (S == EW_KPCN_DEFAULT_SCALES) snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s", c, noise ? "-noise" : "");
-    else snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s-s%d", c, noise ? "-noise" : "", S);
+    char sc[8] = "";
+    if (S != EW_KPCN_DEFAULT_SCALES) snprintf(sc, sizeof sc, "-s%d", S);
+    snprintf(net->arch, sizeof net->arch, "kpcn-c%d%s%s%s", c, noise ? "-noise" : "", sc, remod ? "-ra" : "");
     net->ch = c;
     /* planes (the layout in kpcn.h) */
     for (int k = 0; k < S - 1; k++) {
@@ -50,7 +55,7 @@ int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen) {
         net->u[k] = net->h[k] + c;
         net->d[k] = net->u[k] + c;
         net->head[k] = net->d[k] + c;
-        net->nplanes[k] = net->head[k] + EW_KPCN_HEAD;
+        net->nplanes[k] = net->head[k] + (k == 0 ? ew_kpcn_head0_outputs(net) : EW_KPCN_HEAD);
     }
     net->in[S - 1] = 0;
     net->h[S - 1] = c;
@@ -78,7 +83,8 @@ int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen) {
         net->dec[k] = l;
         spec[l++] = (ew_kpcn_layer){k, net->h[k], 2 * c, net->d[k], c, L, 0, 0};
         net->lhead[k] = l;
-        spec[l++] = (ew_kpcn_layer){k, net->d[k], c, net->head[k], EW_KPCN_HEAD, N, 0, 0};
+        spec[l++] = (ew_kpcn_layer){k, net->d[k], c, net->head[k], k == 0 ? ew_kpcn_head0_outputs(net) : EW_KPCN_HEAD,
+                                    N, 0, 0};
     }
     size_t off = 0;
     for (l = 0; l < net->nlayers; l++) {
@@ -99,6 +105,9 @@ static uint64_t splitmix(uint64_t *s) {
     return z ^ (z >> 31);
 }
 
+/* the bias of head0's output o in the remodulation kernel (o >= EW_KPCN_HEAD) at the start */
+static float remod_bias(int o) { return o == EW_KPCN_HEAD + EW_KPCN_TAPS / 2 ? EW_KPCN_REMOD_CENTRE_BIAS : 0.0f; }
+
 void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params) {
     uint64_t s = seed * 0x2545F4914F6CDD1Dull + 7;
     memset(params, 0, net->nparams * sizeof(float));
@@ -110,6 +119,9 @@ void ew_kpcn_random(const ew_kpcn_net *net, uint64_t seed, float *params) {
         for (size_t i = 0; i < (size_t)L->cin * L->cout * 25; i++)
             w[i] = (float)(bound * ((double)(splitmix(&s) >> 11) * (2.0 / 9007199254740992.0) - 1.0));
     }
+    if (net->remod)
+        for (int o = EW_KPCN_HEAD; o < EW_KPCN_HEAD_REMOD; o++)
+            params[net->layers[net->lhead[0]].b_off + o] = remod_bias(o);
 }
 
 double ew_kpcn_macs_per_pixel(const ew_kpcn_net *net) {
@@ -379,15 +391,21 @@ void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_ne
             /* the blend logit of src's coarsest head, now a middle one: weight 0, the bias leaves the blend
              * near 0 */
             const int new_blend = !old_out && S->cout == EW_KPCN_TAPS && o == EW_KPCN_TAPS;
+            /* the remodulation kernel src lacks: weight 0, the centre tap's bias alone, so the albedo stays
+             * (nearly) the raw one */
+            const int new_remod = !old_out && D->cout == EW_KPCN_HEAD_REMOD && o >= EW_KPCN_HEAD;
             for (int i = 0; i < D->cin; i++) {
                 float *w = params + D->w_off + ((size_t)o * D->cin + i) * 25;
                 const int si = src_input_channel(net, src, l, sl, skip, i);
                 if (old_out && si >= 0)
                     memcpy(w, src_params + S->w_off + ((size_t)o * S->cin + si) * 25, 25 * sizeof(float));
-                else if (old_out || new_blend)
+                else if (old_out || new_blend || new_remod)
                     memset(w, 0, 25 * sizeof(float));
             }
-            params[D->b_off + o] = old_out ? src_params[S->b_off + o] : (new_blend ? EW_KPCN_NEW_SCALE_BIAS : 0.0f);
+            params[D->b_off + o] = old_out     ? src_params[S->b_off + o]
+                                   : new_blend ? EW_KPCN_NEW_SCALE_BIAS
+                                   : new_remod ? remod_bias(o)
+                                               : 0.0f;
         }
     }
 }
@@ -406,7 +424,7 @@ void ew_kpcn_frame_free(ew_kpcn_frame *f) {
     if (!f) return;
     free(f->input);
     free(f->radiance);
-    free(f->albedo_f);
+    free(f->albedo);
     free(f->ref);
     memset(f, 0, sizeof *f);
 }
@@ -419,11 +437,11 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
     f->height = height;
     f->input = (float *)malloc(sizeof(float) * n * EW_KPCN_MAX_INPUTS);
     f->radiance = (float *)calloc((size_t)n * 3, sizeof(float)); /* the clamp pass writes all of it; GCC cannot tell */
-    f->albedo_f = (float *)malloc(sizeof(float) * n * 3);
+    f->albedo = (float *)malloc(sizeof(float) * n * 3);
     f->ref = (float *)malloc(sizeof(float) * n * 3);
     float *raw = (float *)malloc(sizeof(float) * n * 4);
     double *rows = (double *)malloc(sizeof(double) * 2 * (size_t)height);
-    if (!f->input || !f->radiance || !f->albedo_f || !f->ref || !raw || !rows) {
+    if (!f->input || !f->radiance || !f->albedo || !f->ref || !raw || !rows) {
         free(raw);
         free(rows);
         ew_kpcn_frame_free(f);
@@ -459,7 +477,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
         for (int x = 0; x < width; x++) ew_kpcn_input_px(x, y, &ia);
     for (long j = 0; j < n; j++)
         for (int k = 0; k < 3; k++) {
-            f->albedo_f[j * 3 + k] = ew_albedo_factor(albedo[j * 3 + k]);
+            f->albedo[j * 3 + k] = albedo[j * 3 + k];
             f->ref[j * 3 + k] = ew_feature_or_zero(reference[j * 3 + k]);
         }
     return 0;
@@ -471,7 +489,7 @@ struct ew_kpcn_scratch {
     ew_gn_planes buf[EW_KPCN_MAX_SCALES], dbuf[EW_KPCN_MAX_SCALES];
     float *rad[EW_KPCN_MAX_SCALES]; /* 3 planes each */
     float *out[EW_KPCN_MAX_SCALES], *dout[EW_KPCN_MAX_SCALES];
-    float *albedo_f, *ref; /* 3 planes each, scale 0 */
+    float *albedo, *m, *ref; /* 3 planes each, scale 0: the raw albedo, the remodulation albedo, the reference */
     void *mem[2 * EW_KPCN_MAX_SCALES + 1];
 };
 
@@ -495,7 +513,7 @@ ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
         ew_gn_planes_init(&s->dbuf[k], (float *)s->mem[2 * k + 1], P, P, net->nplanes[k]);
         flat += 3 * 3 * (size_t)P * P;
     }
-    flat += 2 * 3 * (size_t)size * size;
+    flat += 3 * 3 * (size_t)size * size;
     float *p = (float *)calloc(flat, sizeof(float));
     s->mem[2 * EW_KPCN_MAX_SCALES] = p;
     if (!p) {
@@ -508,7 +526,8 @@ ew_kpcn_scratch *ew_kpcn_scratch_create(const ew_kpcn_net *net, int size) {
         s->out[k] = p; p += 3 * np;
         s->dout[k] = p; p += 3 * np;
     }
-    s->albedo_f = p; p += 3 * (size_t)size * size;
+    s->albedo = p; p += 3 * (size_t)size * size;
+    s->m = p; p += 3 * (size_t)size * size;
     s->ref = p;
     return s;
 }
@@ -582,7 +601,7 @@ static void load_patch(const ew_kpcn_frame *f, const ew_kpcn_patch *r, int size,
             ew_gn_plane_row(&s->buf[0], 7, v)[u] = tr ? nx : ny;
             for (int k = 0; k < 3; k++) {
                 s->rad[0][k * np + q] = f->radiance[j * 3 + k];
-                s->albedo_f[k * np + q] = f->albedo_f[j * 3 + k];
+                s->albedo[k * np + q] = f->albedo[j * 3 + k];
                 s->ref[k * np + q] = ref_override ? ref_override[q * 3 + k] : f->ref[j * 3 + k];
             }
         }
@@ -674,6 +693,16 @@ static ew_kpcn_filter_args filter_args(const ew_kpcn_net *net, ew_kpcn_scratch *
     return a;
 }
 
+/* the full-resolution kernel logits and the raw albedo, for the remodulation kernel */
+static ew_kpcn_filter_args remod_args(const ew_kpcn_net *net, ew_kpcn_scratch *s) {
+    ew_kpcn_filter_args a;
+    memset(&a, 0, sizeof a);
+    a.width = a.height = s->size;
+    a.logits = planes_t(&s->buf[0], net->head[0]);
+    a.albedo = flat_t(s->albedo, s->size, s->size);
+    return a;
+}
+
 static float loss_curve(float x, int loss) { return loss == EW_KPCN_LOSS_LOG ? logf(1.0f + ew_maxf(x, 0.0f)) : ew_nbg_tm(x); }
 static float loss_slope(float x, int loss) {
     return loss == EW_KPCN_LOSS_LOG ? (x > 0.0f ? 1.0f / (1.0f + x) : 0.0f) : ew_nbg_tm_grad(x);
@@ -714,17 +743,26 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
         for (int y = 0; y < Pk; y++)
             for (int x = 0; x < Pk; x++) ew_kpcn_filter_px(x, y, &a);
     }
-    /* remodulate, loss, dL/d out0 */
+    /* the remodulation albedo m: the albedo's factor, or its predicted kernel's result */
+    const ew_kpcn_filter_args ra = remod_args(net, s);
+    for (int y = 0; y < P; y++)
+        for (int x = 0; x < P; x++) {
+            const long q = (long)y * P + x;
+            float v[EW_KPCN_TAPS], mq[3];
+            if (net->remod) ew_kpcn_remod_albedo_px(x, y, &ra, v, mq);
+            for (int c = 0; c < 3; c++) s->m[c * np + q] = net->remod ? mq[c] : ew_albedo_factor(s->albedo[c * np + q]);
+        }
+    /* remodulate, loss; dout0 holds dL/d colour until the backward pass */
     double sum = 0.0;
     const float scale = 1.0f / (float)(np * 3);
     for (int c = 0; c < 3; c++)
         for (long q = 0; q < np; q++) {
             const long i = c * np + q;
-            const float o = s->out[0][i] * s->albedo_f[i];
+            const float o = s->out[0][i] * s->m[i];
             if (out_rgb) out_rgb[q * 3 + c] = o;
             const float d = loss_curve(o, loss) - loss_curve(s->ref[i], loss);
             sum += fabs((double)d);
-            s->dout[0][i] = (d > 0.0f ? 1.0f : (d < 0.0f ? -1.0f : 0.0f)) * loss_slope(o, loss) * s->albedo_f[i] * scale;
+            s->dout[0][i] = (d > 0.0f ? 1.0f : (d < 0.0f ? -1.0f : 0.0f)) * loss_slope(o, loss) * scale;
         }
     if (!grad) return sum / (double)(np * 3);
 
@@ -733,6 +771,18 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
         memset(ew_gn_plane_row(d, 0, -EW_CONV_R) - 8, 0, sizeof(float) * (size_t)d->ps * d->nplanes);
         if (k > 0) memset(s->dout[k], 0, sizeof(float) * 3 * (size_t)(P >> k) * (P >> k));
     }
+    /* remodulation: dL/dm = dL/d colour x out0 (its kernel's logits), dL/d out0 = dL/d colour x m */
+    if (net->remod) {
+        const ew_kpcn_tensor dl = planes_t(&s->dbuf[0], net->head[0]);
+        for (int y = 0; y < P; y++)
+            for (int x = 0; x < P; x++) {
+                const long q = (long)y * P + x;
+                const float gm[3] = {s->dout[0][q] * s->out[0][q], s->dout[0][np + q] * s->out[0][np + q],
+                                     s->dout[0][2 * np + q] * s->out[0][2 * np + q]};
+                ew_kpcn_remod_backward_px(x, y, &ra, gm, &dl);
+            }
+    }
+    for (long i = 0; i < 3 * np; i++) s->dout[0][i] *= s->m[i];
     /* filters, fine to coarse */
     for (int k = 0; k < S; k++) {
         ew_kpcn_filter_args a = filter_args(net, s, k);

@@ -20,20 +20,21 @@
  *   5 dec1  scale 1  [h1, up(h2b)]   -> d1 (C)  LeakyReLU
  *   6 head1 scale 1  d1              -> 25 kernel logits + 1 blend logit
  *   7 dec0  scale 0  [h0, up(d1)]    -> d0 (C)  LeakyReLU
- *   8 head0 scale 0  d0              -> 25 + 1
+ *   8 head0 scale 0  d0              -> 25 + 1 (+ 25: the remodulation kernel, "-ra")
  * In general: enc_k (k < S-1), the coarsest scale's enc_a, enc_b and head,
  * then dec_k, head_k for k = S-2 down to 0: 3S layers.
  *
  * Weights file (src/weights.h): arch "kpcn-c<C>" (10 inputs),
  * "kpcn-c<C>-noise" (11: the frame's noise level too), either followed by
- * "-s<S>" for S != 3; tensors conv<l>.weight [cout, cin, 5, 5] and
+ * "-s<S>" for S != 3, then "-ra" for the remodulation kernel (head0 has 51
+ * outputs; kernels/kpcn.h); tensors conv<l>.weight [cout, cin, 5, 5] and
  * conv<l>.bias [cout], l = 0..3S-1 in the order above.
  *
  * Per scale, one zero-padded plane buffer (algorithms/guidenet.h's
  * ew_gn_planes) holds every plane of that scale, laid out so that each
  * convolution's input is one contiguous run of planes (the decoders' skip
  * concatenation costs nothing):
- *   scale 0:          inputs (10|11) | h | up(d or h_b of the next scale) | d | head (26)
+ *   scale 0:          inputs (10|11) | h | up(d or h_b of the next scale) | d | head (26, or 51)
  *   scale 0 < k < S-1: pool(h of k-1) | h | up(...) | d | head (26)
  *   scale S-1:        pool(h of S-2) | h_a | h_b | head (25)
  */
@@ -60,9 +61,10 @@ typedef struct ew_kpcn_layer {
 } ew_kpcn_layer;
 
 typedef struct ew_kpcn_net {
-    char arch[40]; /* "kpcn-c<C>[-noise][-s<S>]" */
+    char arch[40]; /* "kpcn-c<C>[-noise][-s<S>][-ra]" */
     int ch;
     int noise;  /* 1: the network also sees the frame's noise level (kernels/kpcn.h) */
+    int remod;  /* 1: head0 also predicts the kernel of the remodulation albedo (kernels/kpcn.h) */
     int inputs; /* input planes: EW_KPCN_INPUTS, + 1 with noise */
     int scales, nlayers;
     int nplanes[EW_KPCN_MAX_SCALES];
@@ -80,9 +82,11 @@ typedef struct ew_kpcn_net {
     size_t nparams;
 } ew_kpcn_net;
 
-/* "kpcn-c<C>[-noise][-s<S>]" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH], S in
- * [3, EW_KPCN_MAX_SCALES]. 0 or non-zero + message. */
+/* "kpcn-c<C>[-noise][-s<S>][-ra]" with C in [EW_KPCN_MIN_CH, EW_KPCN_MAX_CH],
+ * S in [3, EW_KPCN_MAX_SCALES]. 0 or non-zero + message. */
 int ew_kpcn_init(ew_kpcn_net *net, const char *arch, char *err, size_t errlen);
+/* head0's outputs: EW_KPCN_HEAD, or EW_KPCN_HEAD_REMOD with the remodulation kernel */
+static inline int ew_kpcn_head0_outputs(const ew_kpcn_net *net) { return net->remod ? EW_KPCN_HEAD_REMOD : EW_KPCN_HEAD; }
 /* Kaiming-uniform for the LeakyReLU layers, heads 10x smaller (kernels start
  * near a box filter, blends near one half), zero biases; a pure function of
  * the seed. */
@@ -100,8 +104,15 @@ int ew_kpcn_save(const ew_kpcn_net *net, const float *params, void **out, size_t
  * its head the head, with a blend logit of weight 0 and bias
  * EW_KPCN_NEW_SCALE_BIAS), the new coarser scales keep random weights: the
  * output moves by that blend's sigmoid (1.8 %) toward the new scales', and
- * they are trained from the first step. */
+ * they are trained from the first step. A remodulation kernel src lacks
+ * ("-ra" from a net without) starts with weight 0 and the centre tap's bias
+ * (EW_KPCN_REMOD_CENTRE_BIAS). */
 #define EW_KPCN_NEW_SCALE_BIAS (-4.0f)
+/* A remodulation kernel starts as its centre tap: logit 6 against 0 for the
+ * other 24 taps gives it e^6 / (e^6 + 24) = 94 % of the weight (random
+ * initialisation and warm start alike); the network learns where to widen
+ * it. */
+#define EW_KPCN_REMOD_CENTRE_BIAS 6.0f
 void ew_kpcn_params_from(const ew_kpcn_net *net, float *params, const ew_kpcn_net *src, const float *src_params);
 /* The noise plane's value of a frame: EW_REDUCE_NOISE over its (clamped,
  * demodulated) radiance, 3 floats a pixel. */
@@ -179,7 +190,7 @@ typedef struct ew_kpcn_frame {
     int width, height;
     float *input;    /* EW_KPCN_MAX_INPUTS planes of width*height (the noise plane last) */
     float *radiance; /* 3 a pixel: demodulated, firefly-clamped */
-    float *albedo_f; /* 3 a pixel: albedo + eps */
+    float *albedo;   /* 3 a pixel: the albedo as read (the remodulation factor is ew_albedo_factor of it) */
     float *ref;      /* 3 a pixel: the reference colour (linear) */
 } ew_kpcn_frame;
 

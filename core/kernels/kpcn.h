@@ -31,6 +31,10 @@
 #define EW_KPCN_KR 2      /* predicted kernel radius: 5x5 */
 #define EW_KPCN_TAPS 25
 #define EW_KPCN_HEAD 26   /* head outputs: 25 kernel logits + the blend logit (unused at the coarsest scale) */
+/* the full-resolution head of a net with a remodulation kernel ("-ra"
+ * architectures): also the 25 logits of the kernel that filters the albedo
+ * the output is multiplied back by */
+#define EW_KPCN_HEAD_REMOD (EW_KPCN_HEAD + EW_KPCN_TAPS)
 
 typedef struct ew_kpcn_tensor {
     float *data;
@@ -191,7 +195,18 @@ EW_HD void ew_kpcn_up_backward_px(int x, int y, const ew_kpcn_up_args *a, const 
  *         image borders clamped),
  *   f   = sum_k w_k r(p + d_k),
  *   out = (1 - a) f + a up(coarse)(p),  a = sigmoid(logit 25)
- * or out = f at the coarsest scale (coarse.data == NULL). */
+ * or out = f at the coarsest scale (coarse.data == NULL).
+ * With an albedo (full resolution, a "-ra" net) the output is the colour,
+ * out x m, with the remodulation albedo
+ *   m   = sum_k v_k A(p + d_k),  v = softmax(logits 26..50),
+ *         A = albedo + eps (ew_albedo_factor),
+ * and non-finite values become 0 (as ew_denoise_finish_px). Why: at a few
+ * spp Cycles' denoising albedo is itself noisy (glass, glossy paths,
+ * anti-aliased edges), and multiplying the filtered radiance back by it
+ * brings its noise back; a fixed filter of the albedo blurs the texture it
+ * also holds, while a kernel the network predicts can tell the two apart.
+ * m is a convex combination of A around the pixel, so it stays between the
+ * smallest and largest albedo there. */
 typedef struct ew_kpcn_filter_args {
     int width, height;
     ew_kpcn_tensor logits;    /* 25 or 26 planes */
@@ -199,19 +214,24 @@ typedef struct ew_kpcn_filter_args {
     ew_kpcn_tensor coarse;    /* 3 channels at half this scale, or data NULL */
     int cw, ch;               /* the coarse size */
     ew_kpcn_tensor out;       /* 3 channels */
+    ew_kpcn_tensor albedo;    /* 3 channels of raw albedo at full resolution, or data NULL: no remodulation */
 } ew_kpcn_filter_args;
 
-/* softmax of the 25 logits at (x, y) into w; returns nothing, w sums to 1 */
-EW_HD void ew_kpcn_softmax_px(int x, int y, const ew_kpcn_filter_args *a, float *w) {
-    float mx = *ew_kpcn_at(&a->logits, 0, y, x);
-    for (int k = 1; k < EW_KPCN_TAPS; k++) mx = ew_maxf(mx, *ew_kpcn_at(&a->logits, k, y, x));
+/* softmax of the 25 logits from plane first at (x, y) into w; w sums to 1 */
+EW_HD void ew_kpcn_softmax_at(int x, int y, const ew_kpcn_tensor *logits, int first, float *w) {
+    float mx = *ew_kpcn_at(logits, first, y, x);
+    for (int k = 1; k < EW_KPCN_TAPS; k++) mx = ew_maxf(mx, *ew_kpcn_at(logits, first + k, y, x));
     float s = 0.0f;
     for (int k = 0; k < EW_KPCN_TAPS; k++) {
-        w[k] = expf(*ew_kpcn_at(&a->logits, k, y, x) - mx);
+        w[k] = expf(*ew_kpcn_at(logits, first + k, y, x) - mx);
         s += w[k];
     }
     const float inv = 1.0f / s;
     for (int k = 0; k < EW_KPCN_TAPS; k++) w[k] *= inv;
+}
+
+EW_HD void ew_kpcn_softmax_px(int x, int y, const ew_kpcn_filter_args *a, float *w) {
+    ew_kpcn_softmax_at(x, y, &a->logits, 0, w);
 }
 
 EW_HD void ew_kpcn_tap_xy(int k, int x, int y, int width, int height, int *tx, int *ty) {
@@ -228,6 +248,34 @@ EW_HD void ew_kpcn_filtered_px(int x, int y, const ew_kpcn_filter_args *a, const
     }
 }
 
+/* The remodulation albedo m at (x, y) (a->albedo set) and its kernel v. */
+EW_HD void ew_kpcn_remod_albedo_px(int x, int y, const ew_kpcn_filter_args *a, float *v, float *m) {
+    ew_kpcn_softmax_at(x, y, &a->logits, EW_KPCN_HEAD, v);
+    m[0] = m[1] = m[2] = 0.0f;
+    for (int k = 0; k < EW_KPCN_TAPS; k++) {
+        int tx, ty;
+        ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
+        for (int c = 0; c < 3; c++) m[c] += v[k] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty, tx));
+    }
+}
+
+/* Backward of m at (x, y) given gm = dL/dm (3): dL/d logit (planes 26..50)
+ * into dlogits, v_k (dL/dv_k - sum_j v_j dL/dv_j) with dL/dv_k = gm . A_k. */
+EW_HD void ew_kpcn_remod_backward_px(int x, int y, const ew_kpcn_filter_args *a, const float *gm,
+                                     const ew_kpcn_tensor *dlogits) {
+    float v[EW_KPCN_TAPS], m[3], dv[EW_KPCN_TAPS], dot = 0.0f;
+    ew_kpcn_remod_albedo_px(x, y, a, v, m);
+    for (int k = 0; k < EW_KPCN_TAPS; k++) {
+        int tx, ty;
+        ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
+        float s = 0.0f;
+        for (int c = 0; c < 3; c++) s += gm[c] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty, tx));
+        dv[k] = s;
+        dot += v[k] * s;
+    }
+    for (int k = 0; k < EW_KPCN_TAPS; k++) *ew_kpcn_at(dlogits, EW_KPCN_HEAD + k, y, x) = v[k] * (dv[k] - dot);
+}
+
 EW_HD void ew_kpcn_filter_px(int x, int y, const ew_kpcn_filter_args *a) {
     float w[EW_KPCN_TAPS], f[3];
     ew_kpcn_softmax_px(x, y, a, w);
@@ -241,6 +289,14 @@ EW_HD void ew_kpcn_filter_px(int x, int y, const ew_kpcn_filter_args *a) {
         for (int c = 0; c < 3; c++) {
             const float u = ew_kpcn_bilerp(&a->coarse, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
             f[c] = (1.0f - al) * f[c] + al * u;
+        }
+    }
+    if (a->albedo.data) {
+        float v[EW_KPCN_TAPS], m[3];
+        ew_kpcn_remod_albedo_px(x, y, a, v, m);
+        for (int c = 0; c < 3; c++) {
+            const float o = f[c] * m[c];
+            f[c] = ew_finitef(o) ? o : 0.0f;
         }
     }
     for (int c = 0; c < 3; c++) *ew_kpcn_at(&a->out, c, y, x) = f[c];

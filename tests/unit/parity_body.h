@@ -856,9 +856,11 @@ TEST(kpcn_input_pool_up_filter) {
     (void)EW_RUN(p.dut, kpcn_up, &du);
     ok = ok && match(back(p.dut, dupd, N * 3), upd, N * 3, "kpcn up");
 
-    /* the filter with and without a coarser scale, into packed RGB */
-    for (int with_coarse = 0; with_coarse <= 1 && ok; with_coarse++) {
-        float *logits = hrand(N * EW_KPCN_HEAD, -3.0f, 3.0f, 0), *dlogits = dup_to(p.dut, logits, N * EW_KPCN_HEAD);
+    /* the filter with and without a coarser scale, into packed RGB; then
+     * remodulating by its albedo kernel (variant 2) */
+    for (int variant = 0; variant <= 2 && ok; variant++) {
+        const int with_coarse = variant >= 1, nl = variant == 2 ? EW_KPCN_HEAD_REMOD : EW_KPCN_HEAD;
+        float *logits = hrand(N * nl, -3.0f, 3.0f, 0), *dlogits = dup_to(p.dut, logits, N * nl);
         float *out = hnan(N * 3), *dout = dnan(p.dut, N * 3);
         ew_kpcn_filter_args hf, df;
         memset(&hf, 0, sizeof hf);
@@ -884,8 +886,15 @@ TEST(kpcn_input_pool_up_filter) {
         hf.out.xs = 3;
         hf.out.rs = 3L * W;
         hf.out.cs = 1;
+        if (variant == 2) {
+            hf.albedo.data = rad; /* any positive 3-channel image */
+            hf.albedo.xs = 3;
+            hf.albedo.rs = 3L * W;
+            hf.albedo.cs = 1;
+        }
         df = hf;
         df.logits.data = dlogits;
+        df.albedo.data = variant == 2 ? drad : NULL;
         df.radiance.data = drad;
         df.coarse.data = with_coarse ? dpooled : NULL;
         df.out.data = dout;

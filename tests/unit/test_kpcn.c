@@ -116,6 +116,78 @@ TEST(filter_backward_matches_finite_differences) {
     filter_case(1);
 }
 
+/* L = sum G . m over the frame (m: the remodulation albedo) */
+static double remod_loss(const ew_kpcn_filter_args *a, const float *G) {
+    const long n = (long)a->width * a->height;
+    double L = 0;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            float v[EW_KPCN_TAPS], m[3];
+            ew_kpcn_remod_albedo_px(x, y, a, v, m);
+            for (int c = 0; c < 3; c++) L += (double)G[c * n + (long)y * a->width + x] * m[c];
+        }
+    return L;
+}
+
+/* The remodulation kernel's logits (planes 26..50 of head0), with an albedo
+ * that has negative and non-finite values (ew_albedo_factor's cases). */
+TEST(remod_backward_matches_finite_differences) {
+    const int W = 7, H = 6;
+    const long n = (long)W * H;
+    unsigned s = 31u;
+    float *logits = malloc(sizeof(float) * EW_KPCN_HEAD_REMOD * n), *alb = malloc(sizeof(float) * 3 * n);
+    float *G = malloc(sizeof(float) * 3 * n), *dl = calloc((size_t)EW_KPCN_HEAD_REMOD * n, sizeof(float));
+    for (long i = 0; i < EW_KPCN_HEAD_REMOD * n; i++) logits[i] = 4.0f * urand(&s) - 2.0f;
+    for (long i = 0; i < 3 * n; i++) alb[i] = urand(&s) * 1.2f - 0.1f, G[i] = urand(&s) - 0.5f;
+    alb[5] = NAN;
+    ew_kpcn_filter_args a;
+    memset(&a, 0, sizeof a);
+    a.width = W;
+    a.height = H;
+    a.logits = flat(logits, W, H);
+    a.albedo = flat(alb, W, H);
+    ew_kpcn_tensor tdl = flat(dl, W, H);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const long q = (long)y * W + x;
+            const float g[3] = {G[q], G[n + q], G[2 * n + q]};
+            ew_kpcn_remod_backward_px(x, y, &a, g, &tdl);
+        }
+    double worst = 0;
+    const float h = 1e-2f;
+    for (int k = EW_KPCN_HEAD; k < EW_KPCN_HEAD_REMOD; k++)
+        for (int q = 0; q < n; q += 4) {
+            float *v = &logits[k * n + q], keep = *v;
+            *v = keep + h;
+            double lp = remod_loss(&a, G);
+            *v = keep - h;
+            double lm = remod_loss(&a, G);
+            *v = keep;
+            double fd = (lp - lm) / (2 * h), an = dl[k * n + q];
+            double e = fabs(fd - an) / (fabs(fd) + fabs(an) + 1e-3);
+            if (e > worst) worst = e;
+        }
+    /* the filter with the albedo set multiplies its result by m */
+    float *rad = malloc(sizeof(float) * 3 * n), *out = malloc(sizeof(float) * 3 * n);
+    for (long i = 0; i < 3 * n; i++) rad[i] = urand(&s) * 2.0f;
+    a.radiance = flat(rad, W, H);
+    a.out = flat(out, W, H);
+    int bad = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            float w[EW_KPCN_TAPS], f[3], v[EW_KPCN_TAPS], m[3];
+            ew_kpcn_softmax_px(x, y, &a, w);
+            ew_kpcn_filtered_px(x, y, &a, w, f);
+            ew_kpcn_remod_albedo_px(x, y, &a, v, m);
+            ew_kpcn_filter_px(x, y, &a);
+            for (int c = 0; c < 3; c++) bad += *ew_kpcn_at(&a.out, c, y, x) != f[c] * m[c];
+        }
+    fprintf(stderr, "  remodulation kernel: worst relative error %.2e\n", worst);
+    free(logits); free(alb); free(G); free(dl); free(rad); free(out);
+    CHECK(worst < 1e-2);
+    CHECK_EQ_INT(bad, 0);
+}
+
 /* Pooling and upsampling are linear: their backward passes must be the
  * adjoints, <A x, y> = <x, A^T y>, for odd and even sizes. */
 TEST(pool_and_up_backward_are_adjoints) {
@@ -216,7 +288,8 @@ static void patch_gradient_case(const char *arch) {
     for (int l = 0; l < net.nlayers; l++)
         if (net.layers[l].act == EW_ACT_NONE)
             for (size_t i = 0; i < (size_t)net.layers[l].cin * net.layers[l].cout * 25; i++)
-                params[net.layers[l].w_off + i] *= 10.0f;
+                if (!(net.remod && l == net.lhead[0] && i >= (size_t)EW_KPCN_HEAD * net.layers[l].cin * 25))
+                    params[net.layers[l].w_off + i] *= 10.0f; /* not the remodulation kernel's: see below */
     /* a reference far above every output keeps the L1 away from its kink */
     float *ref = malloc(sizeof(float) * P * P * 3);
     for (int i = 0; i < P * P * 3; i++) ref[i] = 20.0f;
@@ -233,8 +306,15 @@ static void patch_gradient_case(const char *arch) {
         int good = 0;
         const ew_kpcn_layer *L = &net.layers[l];
         const size_t nw = (size_t)L->cin * L->cout * 25;
-        /* a few weights and a bias of every layer */
+        /* a few weights and a bias of every layer; of head0's remodulation
+         * kernel when it has one */
         size_t idx[4] = {L->w_off + 3, L->w_off + nw / 2 + 1, L->w_off + nw - 7, L->b_off};
+        if (net.remod && l == net.lhead[0]) {
+            const size_t first = (size_t)EW_KPCN_HEAD * L->cin * 25;
+            idx[0] = L->w_off + first + 3;
+            idx[1] = L->w_off + first + (nw - first) / 2 + 1;
+            idx[3] = L->b_off + EW_KPCN_HEAD + 7;
+        }
         for (int t = 0; t < 4; t++) {
             const size_t i = idx[t];
             const float keep = params[i], h = 2e-3f * (fabsf(keep) > 0.1f ? fabsf(keep) * 10.0f : 1.0f);
@@ -284,6 +364,15 @@ TEST(patch_gradient_matches_finite_differences) { patch_gradient_case("kpcn-c4")
  * upsampling/pooling chain gets one more link. */
 TEST(patch_gradient_matches_finite_differences_4_scales) { patch_gradient_case("kpcn-c4-noise-s4"); }
 
+/* The remodulation kernel: the colour is the filtered radiance times a
+ * predicted kernel's average of the albedo, so head0's last 25 outputs get
+ * gradient through the albedo and every other layer through the changed
+ * factor. Its weights keep their initial scale: on top of the centre tap's
+ * bias, 10x weights saturate its softmax until float differences of the
+ * loss lose the signal (remod_backward_matches_finite_differences checks
+ * its derivative with wild logits on its own). */
+TEST(patch_gradient_matches_finite_differences_remodulation) { patch_gradient_case("kpcn-c4-ra"); }
+
 /* The output stays within [min, max] of the demodulated radiance times the
  * albedo factor: kernels and blends are convex. */
 TEST(output_cannot_invent_energy) {
@@ -313,7 +402,7 @@ TEST(output_cannot_invent_energy) {
     int bad = 0;
     for (int j = 0; j < 32 * 32; j++)
         for (int k = 0; k < 3; k++) {
-            const float r = out[j * 3 + k] / f.albedo_f[j * 3 + k];
+            const float r = out[j * 3 + k] / ew_albedo_factor(f.albedo[j * 3 + k]);
             if (!(r >= lo[k] - 1e-4f * (1 + fabsf(lo[k])) && r <= hi[k] + 1e-4f * (1 + hi[k]))) bad++;
         }
     ew_kpcn_scratch_destroy(s);
@@ -394,6 +483,7 @@ TEST(op_matches_training_forward) {
     op_matches_training_forward_for("kpcn-c24-noise");
     op_matches_training_forward_for("kpcn-c8-noise-s4");
     op_matches_training_forward_for("kpcn-c4-s5");
+    op_matches_training_forward_for("kpcn-c8-noise-s4-ra");
 }
 
 static void patch_forward(const ew_kpcn_net *net, const float *params, const ew_kpcn_frame *f, int P, float *grad,
@@ -503,6 +593,63 @@ TEST(warm_start_into_more_scales_stays_close_and_trains_them) {
     free(g4);
     free(o3);
     free(o4);
+}
+
+/* A warm start that adds the remodulation kernel: it starts as its centre
+ * tap's share v_c (EW_KPCN_REMOD_CENTRE_BIAS), so the remodulation albedo
+ * moves from the raw one by at most (1 - v_c) of the albedo's range around
+ * the pixel, and the colour with it; the new kernel trains from the first
+ * step. */
+TEST(warm_start_into_the_remodulation_kernel_stays_close_and_trains_it) {
+    ew_kpcn_net plain, ra;
+    char err[128];
+    CHECK(ew_kpcn_init(&plain, "kpcn-c8-noise-s4", err, sizeof err) == 0);
+    CHECK(ew_kpcn_init(&ra, "kpcn-c8-noise-s4-ra", err, sizeof err) == 0);
+    CHECK(ra.remod && !plain.remod);
+    CHECK_EQ_INT(ra.layers[ra.lhead[0]].cout, EW_KPCN_HEAD_REMOD);
+    const int P = 32;
+    scene sc;
+    scene_make(&sc, P, P, 7);
+    ew_kpcn_frame f;
+    CHECK(ew_kpcn_frame_init(&f, sc.w, sc.h, sc.color, sc.albedo, sc.normal, sc.depth, sc.ref, 3.0f) == 0);
+    float *pp = malloc(sizeof(float) * plain.nparams), *pr = malloc(sizeof(float) * ra.nparams);
+    float *gr = calloc(ra.nparams, sizeof(float));
+    ew_kpcn_random(&plain, 3, pp);
+    for (size_t i = 0; i < plain.nparams; i++) pp[i] *= 5.0f;
+    ew_kpcn_random(&ra, 4, pr);
+    ew_kpcn_params_from(&ra, pr, &plain, pp);
+    float *op = malloc(sizeof(float) * P * P * 3), *orr = malloc(sizeof(float) * P * P * 3);
+    patch_forward(&plain, pp, &f, P, NULL, op);
+    patch_forward(&ra, pr, &f, P, gr, orr);
+    const double e6 = exp((double)EW_KPCN_REMOD_CENTRE_BIAS), off = 1.0 - e6 / (e6 + 24.0);
+    double amin = 1e30, amax = 0, worst = 0, worst_bound = 0;
+    for (int i = 0; i < P * P * 3; i++) {
+        amin = fmin(amin, ew_albedo_factor(f.albedo[i]));
+        amax = fmax(amax, ew_albedo_factor(f.albedo[i]));
+    }
+    int over = 0;
+    for (int i = 0; i < P * P * 3; i++) {
+        const double fr = op[i] / ew_albedo_factor(f.albedo[i]); /* the filtered radiance */
+        const double d = fabs((double)orr[i] - op[i]), bound = off * (amax - amin) * fabs(fr) * (1 + 1e-5) + 1e-7;
+        worst = fmax(worst, d);
+        worst_bound = fmax(worst_bound, bound);
+        over += d > bound;
+    }
+    fprintf(stderr, "  -> -ra: worst difference %.3g (bound up to %.3g; centre share %.3f)\n", worst, worst_bound,
+            1.0 - off);
+    CHECK(worst > 0);
+    CHECK_EQ_INT(over, 0);
+    const ew_kpcn_layer *H = &ra.layers[ra.lhead[0]];
+    double gw = 0;
+    for (size_t i = (size_t)EW_KPCN_HEAD * H->cin * 25; i < (size_t)H->cout * H->cin * 25; i++) gw += fabs(gr[H->w_off + i]);
+    CHECK(gw > 0);
+    ew_kpcn_frame_free(&f);
+    scene_free(&sc);
+    free(pp);
+    free(pr);
+    free(gr);
+    free(op);
+    free(orr);
 }
 
 /* The halo is counted through the layer list: 36 pixels for the three-scale
@@ -683,6 +830,7 @@ static void tiles_case(const char *arch) {
 TEST(tiles_give_the_untiled_output) {
     tiles_case("kpcn-c8-noise");
     tiles_case("kpcn-c8-noise-s4"); /* a 76-pixel halo and regions on multiples of 8 */
+    tiles_case("kpcn-c4-ra");       /* the filter writes the colour, tile by tile */
 }
 
 /* At 3840x2160 the default budget keeps the op under 2 GiB (the do-no-harm
