@@ -16,9 +16,10 @@
  *
  * The "quality" parameter says how far up the ladder it may climb: fast is
  * the table above; balanced, the default, runs the kernel-predicting network
- * kpcn-large (24 channels) at levels 1 and 2, where it measured better by
- * 0.6-0.9 dB for about twice the fast rungs' time; high runs it at every
- * level, also where it measured level or a little better (the rows below).
+ * kpcn-large (24 channels, four scales) at levels 1 to 3, where it measured
+ * better by 0.7-1.0 dB for 2-3x the fast rungs' time; high runs it at every
+ * level, also at 1-2 spp where it measured only 0.2-0.3 dB better (the rows
+ * below).
  * Without albedo, normal and depth every quality is the grid.
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
@@ -60,7 +61,7 @@ static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 16777216.0f, "samples per pixel of the render (0: unknown, estimate the noise)"},
     {"quality", EW_PARAM_INT, 1.0f, 0.0f, 2.0f,
      "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn-large at "
-     "3-32 spp, where it measured 0.6-0.9 dB better on the held-out scenes, about 2x the time), high (kpcn-large "
+     "3 spp and up, where it measured 0.7-1.0 dB better on the held-out scenes for 2-3x the time), high (kpcn-large "
      "at every sample count); kpcn needs albedo, normal and depth"},
 };
 
@@ -83,8 +84,14 @@ typedef struct {
 
 #define KPCN_24 2 /* kpcn's built-in model kpcn-large (algorithms/kpcn.h) */
 
-/* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md):
- * on 28 held-out scenes (the render cache's val split and held-out training
+/* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md).
+ * The four-scale kpcn-large on 42 held-out scenes (render cache val split
+ * and held-out training scenes; edgewise bench, do-no-harm stage on),
+ * against quality fast: +0.21 dB at 1 spp (below it on 15 scenes, by up to
+ * 3.0 dB) for 2.7x the time, +0.70 dB at 64 spp (below on 7, by up to 1.3 dB;
+ * its worst scene 0.41 dB under the noisy input against fast's 2.79) for 2.8x.
+ * So balanced climbs at 64 spp too, not at 1-2 spp. Before it, the
+ * three-scale model on 28 held-out scenes (the render cache's val split and held-out training
  * scenes), against the fast rungs, at 1 / 4 / 16 / 64 spp: kpcn (16
  * channels) -0.4 / +0.3 / +0.4 / +0.0 dB, kpcn-large +0.0 / +0.6 / +0.9 /
  * +0.5 dB. Balanced climbs where kpcn-large wins clearly, high wherever it
@@ -97,7 +104,7 @@ static const level_choice levels[] = {
     {-1, KPCN_24, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
     {KPCN_24, KPCN_24, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
     {KPCN_24, KPCN_24, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
-    {-1, KPCN_24, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
+    {KPCN_24, KPCN_24, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
 };
 
 /* Noise-estimate thresholds between the levels: the geometric means of the
@@ -283,7 +290,7 @@ const ew_op_type ew_denoise_auto = {
     .name = "auto",
     .summary = "picks the cheapest method that reaches the best quality for the frame's noise level (sample "
                "count, or a noise estimate), its passes and the quality setting: with albedo/normal/depth "
-               "kpcn-large at 3-32 spp (quality balanced, the default) and nbg at 1-2 spp, else a bilateral grid as "
+               "kpcn-large at 3 spp and up (quality balanced, the default) and nbg at 1-2 spp, else a bilateral grid as "
                "fine as the frame allows",
     .images = images,
     .num_images = (int)(sizeof images / sizeof images[0]),

@@ -119,7 +119,8 @@ picks auto_1spp_nbg_1spp_model "nbg 2layer-3grid-1spp (1 spp)" "$SAMPLE/cornell/
 picks auto_4spp_kpcn "kpcn kpcn-large (4 spp, quality balanced)" "$SAMPLE/cornell/f0001_spp0004.exr"
 picks auto_4spp_fast_nbg "nbg 2layer-3grid (4 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --quality fast
 picks auto_4spp_high_kpcn_large "kpcn kpcn-large (4 spp, quality high)" "$SAMPLE/cornell/f0001_spp0004.exr" --quality high
-picks auto_samples_option_overrides "bgrid finest grid 2/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64
+picks auto_samples_option_overrides "kpcn kpcn-large (64 spp, quality balanced)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64
+picks auto_64spp_fast_finest_grid "bgrid finest grid 2/4 (64 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --samples 64 --quality fast
 picks auto_no_features_grid "bgrid coarse grid" "$T/no_albedo.exr" --samples 1
 picks model_implies_nbg "nbg 2layer-1grid" "$SAMPLE/cornell/f0001_spp0004.exr" --model 2layer-1grid
 picks model_file "nbg $SAMPLE/../models/nbg/2layer-1grid.ewm" "$SAMPLE/cornell/f0001_spp0004.exr" \

@@ -98,7 +98,7 @@ TEST(sample_count_picks_the_model) {
     CHECK(same(f.out, f.out2));
 
     /* quality fast stays on the grids and nbg; balanced (the default)
-     * climbs to kpcn-large at 16 spp, not at 1 spp; high at every count;
+     * climbs to kpcn-large from 3 spp up, not at 1 spp; high at every count;
      * the output is that model's own */
     static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
                        high[] = {{"quality", 2}, {NULL, 0}};
@@ -122,6 +122,8 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "auto", &f, 0, 16, high, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, NULL, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (1024 spp, quality balanced)");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1024, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid finest grid 2/4");
     /* the finest grid is bgrid with those rates */
     static const param finest[] = {
@@ -153,9 +155,12 @@ TEST(noise_estimate_when_the_count_is_unknown) {
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "1spp");
     CHECK_STR_CONTAINS(what, "noise estimate");
-    make_frame(&f, 0.0f, 3); /* clean: the finest grid */
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
+    make_frame(&f, 0.0f, 3); /* clean: the finest grid at quality fast, kpcn-large at balanced */
+    static const param fast[] = {{"quality", 0}, {NULL, 0}};
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "finest");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (noise estimate");
     ew_device_destroy(dev);
 }
 
