@@ -43,7 +43,12 @@
  * has a mean of its own at 1 spp (T is concave: T(input) averages below
  * T(output)) that H does not see and would read as structure. alpha stays
  * 1 until D / R_lin exceeds theta_n: at 1 spp, H and R_lin of a window are
- * a few bright samples, and their ratio alone scatters.
+ * a few bright samples, and their ratio alone scatters. On a quiet frame
+ * (16-64 spp) that concern is gone (theta_n 0, src/harm_stage.c) and so is
+ * T's bias, small against T's own noise there; so the same estimate is
+ * also taken in T (tone_share of it): in linear units the bright pixels
+ * of a window outweigh the dark ones, where a viewer sees the method's
+ * error as well (a sky over a dark ground, a highlight on a dim floor).
  *
  * T compresses like the display (gamma 1/2.2 below 1, logarithmic above,
  * continuous with slope 1/2.2 at 1), so the window statistics are not
@@ -67,7 +72,7 @@ enum {
     EW_HARM_SPREAD_H = 7, /* ... summed over each window (rows) */
     EW_HARM_SPREAD_V = 8  /* ... (columns), and the output scaled by it */
 };
-#define EW_HARM_STATS_FLOATS 5
+#define EW_HARM_STATS_FLOATS 6
 
 typedef struct ew_harm_args {
     int width, height;
@@ -88,6 +93,7 @@ typedef struct ew_harm_args {
     float kappa;            /* BLEND, second estimate: D = R_lin - kappa H (H: the residual's diagonal Haar
                                detail); 0: off */
     float theta_n;          /* ... and alpha stays 1 while D / R_lin <= theta_n */
+    float tone_share;       /* ... D / R taken this share in T, the rest in linear units */
     /* energy return (GIVE, SPREAD_H, SPREAD_V): */
     float *give;            /* 3 per pixel: in, the RGB the method's own clamp took (demodulated, as
                                ew_outlier_buffers.removed); GIVE writes each pixel's share into its first */
@@ -139,7 +145,7 @@ EW_HD float ew_harm_lin_residual(const ew_harm_args *a, long j, int c) {
 
 EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x;
-    float sq = 0.0f, cross = 0.0f, hh2 = 0.0f, lin2 = 0.0f;
+    float sq = 0.0f, cross = 0.0f, hh2 = 0.0f, lin2 = 0.0f, th2 = 0.0f;
     int pairs = 0;
     /* the 2x2 block of the diagonal Haar detail: the one at (x, y), moved
      * inward at the last row and column (a 1-pixel frame has none) */
@@ -155,6 +161,9 @@ EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
                                      ew_harm_lin_residual(a, b0 + a->width, c) +
                                      ew_harm_lin_residual(a, b0 + a->width + 1, c));
             hh2 += hh * hh;
+            const float th = 0.5f * (ew_harm_residual(a, b0, c) - ew_harm_residual(a, b0 + 1, c) -
+                                     ew_harm_residual(a, b0 + a->width, c) + ew_harm_residual(a, b0 + a->width + 1, c));
+            th2 += th * th;
         }
         const float d = ew_harm_lin_residual(a, j, c);
         lin2 += d * d;
@@ -167,11 +176,12 @@ EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
     st[2] = cross * cross;
     st[3] = hh2;
     st[4] = lin2;
+    st[5] = th2;
 }
 
 EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x;
-    float sq = 0.0f, cross = 0.0f, cross2 = 0.0f, hh2 = 0.0f, lin2 = 0.0f;
+    float sq = 0.0f, cross = 0.0f, cross2 = 0.0f, hh2 = 0.0f, lin2 = 0.0f, th2 = 0.0f;
     for (int yy = ew_maxi(y - a->radius, 0); yy <= ew_mini(y + a->radius, a->height - 1); yy++)
         for (int xx = ew_maxi(x - a->radius, 0); xx <= ew_mini(x + a->radius, a->width - 1); xx++) {
             const float *st = a->stats + ((long)yy * a->width + xx) * EW_HARM_STATS_FLOATS;
@@ -180,6 +190,7 @@ EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
             cross2 += st[2];
             hh2 += st[3];
             lin2 += st[4];
+            th2 += st[5];
         }
     /* C is a sum of products of noisy residuals: only what stands z of its
      * own standard deviations above 0 counts as structure (at 1-4 spp the
@@ -193,7 +204,9 @@ EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
      * image. Unlike C it needs no threshold against chance, so it also
      * catches a converged frame's error where C's z test hides it. */
     if (a->kappa > 0.0f && lin2 > 0.0f) {
-        const float qn = ew_maxf(lin2 - a->kappa * hh2, 0.0f) / lin2;
+        float qn = ew_maxf(lin2 - a->kappa * hh2, 0.0f) / lin2;
+        if (a->tone_share > 0.0f && sq > 0.0f)
+            qn += a->tone_share * (ew_maxf(sq - a->kappa * th2, 0.0f) / sq - qn);
         alpha = ew_minf(alpha, ew_clampf(1.0f - ew_maxf(qn - a->theta_n, 0.0f) / (1.0f - a->theta_n), 0.0f, 1.0f));
     }
     const float *in = a->clamped + j * a->channels;

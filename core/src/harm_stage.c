@@ -214,16 +214,18 @@ static ew_result frame_noise(ew_harm_state *s, ew_device *dev, const float *buf,
     return r;
 }
 
-/* The second estimate's threshold theta_n for a frame of this noise level.
- * It is there for 1-4 spp, where a window's Haar detail and residual are a
- * few bright samples and their ratio scatters; on a quiet frame (16-64
- * spp) the ratio is steady and every bit of the method's error it reads is
- * worth blending away. On the 11 training scenes, theta_n 0 on every frame
- * gained 0.1-0.6 dB on the frames below 0.009 and lost 0.1-1.8 dB on those
- * above 0.010 (1 spp is 0.011-0.11). */
-static float quiet_theta_n(double noise) {
-    const double t = (noise - HARM_QUIET_NOISE) / (HARM_NOISY_NOISE - HARM_QUIET_NOISE);
-    return HARM_BLEND_THETA_N * (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
+/* How quiet a frame of this noise level is: 1 up to HARM_QUIET_NOISE, 0
+ * from HARM_NOISY_NOISE, a ramp between. The blend's second estimate has
+ * the threshold theta_n x (1 - quiet) and takes a share quiet of its ratio
+ * in T (kernels/harm.h). theta_n is there for 1-4 spp, where a window's
+ * Haar detail and residual are a few bright samples and their ratio
+ * scatters; on a quiet frame (16-64 spp) the ratio is steady and every bit
+ * of the method's error it reads is worth blending away. On the 11 training
+ * scenes, theta_n 0 on every frame gained 0.1-0.6 dB on the frames below
+ * 0.009 and lost 0.1-1.8 dB on those above 0.010 (1 spp is 0.011-0.11). */
+static float quietness(double noise) {
+    const double t = (HARM_NOISY_NOISE - noise) / (HARM_NOISY_NOISE - HARM_QUIET_NOISE);
+    return (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
 }
 
 /* Step 1 into s->clamped (s->a holds the demodulated radiance). The floor of the spread is the frame's mean
@@ -285,7 +287,9 @@ ew_result ew_harm_execute(ew_op *op) {
     dev->backend->harm(dev, EW_HARM_DEMOD, &ha);
     r = frame_noise(s, dev, s->a, &noise);
     if (r != EW_OK) return r;
-    ha.theta_n = quiet_theta_n(noise);
+    const float quiet = quietness(noise);
+    ha.theta_n = HARM_BLEND_THETA_N * (1.0f - quiet);
+    ha.tone_share = quiet;
     const ew_image saved = op->images[ci];
     if (s->pre) {
         r = reject(op, s, &ha);
