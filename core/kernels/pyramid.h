@@ -248,10 +248,15 @@ EW_HD void ew_pyr_down_in_k(int x, int y, const ew_pyr_down_args *a, const int k
             mj = better ? q : mj;
         }
     }
+    /* the major child's attributes by integer selects: with conditional
+     * expressions, GCC may thread the chain into a join of five values,
+     * which its if-conversion gives up on, and the loop over pixels around
+     * this function is then not vectorised (the colour pyramid's
+     * downsampling ran about 4x slower in a span function of its own) */
     float am[EW_BF_MAX_ATTR];
     EW_PYR_UNROLL
     for (int k = 0; k < EW_BF_MAX_ATTR; k++)
-        am[k] = mj == 0 ? at[0][k] : mj == 1 ? at[1][k] : mj == 2 ? at[2][k] : at[3][k];
+        am[k] = ew_pyr_select(mj == 0, at[0][k], ew_pyr_select(mj == 1, at[1][k], ew_pyr_select(mj == 2, at[2][k], at[3][k])));
     float acc[EW_BF_CH + 1], aacc[EW_BF_MAX_ATTR + 1];
     EW_PYR_UNROLL
     for (int c = 0; c <= C; c++) acc[c] = 0.0f;

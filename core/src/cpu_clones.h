@@ -5,10 +5,10 @@
 #ifndef EW_SRC_CPU_CLONES_H
 #define EW_SRC_CPU_CLONES_H
 
-/* Every filter row function (exact, separable, pyramid, a-trous, DoF
- * attributes alike, cpu_filters.c) and the packers' loops (bilateral.c)
- * are also compiled for AVX-512F and AVX2 and the CPU picks one at load
- * time (an ifunc), so the speed ratios compare algorithms on the
+/* The filters' loops over pixels (the exact and separable filters' rows,
+ * the pyramid's spans, a-trous, the DoF attributes: cpu_filters.c,
+ * cpu_kernels.c) and the packers' loops (bilateral.c) are also compiled
+ * for AVX-512F and AVX2 and the CPU picks one at load time (an ifunc), so the speed ratios compare algorithms on the
  * machine's vector width, not one filter's build against another's (and
  * SSE2 alone lacks the blends, gathers and integer ops the branch-free
  * kernels need). No FMA is requested and the C11 build contracts nothing

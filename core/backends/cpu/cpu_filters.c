@@ -35,15 +35,16 @@
 #define EW_ROW_FN EW_MULTIVERSION EW_FLATTEN
 
 /* One row function per kind: NAME_<kind>(ctx, begin, end, tid) runs
- * BODY(kind) for rows [begin, end) (tid: the worker's index); NAME picks
- * one by kind. */
-#define EW_ROWS_PER_KIND(NAME, CTX_T, BODY)                                                                    \
+ * BODY(kind) for rows [begin, end) (tid: the worker's index), each built
+ * with ATTR (at least EW_FLATTEN, so the kind is a constant in BODY); NAME
+ * picks one by kind. */
+#define EW_ROWS_PER_KIND(NAME, CTX_T, BODY, ATTR)                                                              \
     static EW_FLATTEN void NAME##_k(const CTX_T *j, int64_t begin, int64_t end, const int kind, int tid) { (void)tid; BODY } \
-    static EW_ROW_FN void NAME##_color(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_COLOR, t); } \
-    static EW_ROW_FN void NAME##_gi(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_GI, t); } \
-    static EW_ROW_FN void NAME##_depth(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DEPTH, t); } \
-    static EW_ROW_FN void NAME##_dof(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DOF, t); } \
-    static EW_ROW_FN void NAME##_none(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_NONE, t); } \
+    static ATTR void NAME##_color(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_COLOR, t); } \
+    static ATTR void NAME##_gi(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_GI, t); } \
+    static ATTR void NAME##_depth(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DEPTH, t); } \
+    static ATTR void NAME##_dof(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_DOF, t); } \
+    static ATTR void NAME##_none(void *c, int64_t b, int64_t e, int t) { NAME##_k((const CTX_T *)c, b, e, EW_RANGE_NONE, t); } \
     static ew_range_fn NAME(int kind) {                                                                         \
         switch (kind) {                                                                                         \
         case EW_RANGE_COLOR: return NAME##_color;                                                               \
@@ -62,7 +63,7 @@ typedef struct {
 
 EW_ROWS_PER_KIND(brute_rows, bf_job,
                  for (int64_t y = j->b->y0 + begin; y < j->b->y0 + end; y++)
-                     for (int x = 0; x < j->b->width; x++) ew_bf_brute_px_k(x, (int)y, j->m, j->b, kind);)
+                     for (int x = 0; x < j->b->width; x++) ew_bf_brute_px_k(x, (int)y, j->m, j->b, kind);, EW_ROW_FN)
 
 void ew_cpu_bf_brute(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *b) {
     bf_job j = {m, b, 0};
@@ -71,7 +72,7 @@ void ew_cpu_bf_brute(ew_device *dev, const ew_bf_model *m, const ew_bf_buffers *
 
 EW_ROWS_PER_KIND(sep_rows, bf_job,
                  for (int64_t y = begin; y < end; y++)
-                     for (int x = 0; x < j->b->width; x++) ew_bf_sep_px_k(x, (int)y, j->axis, j->m, j->b, kind);)
+                     for (int x = 0; x < j->b->width; x++) ew_bf_sep_px_k(x, (int)y, j->axis, j->m, j->b, kind);, EW_ROW_FN)
 
 void ew_cpu_bf_separable(ew_device *dev, const ew_bf_model *m, int axis, const ew_bf_buffers *b) {
     bf_job j = {m, b, axis};
@@ -81,63 +82,178 @@ void ew_cpu_bf_separable(ew_device *dev, const ew_bf_model *m, int axis, const e
 /* The pyramid's passes: interior spans of a row through the branch-free
  * per-pixel functions, which the compiler vectorises across pixels (the
  * buffers are planes, see kernels/pyramid.h); the border pixels through the
- * general ones. The args, model and weight row are copied to locals first,
- * so the compiler knows the output stores cannot change them. */
+ * general ones.
+ *
+ * Only the loops over pixels are built per vector width (EW_SPAN_FN: one
+ * noinline function per kind and variant, its flags constant); the row
+ * logic around them (which variant, the border, DoF's runs, the segments of
+ * the symmetric pass) is built once per kind. Cloning the whole flattened
+ * row function per target copied that logic, and every variant inlined into
+ * it, three times into a few huge functions: most of this file's build time
+ * and memory. A span is a row or a long run, so the call costs nothing
+ * measurable. Each span function first copies what it reads (args, model,
+ * weight row, the rows of precomputed range values) to locals, as the row
+ * functions did, so the compiler knows its output stores cannot change
+ * them. Same per-pixel functions on the same numbers: outputs unchanged. */
 #if defined(__GNUC__) && !defined(__clang__)
 #define EW_IVDEP _Pragma("GCC ivdep")
 #else
 #define EW_IVDEP
 #endif
+#if defined(__GNUC__)
+#define EW_NOINLINE __attribute__((noinline))
+#else
+#define EW_NOINLINE
+#endif
+#define EW_SPAN_FN static EW_MULTIVERSION EW_FLATTEN EW_NOINLINE void
 
-/* an interior span with constant variant flags, so each loop has no branch */
-#define EW_PYR_DOWN_SPAN(MAJOR, DUP2, ROUGH)                                                                    \
-    do {                                                                                                       \
+#define EW_DOWN_LOCALS(ap)                                                                                     \
+    const ew_bf_model lm = *(ap)->m;                                                                           \
+    ew_pyr_down_args a = *(ap);                                                                                \
+    a.m = &lm
+#define EW_UP_LOCALS(ap)                                                                                       \
+    const ew_bf_model lm = *(ap)->m;                                                                           \
+    ew_pyr_wrow lr;                                                                                            \
+    ew_pyr_up_args a = *(ap);                                                                                  \
+    a.m = &lm;                                                                                                 \
+    if ((ap)->row) {                                                                                           \
+        lr = *(ap)->row;                                                                                       \
+        a.row = &lr;                                                                                           \
+    }
+
+/* ---- downsampling: per kind, the general pixels [x0, x1) of coarse row y,
+ * the interior [0, xin) with any flags, and with constant flags */
+#define EW_DOWN_KIND_SPANS(S, K)                                                                               \
+    EW_SPAN_FN down_gen_##S(const ew_pyr_down_args *ap, int y, int x0, int x1) {                                \
+        EW_DOWN_LOCALS(ap);                                                                                    \
+        for (int x = x0; x < x1; x++) ew_pyr_down_px_k(x, y, &a, K);                                           \
+    }                                                                                                          \
+    EW_SPAN_FN down_any_##S(const ew_pyr_down_args *ap, int y, int xin, int major, int dup2, int rough) {       \
+        EW_DOWN_LOCALS(ap);                                                                                    \
+        for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, y, &a, K, major, dup2, rough);                       \
+    }
+#define EW_DOWN_IN_SPAN(S, K, MAJOR, DUP2, ROUGH)                                                              \
+    EW_SPAN_FN down_in_##S##_##MAJOR##DUP2##ROUGH(const ew_pyr_down_args *ap, int y, int xin) {                 \
+        EW_DOWN_LOCALS(ap);                                                                                    \
         EW_IVDEP                                                                                               \
-        for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, MAJOR, DUP2, ROUGH);               \
-    } while (0)
+        for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, y, &a, K, MAJOR, DUP2, ROUGH);                       \
+    }
+EW_DOWN_KIND_SPANS(color, EW_RANGE_COLOR)
+EW_DOWN_KIND_SPANS(gi, EW_RANGE_GI)
+EW_DOWN_KIND_SPANS(depth, EW_RANGE_DEPTH)
+EW_DOWN_KIND_SPANS(dof, EW_RANGE_DOF)
+EW_DOWN_KIND_SPANS(none, EW_RANGE_NONE)
+EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 1, 0)
+EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 3, 0)
+EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 1, 1)
+EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 3, 1)
+#define EW_DOWN_IN_NOT_MAJOR(S, K) EW_DOWN_IN_SPAN(S, K, 0, 1, 0) EW_DOWN_IN_SPAN(S, K, 0, 3, 0)
+EW_DOWN_IN_NOT_MAJOR(color, EW_RANGE_COLOR)
+EW_DOWN_IN_NOT_MAJOR(depth, EW_RANGE_DEPTH)
+EW_DOWN_IN_NOT_MAJOR(dof, EW_RANGE_DOF)
+EW_DOWN_IN_NOT_MAJOR(none, EW_RANGE_NONE)
+
+/* CALL(S) for the constant kind's suffix S (the row functions are built
+ * per kind, so the switch folds to one call) */
+#define EW_PER_KIND(CALL)                                                                                      \
+    switch (kind) {                                                                                            \
+    case EW_RANGE_COLOR: CALL(color); break;                                                                   \
+    case EW_RANGE_GI: CALL(gi); break;                                                                         \
+    case EW_RANGE_DEPTH: CALL(depth); break;                                                                   \
+    case EW_RANGE_DOF: CALL(dof); break;                                                                       \
+    default: CALL(none); break;                                                                                \
+    }
+#define EW_PER_NON_GI_KIND(CALL)                                                                               \
+    switch (kind) {                                                                                            \
+    case EW_RANGE_COLOR: CALL(color); break;                                                                   \
+    case EW_RANGE_DEPTH: CALL(depth); break;                                                                   \
+    case EW_RANGE_DOF: CALL(dof); break;                                                                       \
+    default: CALL(none); break;                                                                                \
+    }
 
 static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int64_t end, const int kind, int tid) {
-    const ew_bf_model lm = *j->m;
-    ew_pyr_down_args a = *j;
-    a.m = &lm;
-    const int xin = a.w / 2; /* coarse pixels with both children in x */
-    const int major = a.major_attr != 0, dup2 = ew_pyr_down_dup2(&a), rough = lm.use_roughness != 0;
+    const ew_pyr_down_args *ap = j;
+    const int xin = ap->w / 2; /* coarse pixels with both children in x */
+    const int major = ap->major_attr != 0, dup2 = ew_pyr_down_dup2(ap), rough = ap->m->use_roughness != 0;
     for (int64_t y = begin; y < end; y++) {
-        if (a.fill) a.fill(a.fill_user, (int)(2 * y), (int)(2 * y + 2 < a.h ? 2 * y + 2 : a.h), tid);
-        if (2 * y + 1 < a.h) {
+        const int yi = (int)y;
+        if (ap->fill) ap->fill(ap->fill_user, 2 * yi, 2 * yi + 2 < ap->h ? 2 * yi + 2 : ap->h, tid);
+        if (2 * y + 1 < ap->h) {
+#define EW_IN(S, F) down_in_##S##_##F(ap, yi, xin)
+#define EW_ANY(S) down_any_##S(ap, yi, xin, major, dup2, rough)
             if (kind == EW_RANGE_GI) {
-                if (major && dup2 == 1 && !rough) EW_PYR_DOWN_SPAN(1, 1, 0);
-                else if (major && dup2 == 3 && !rough) EW_PYR_DOWN_SPAN(1, 3, 0);
-                else if (major && dup2 == 1 && rough) EW_PYR_DOWN_SPAN(1, 1, 1);
-                else if (major && dup2 == 3 && rough) EW_PYR_DOWN_SPAN(1, 3, 1);
-                else
-                    for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, major, dup2, rough);
+                if (major && dup2 == 1 && !rough) EW_IN(gi, 110);
+                else if (major && dup2 == 3 && !rough) EW_IN(gi, 130);
+                else if (major && dup2 == 1 && rough) EW_IN(gi, 111);
+                else if (major && dup2 == 3 && rough) EW_IN(gi, 131);
+                else EW_ANY(gi);
             } else {
-                if (!major && dup2 == 1) EW_PYR_DOWN_SPAN(0, 1, 0);
-                else if (!major && dup2 == 3) EW_PYR_DOWN_SPAN(0, 3, 0);
-                else
-                    for (int x = 0; x < xin; x++) ew_pyr_down_in_k(x, (int)y, &a, kind, major, dup2, rough);
+#define EW_IN_010(S) EW_IN(S, 010)
+#define EW_IN_030(S) EW_IN(S, 030)
+                if (!major && dup2 == 1) EW_PER_NON_GI_KIND(EW_IN_010)
+                else if (!major && dup2 == 3) EW_PER_NON_GI_KIND(EW_IN_030)
+                else EW_PER_NON_GI_KIND(EW_ANY)
+#undef EW_IN_010
+#undef EW_IN_030
             }
-            for (int x = xin; x < a.cw; x++) ew_pyr_down_px_k(x, (int)y, &a, kind);
+#undef EW_IN
+#undef EW_ANY
+#define EW_GEN_REST(S) down_gen_##S(ap, yi, xin, ap->cw)
+            EW_PER_KIND(EW_GEN_REST)
+#undef EW_GEN_REST
         } else {
-            for (int x = 0; x < a.cw; x++) ew_pyr_down_px_k(x, (int)y, &a, kind);
+#define EW_GEN_ROW(S) down_gen_##S(ap, yi, 0, ap->cw)
+            EW_PER_KIND(EW_GEN_ROW)
+#undef EW_GEN_ROW
         }
     }
 }
 
-EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args, down_rows_body(j, begin, end, kind, tid);)
+EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args, down_rows_body(j, begin, end, kind, tid);, EW_FLATTEN)
 
 void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a) {
     ew_pool_run(dev->pool, a->ch, 0, down_rows(a->m->kind), (void *)a);
 }
 
-#define EW_PYR_UP_LOOP_CR(XB, XE, UNIFORM, G1, DUP, FR, CR)                                                   \
-    do {                                                                                                       \
+/* ---- upsampling: per kind, the general pixels [x0, x1) of row y, and the
+ * interior spans with uniform weights (UNIFORM, G1: gamma 1, DUP: the
+ * output duplicated), the symmetric kind's with precomputed fine range
+ * values, DoF's table spans and its runs' spans with precomputed coarse
+ * range values */
+#define EW_UP_GEN_SPAN(S, K)                                                                                   \
+    EW_SPAN_FN up_gen_##S(const ew_pyr_up_args *ap, int y, int x0, int x1) {                                    \
+        EW_UP_LOCALS(ap)                                                                                       \
+        for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, y, &a, K);                                        \
+    }
+#define EW_UP_SPAN(S, K, UNIFORM, G1, DUP)                                                                     \
+    EW_SPAN_FN up_in_##S##_##UNIFORM##G1##DUP(const ew_pyr_up_args *ap, int y, int x0, int x1) {                \
+        EW_UP_LOCALS(ap)                                                                                       \
         EW_IVDEP                                                                                               \
-        for (int x = XB; x < XE; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP, FR, CR);           \
-    } while (0)
-#define EW_PYR_UP_LOOP(XB, XE, UNIFORM, G1, DUP, FR) EW_PYR_UP_LOOP_CR(XB, XE, UNIFORM, G1, DUP, FR, 0)
-#define EW_PYR_UP_SPAN(UNIFORM, G1, DUP) EW_PYR_UP_LOOP(x0, x1, UNIFORM, G1, DUP, 0)
+        for (int x = x0; x < x1; x++) ew_pyr_up_in_k(x, y, &a, K, UNIFORM, G1, DUP, 0, 0);                     \
+    }
+#define EW_UP_UNIFORM_SPANS(S, K)                                                                              \
+    EW_UP_SPAN(S, K, 1, 1, 1) EW_UP_SPAN(S, K, 1, 1, 0) EW_UP_SPAN(S, K, 1, 0, 1) EW_UP_SPAN(S, K, 1, 0, 0)
+#define EW_UP_CR_SPAN(S, K, DUP)                                                                               \
+    EW_SPAN_FN up_cr_##S##_##DUP(const ew_pyr_up_args *ap, int y, int x0, int x1, const ew_pyr_coarse_rows *crp) { \
+        EW_UP_LOCALS(ap)                                                                                       \
+        const ew_pyr_coarse_rows cr = *crp;                                                                    \
+        EW_IVDEP                                                                                               \
+        for (int x = x0; x < x1; x++) ew_pyr_up_in_k(x, y, &a, K, 1, 0, DUP, 0, &cr);                          \
+    }
+EW_UP_GEN_SPAN(color, EW_RANGE_COLOR)
+EW_UP_GEN_SPAN(gi, EW_RANGE_GI)
+EW_UP_GEN_SPAN(depth, EW_RANGE_DEPTH)
+EW_UP_GEN_SPAN(dof, EW_RANGE_DOF)
+EW_UP_GEN_SPAN(none, EW_RANGE_NONE)
+/* the symmetric kind (COLOR) takes up_spans_sym_color instead */
+EW_UP_UNIFORM_SPANS(gi, EW_RANGE_GI)
+EW_UP_UNIFORM_SPANS(depth, EW_RANGE_DEPTH)
+EW_UP_UNIFORM_SPANS(dof, EW_RANGE_DOF)
+EW_UP_UNIFORM_SPANS(none, EW_RANGE_NONE)
+EW_UP_SPAN(dof, EW_RANGE_DOF, 0, 0, 1)
+EW_UP_SPAN(dof, EW_RANGE_DOF, 0, 0, 0)
+EW_UP_CR_SPAN(dof, EW_RANGE_DOF, 1)
+EW_UP_CR_SPAN(dof, EW_RANGE_DOF, 0)
 
 /* Symmetric range functions (ew_pyr_symmetric) with uniform weights: the
  * interior spans in segments of columns walked down the rows, the fine
@@ -165,9 +281,18 @@ static inline void fine_fwd_row(const ew_pyr_up_args *ap, int y, int xb, int xe,
     for (int x = xb - 1; x < xe; x++) dr[x - o] = ew_pyr_fine_fwd_k(x, y, 1, 1, &a, kind);
 }
 
-static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t end, const int kind, const int g1,
-                                const int dup, int tid) {
-    const ew_pyr_up_args a = *ap;
+#define EW_PYR_UP_LOOP(XB, XE, UNIFORM, G1, DUP, FR)                                                          \
+    do {                                                                                                       \
+        EW_IVDEP                                                                                               \
+        for (int x = XB; x < XE; x++) ew_pyr_up_in_k(x, (int)y, &a, kind, UNIFORM, G1, DUP, FR, 0);           \
+    } while (0)
+
+/* One span function for the whole symmetric pass: its rows, segments and
+ * both loops, which share the segment buffers on its stack. */
+EW_SPAN_FN up_spans_sym_color(const ew_pyr_up_args *ap, int64_t begin, int64_t end, const int g1, const int dup,
+                               int tid) {
+    EW_UP_LOCALS(ap)
+    const int kind = EW_RANGE_COLOR;
     float buf[2][4][EW_PYR_SEG + 2];
     int x0, x1;
     ew_pyr_up_interior((int)begin, &a, &x0, &x1); /* the columns are the same in every row */
@@ -220,35 +345,40 @@ static inline void up_spans_sym(const ew_pyr_up_args *ap, int64_t begin, int64_t
  * on the stack). */
 #define EW_PYR_CR 2048
 
+/* the coarse samples [c0, c1) of one coarse row (a duplicated-plane row
+ * starting at base) for the run's centre attributes at */
+EW_SPAN_FN coarse_fg_dof(const ew_pyr_up_args *ap, long base, int c0, int c1, int xo, const float *atp, float gamma,
+                         float *fr, float *gr) {
+    EW_UP_LOCALS(ap)
+    float at[EW_BF_MAX_ATTR];
+    for (int k = 0; k < EW_BF_MAX_ATTR; k++) at[k] = atp[k];
+    EW_IVDEP
+    for (int c = c0; c < c1; c++) ew_pyr_coarse_fg_k(base + c, at, &a, EW_RANGE_DOF, gamma, &fr[c - xo], &gr[c - xo]);
+}
+
 /* at: the run's centre attributes (all its pixels share them where the
  * range function looks) */
-static inline void up_run_shared(const ew_pyr_up_args *ap, int64_t y, int xs, int xe, const float *at, const int kind,
-                                 const int dup) {
-    const ew_pyr_up_args a = *ap;
+static void up_run_shared(const ew_pyr_up_args *a, int64_t y, int xs, int xe, const float *at, const int dup) {
     float fb[3][EW_PYR_CR + 4], gb[3][EW_PYR_CR + 4];
-    const long cw2 = 2L * a.cw;
-    const float gamma = a.row->gamma;
+    const long cw2 = 2L * a->cw;
+    const float gamma = a->row->gamma;
     const int cy = (int)(y >> 1);
     for (int cb = xs; cb < xe; cb += EW_PYR_CR) {
         const int ce = cb + EW_PYR_CR < xe ? cb + EW_PYR_CR : xe, xo = cb - 2;
-        for (int r = 0; r < 3; r++) {
-            const long base = (long)(cy + r - 1) * cw2;
-            float *fr = fb[r], *gr = gb[r];
-            EW_IVDEP
-            for (int c = cb - 2; c < ce + 2; c++) ew_pyr_coarse_fg_k(base + c, at, &a, kind, gamma, &fr[c - xo], &gr[c - xo]);
-        }
+        for (int r = 0; r < 3; r++) coarse_fg_dof(a, (long)(cy + r - 1) * cw2, cb - 2, ce + 2, xo, at, gamma, fb[r], gb[r]);
         const ew_pyr_coarse_rows cr = {{fb[0], fb[1], fb[2]}, {gb[0], gb[1], gb[2]}, xo};
-        if (dup) EW_PYR_UP_LOOP_CR(cb, ce, 1, 0, 1, 0, &cr);
-        else EW_PYR_UP_LOOP_CR(cb, ce, 1, 0, 0, 0, &cr);
+        if (dup) up_cr_dof_1(a, (int)y, cb, ce, &cr);
+        else up_cr_dof_0(a, (int)y, cb, ce, &cr);
     }
 }
 
-static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int x1, const int kind, const int dup) {
+static void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int x1, const int dup) {
+    const int kind = EW_RANGE_DOF;
     ew_pyr_up_args a = *ap;
     ew_pyr_wrow rr;
     const long n = (long)a.w * a.h, row0 = (long)y * a.w;
     const float *D = a.attr + row0; /* attribute plane 0: D */
-    const int py = ((int)y & 1) * 2;
+    const int py = ((int)y & 1) * 2, yi = (int)y;
     int xs = x0, pend = x0; /* [pend, xs): waiting for the table */
     while (xs < x1) {
         const int b = ew_float_to_bits(D[xs]);
@@ -256,60 +386,72 @@ static inline void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int
         while (e < x1 && ew_float_to_bits(D[e]) == b) e++;
         if (e - xs >= EW_PYR_RUN) {
             a.row = NULL;
-            if (dup) EW_PYR_UP_LOOP(pend, xs, 0, 0, 1, 0);
-            else EW_PYR_UP_LOOP(pend, xs, 0, 0, 0, 0);
+            if (dup) up_in_dof_001(&a, yi, pend, xs);
+            else up_in_dof_000(&a, yi, pend, xs);
             float at[EW_BF_MAX_ATTR] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
             for (int k = 0; k < ew_bf_attrs(kind); k++) at[k] = a.attr[k * n + row0 + xs];
             const float ls = ew_pyr_log2_sigma(a.m, kind, at);
             ew_pyr_lookup(a.lut, ls, py, rr.wf, rr.wdc[py], &rr.gamma);
             ew_pyr_lookup(a.lut, ls, py + 1, rr.wf, rr.wdc[py + 1], &rr.gamma);
             a.row = &rr;
-            up_run_shared(&a, y, xs, e, at, kind, dup);
+            up_run_shared(&a, y, xs, e, at, dup);
             pend = e;
         }
         xs = e;
     }
     a.row = NULL;
-    if (dup) EW_PYR_UP_LOOP(pend, x1, 0, 0, 1, 0);
-    else EW_PYR_UP_LOOP(pend, x1, 0, 0, 0, 0);
+    if (dup) up_in_dof_001(&a, yi, pend, x1);
+    else up_in_dof_000(&a, yi, pend, x1);
 }
 
 static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind, int tid) {
-    const ew_bf_model lm = *j->m;
-    ew_pyr_wrow lr;
-    ew_pyr_up_args a = *j;
-    a.m = &lm;
-    if (j->row) {
-        lr = *j->row;
-        a.row = &lr;
-    }
-    const int fast = ew_pyr_up_in_ok(&a, kind), uniform = a.row != 0, g1 = uniform && lr.gamma == 1.0f;
-    const int dup = a.dup_out != 0, sym = fast && uniform && ew_pyr_symmetric(kind);
+    const ew_pyr_up_args *a = j;
+    const int fast = ew_pyr_up_in_ok(a, kind), uniform = a->row != 0, g1 = uniform && a->row->gamma == 1.0f;
+    const int dup = a->dup_out != 0, sym = fast && uniform && ew_pyr_symmetric(kind);
     for (int64_t y = begin; y < end; y++) {
+        const int yi = (int)y;
         int x0, x1;
-        if (!fast || !ew_pyr_up_interior((int)y, &a, &x0, &x1)) {
-            for (int x = 0; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
-            if (a.drain) a.drain(a.drain_user, (int)y, (int)y + 1, tid);
+#define EW_GEN(XB, XE)                                                                                         \
+    do {                                                                                                       \
+        const int gb_ = (XB), ge_ = (XE);                                                                      \
+        if (gb_ < ge_) {                                                                                       \
+            EW_PER_KIND(EW_GEN_CALL)                                                                           \
+        }                                                                                                      \
+    } while (0)
+#define EW_GEN_CALL(S) up_gen_##S(a, yi, gb_, ge_)
+        if (!fast || !ew_pyr_up_interior(yi, a, &x0, &x1)) {
+            EW_GEN(0, a->w);
+            if (a->drain) a->drain(a->drain_user, yi, yi + 1, tid);
             continue;
         }
-        for (int x = 0; x < x0; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
-        if (sym) { /* up_spans_sym below */
-        } else if (uniform && g1 && dup) EW_PYR_UP_SPAN(1, 1, 1);
-        else if (uniform && g1) EW_PYR_UP_SPAN(1, 1, 0);
-        else if (uniform && dup) EW_PYR_UP_SPAN(1, 0, 1);
-        else if (uniform) EW_PYR_UP_SPAN(1, 0, 0);
-        else if (kind == EW_RANGE_DOF) up_span_runs(&a, y, x0, x1, kind, dup); /* the table's lookup as gathers, or runs */
-        else if (ew_pyr_up_in_vec(kind, 0) && dup) EW_PYR_UP_SPAN(0, 0, 1);
-        else if (ew_pyr_up_in_vec(kind, 0)) EW_PYR_UP_SPAN(0, 0, 0);
-        else /* GI's table: scalar either way, and the general path is as fast */
-            for (int x = x0; x < x1; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
-        for (int x = x1; x < a.w; x++) ew_pyr_up_general_k(x, (int)y, &a, kind);
-        if (a.drain && !sym) a.drain(a.drain_user, (int)y, (int)y + 1, tid);
+        EW_GEN(0, x0);
+        if (sym) { /* up_spans_sym_color below */
+        } else if (uniform && !ew_pyr_symmetric(kind)) { /* (a symmetric kind's uniform rows are sym) */
+#define EW_U(S)                                                                                                \
+    if (g1 && dup) up_in_##S##_111(a, yi, x0, x1);                                                             \
+    else if (g1) up_in_##S##_110(a, yi, x0, x1);                                                               \
+    else if (dup) up_in_##S##_101(a, yi, x0, x1);                                                              \
+    else up_in_##S##_100(a, yi, x0, x1);
+            switch (kind) {
+            case EW_RANGE_GI: EW_U(gi) break;
+            case EW_RANGE_DEPTH: EW_U(depth) break;
+            case EW_RANGE_DOF: EW_U(dof) break;
+            case EW_RANGE_NONE: EW_U(none) break;
+            default: break;
+            }
+#undef EW_U
+        } else if (kind == EW_RANGE_DOF) up_span_runs(a, y, x0, x1, dup); /* the table's lookup as gathers, or runs */
+        else /* the other kinds' table (ew_pyr_up_in_vec): scalar either way, and the general path is as fast */
+            EW_GEN(x0, x1);
+        EW_GEN(x1, a->w);
+#undef EW_GEN_CALL
+#undef EW_GEN
+        if (a->drain && !sym) a->drain(a->drain_user, yi, yi + 1, tid);
     }
-    if (sym) up_spans_sym(&a, begin, end, kind, g1, dup, tid);
+    if (sym) up_spans_sym_color(a, begin, end, g1, dup, tid);
 }
 
-EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind, tid);)
+EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind, tid);, EW_FLATTEN)
 
 void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     ew_pool_run(dev->pool, a->h, 0, up_rows(a->m->kind), (void *)a);
