@@ -452,8 +452,9 @@ class TemporalHistory(object):
 
 
 # Temporal accumulation, as the add-on runs it: each frame is denoised alone,
-# then its denoised colour, divided by the albedo (Denoising Albedo + 0.01, so
-# texture does not blur into the history), is accumulated with its
+# then its denoised colour, demodulated as the denoisers do (divided by
+# Denoising Albedo plus the library's epsilon, so texture does not blur into
+# the history), is accumulated with its
 # predecessors along the Vector pass by the library's temporal filter (normal
 # and depth rejection of disoccluded history, the history clamped to the
 # frame's 3x3 mean +- 1 standard deviation, as the bench's after-demod-clamp
@@ -472,7 +473,6 @@ class TemporalHistory(object):
 # reprojection blurs the input the denoiser sees); see docs/temporal.md.
 TEMPORAL_PARAMS = {"clamp": 1.0}
 CHECK_PARAMS = {"alpha_min": 0.5}
-ALBEDO_EPSILON = 0.01    # as the library demodulates (EW_ALBEDO_EPSILON)
 MISMATCH_RADII = (1, 2)  # 3x3 and 5x5 windows
 MISMATCH_Z = 2.5         # standard errors of the windowed noise
 
@@ -524,13 +524,18 @@ def denoise_frame(passes, settings, frame, history=None, progress=None, ew=None)
     single, ran = denoise_arrays(passes, settings, progress, ew)
     if history is None or passes.get("vector") is None:
         return single, ran
+    # accumulated demodulated, as the denoisers work: the library's own
+    # demodulate/remodulate nodes, so the add-on has no copy of the formula
+    # or its epsilon
     albedo = passes.get("albedo")
-    scale = 1.0
+    base = single[:, :, :3]
     if albedo is not None:
-        a = np.nan_to_num(np.asarray(albedo, np.float32)[:, :, :3], nan=0.0, posinf=0.0, neginf=0.0)
-        scale = np.maximum(a, 0.0) + ALBEDO_EPSILON
-    acc = history.accumulate(frame, single[:, :, :3] / scale, passes.get("normal"), _depth(passes.get("depth")),
-                             passes["vector"], **TEMPORAL_PARAMS) * scale
+        albedo = np.ascontiguousarray(np.asarray(albedo, np.float32)[:, :, :3])
+        base = ew.run_node("demodulate", color=np.ascontiguousarray(base), albedo=albedo)
+    acc = history.accumulate(frame, base, passes.get("normal"), _depth(passes.get("depth")), passes["vector"],
+                             **TEMPORAL_PARAMS)
+    if albedo is not None:
+        acc = ew.run_node("remodulate", color=np.ascontiguousarray(acc, np.float32), albedo=albedo)
     color = np.asarray(passes["color"], np.float32)[:, :, :3]
     check = history.accumulate(frame, color, passes.get("normal"), _depth(passes.get("depth")), passes["vector"],
                                stream="check", **CHECK_PARAMS)
