@@ -42,7 +42,8 @@ static const ew_param_desc params[] = {
     {"max_memory_mb", EW_PARAM_INT, 1024.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose network planes would exceed it "
      "runs in tiles with a halo of the network's reach (36 pixels at three scales, 80 for kpcn-large's four), giving "
-     "the same output; the frame-sized buffers (68 bytes a pixel) and "
+     "the same output; the frame-sized buffers (68 bytes a pixel, 40 when the features are packed float views "
+     "read in place) and "
      "a 256x256 tile come first, so a small budget can be exceeded"},
 };
 
@@ -65,7 +66,7 @@ typedef struct {
     const ew_net_model *m;
     ew_denoise_buffers buf;
     float *params, *clamped;
-    ew_kpcn_tiling tiling;
+    ew_tiling tiling;
     float *scale_mem;       /* the scale buffers of one region */
     size_t scale_floats;
     int lw, lh;             /* the region size sb is laid out for (0: none yet) */
@@ -102,15 +103,28 @@ static void release(ew_op *op) {
 #define TILE_EXTRA_FLOATS 3
 #define MIN_CORE 256
 
-static size_t frame_floats(const ew_kpcn_net *net, int w, int h) {
-    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * FRAME_FLOATS + 64;
+/* The features the op reads from the caller's views where they are
+ * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
+ * them), else NULL; the output is written while they are still read. */
+static void features_in_place(const ew_op *op, const float *in[3]) {
+    const ew_image *o = ew_op_image(op, "output");
+    in[0] = ew_dev_view_in_place(op->dev, ew_op_image(op, "albedo"), 3, o);
+    in[1] = ew_dev_view_in_place(op->dev, ew_op_image(op, "normal"), 3, o);
+    in[2] = ew_dev_view_in_place(op->dev, ew_op_image(op, "depth"), 1, o);
+}
+
+static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
+    const float *in[3];
+    features_in_place(op, in);
+    const size_t px = FRAME_FLOATS - (in[0] ? 3 : 0) - (in[1] ? 3 : 0) - (in[2] ? 1 : 0);
+    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + 64;
 }
 
 /* The tiles of a w x h frame under max_memory_mb, and the device floats of
  * the commit. */
-static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_kpcn_tiling *t) {
+static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_tiling *t) {
     const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
-    const size_t frame = frame_floats(net, w, h);
+    const size_t frame = frame_floats(op, net, w, h);
     /* below a 256-pixel core the halos would more than double the work:
      * such a tile's region is the least the tiles get */
     const int least = MIN_CORE + 2 * ew_kpcn_halo(net);
@@ -128,7 +142,7 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     ew_net_model *builtin = NULL;
     const ew_net_model *m = NULL;
     if (ew_net_model_of(op, &kind, &m, &builtin) != EW_OK) return 0;
-    ew_kpcn_tiling t;
+    ew_tiling t;
     const uint64_t bytes = (uint64_t)plan(op, net_of(m), w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
                            (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
     ew_net_model_free(builtin);
@@ -146,7 +160,7 @@ static ew_result commit(ew_op *op) {
     const ew_kpcn_net *net = net_of(m);
     const size_t n = (size_t)w * (size_t)h;
     /* device: row sums (doubles first), then as plan() counts */
-    ew_kpcn_tiling tiling;
+    ew_tiling tiling;
     const size_t need = plan(op, net, w, h, &tiling);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
@@ -181,9 +195,11 @@ static ew_result commit(ew_op *op) {
     b->height = h;
     b->out = p; /* the colour is read by denoise_prepare only: the output takes its place */
     b->color = p; p += n * 3;
-    b->albedo = p; p += n * 3;
-    b->normal = p; p += n * 3;
-    b->depth = p; p += n;
+    const float *in[3];
+    features_in_place(op, in);
+    b->albedo = in[0] ? in[0] : p; p += in[0] ? 0 : n * 3;
+    b->normal = in[1] ? in[1] : p; p += in[1] ? 0 : n * 3;
+    b->depth = in[2] ? in[2] : p; p += in[2] ? 0 : n;
     b->radiance = p; p += n * 3;
     s->clamped = p; p += n * 3;
     b->guide = p; p += n;
@@ -251,7 +267,7 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
 
 /* The network and the filters on one tile's region, keeping its core in
  * tile_target (the filtered radiance, or the colour); progress from p0 over the span dp. */
-static ew_result run_tile(ew_op *op, const float *radiance, float noise, const ew_kpcn_tile *tile, double p0,
+static ew_result run_tile(ew_op *op, const float *radiance, float noise, const ew_tile *tile, double p0,
                           double dp) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -334,10 +350,11 @@ static ew_result execute(ew_op *op) {
     ew_denoise_buffers *b = &s->buf;
     const ew_kpcn_net *net = net_of(s->m);
     const int w = b->width, h = b->height;
+    const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
     ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
-    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
-    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
-    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "depth"), 1, (float *)b->depth, s->stage);
+    if (r == EW_OK && b->albedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)b->albedo, s->stage);
+    if (r == EW_OK && b->normal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)b->normal, s->stage);
+    if (r == EW_OK && b->depth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)b->depth, s->stage);
     if (r != EW_OK) return r;
     dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, h, b->depth, s->row_out);
     r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)h * 2 * sizeof(double));
@@ -365,11 +382,11 @@ static ew_result execute(ew_op *op) {
     }
     /* the filtered radiance goes where the radiance the filters do not read was */
     b->sliced = radiance == b->radiance ? s->clamped : b->radiance;
-    const ew_kpcn_tiling *t = &s->tiling;
+    const ew_tiling *t = &s->tiling;
     const int ntiles = t->nx * t->ny;
     for (int i = 0; i < ntiles; i++) {
-        ew_kpcn_tile tile;
-        ew_kpcn_tile_at(t, i, &tile);
+        ew_tile tile;
+        ew_tile_at(t, i, &tile);
         r = run_tile(op, radiance, noise, &tile, (double)i / ntiles, 1.0 / ntiles);
         if (r != EW_OK) return r;
     }

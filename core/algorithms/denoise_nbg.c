@@ -23,6 +23,7 @@
 #include "src/backend.h"
 #include "src/op.h"
 #include "src/op_model.h"
+#include "src/tiling.h"
 
 static const ew_image_desc images[] = {
     {"color", 3, 1, "noisy colour (RGB, linear)"},
@@ -40,6 +41,11 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off "
      "(the shipped models were trained with 3)"},
+    {"max_memory_mb", EW_PARAM_INT, 256.0f, 1.0f, 1048576.0f,
+     "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose buffers would exceed it runs in "
+     "tiles with a halo of what a pixel's grid cells and guides read (96 pixels for the 3-grid models, 24 for "
+     "2layer-1grid), giving the same output; the frame's colour (12 bytes a pixel; 40 when the features are not "
+     "packed float views it can read in place) and a 256x256 tile come first, so a small budget can be exceeded"},
 };
 
 /* The network's weights (src/op_model.h). */
@@ -59,10 +65,10 @@ static ew_result set_data(ew_op *op, const char *name, const void *data, size_t 
 typedef struct {
     ew_net_model *builtin;          /* host: the built-in model parsed at commit, or NULL */
     const ew_net_model *m;          /* the model in use */
-    ew_bgrid_params grids[EW_GN_MAX_GRIDS];
-    ew_denoise_buffers buf;  /* device buffers */
-    float *params, *clamped, *outputs, *band, *grid;
-    int band_rows;
+    const float *fcolor, *falbedo, *fnormal, *fdepth; /* device: the frame's packed inputs */
+    ew_tiling tiling;
+    ew_denoise_buffers buf;  /* device: one region's buffers (the frame's inputs when untiled) */
+    float *params, *clamped, *outputs, *removed, *band, *grid;
     double *row_out;         /* device: reduce_rows output, 2 x height */
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
     double *rows;            /* host: row_out read back */
@@ -81,17 +87,65 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
+#define MIN_CORE 256
+
+/* The features the op reads from the caller's views where they are
+ * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
+ * them), else NULL; the output is written while tiles still read them. */
+static void features_in_place(const ew_op *op, const float *in[3]) {
+    const ew_image *o = ew_op_image(op, "output");
+    in[0] = ew_dev_view_in_place(op->dev, ew_op_image(op, "albedo"), 3, o);
+    in[1] = ew_dev_view_in_place(op->dev, ew_op_image(op, "normal"), 3, o);
+    in[2] = ew_dev_view_in_place(op->dev, ew_op_image(op, "depth"), 1, o);
+}
+
+/* Floats a pixel of the frame's packed inputs the op holds itself: the
+ * colour (the do-no-harm stage may hand it another view at execute), and
+ * the features not read in place. */
+static size_t frame_floats_px(const ew_op *op) {
+    const float *in[3];
+    features_in_place(op, in);
+    return 3 + (in[0] ? 0 : 3) + (in[1] ? 0 : 3) + (in[2] ? 0 : 1);
+}
+
+static size_t region_cost(const void *net, int rw, int rh) {
+    return ew_nbg_region_floats((const ew_guidenet *)net, rw, rh, 1);
+}
+
+/* The tiles of a w x h frame under max_memory_mb, and the device floats of
+ * the commit: parameters, the frame's packed colour, albedo, normal and
+ * depth, then one region's buffers (nbg.h). A model without an exact tiling
+ * runs whole. */
+static size_t plan(const ew_op *op, const ew_guidenet *net, int w, int h, ew_tiling *t) {
+    const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
+    const size_t frame = net->nparams + (size_t)w * (size_t)h * frame_floats_px(op);
+    const int align = ew_nbg_align(net);
+    const size_t whole = frame + ew_nbg_region_floats(net, w, h, 0);
+    if (!align || whole <= budget) {
+        memset(t, 0, sizeof *t);
+        t->width = t->tw = t->rw = w;
+        t->height = t->th = t->rh = h;
+        t->nx = t->ny = 1;
+        t->align = 1;
+        return whole;
+    }
+    /* below a 256-pixel core the halos would more than double the work */
+    const int least = MIN_CORE + 2 * ew_nbg_halo(net);
+    const size_t floor = ew_nbg_region_floats(net, least, least, 1);
+    ew_tiling_plan(w, h, ew_nbg_halo(net), align, budget > frame + floor ? budget - frame : floor, region_cost, net, t);
+    if (t->nx * t->ny == 1) return whole;
+    return frame + ew_nbg_region_floats(net, t->rw, t->rh, 1);
+}
+
 /* ew_op_type.memory: the commit's allocations (row sums as doubles on the
  * host and the device, host staging when views need it). */
 static uint64_t memory(const ew_op *op, int w, int h) {
     ew_net_model *builtin = NULL;
     const ew_net_model *m = NULL;
     if (ew_net_model_of(op, &kind, &m, &builtin) != EW_OK) return 0;
-    size_t grid_floats, band_floats;
-    const uint64_t bytes =
-        (uint64_t)ew_nbg_device_floats(net_of(m), w, h, &grid_floats, &band_floats) * sizeof(float) +
-        (uint64_t)h * 4 * sizeof(double) +
-        (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
+    ew_tiling t;
+    const uint64_t bytes = (uint64_t)plan(op, net_of(m), w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+                           (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
     ew_net_model_free(builtin);
     return bytes;
 }
@@ -106,23 +160,17 @@ static ew_result commit(ew_op *op) {
     ew_result mr = ew_net_model_of(op, &kind, &m, &builtin);
     if (mr != EW_OK) return mr;
     const ew_guidenet *net = net_of(m);
-    ew_bgrid_params gp[EW_GN_MAX_GRIDS];
     for (int g = 0; g < net->ngrids; g++) {
-        if (!ew_bgrid_params_init(&gp[g], w, h, net->rate_s[g], net->rate_d[g], 3)) {
+        ew_bgrid_params gp;
+        if (!ew_bgrid_params_init(&gp, w, h, net->rate_s[g], net->rate_d[g], 3)) {
             ew_net_model_free(builtin);
             return ew__fail(dev, EW_ERR_INVALID_DATA, "nbg model '%s': grid %d has invalid rates", net->arch, g);
         }
     }
-    const int band_rows = ew_nbg_band_rows(net, h);
     const size_t n = (size_t)w * (size_t)h;
-    size_t band_floats, grid_floats;
-    /* device: row sums (doubles first, for alignment), then (nbg.h) the
-     * parameters, packed colour/albedo/normal (3 each) and depth, radiance,
-     * clamped radiance, blend sum (sliced), one grid's slice (out, then the
-     * result), GuideNet outputs (the hand-made guide that denoise_prepare
-     * also writes lands in the first output plane, overwritten by GuideNet),
-     * the band, the grid. */
-    const size_t need = ew_nbg_device_floats(net, w, h, &grid_floats, &band_floats);
+    ew_tiling tiling;
+    const size_t need = plan(op, net, w, h, &tiling);
+    const int tiled = tiling.nx * tiling.ny > 1;
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
     const ew_dev_kept old = ew_dev_kept_take(op->state ? &((state *)op->state)->dmem : NULL);
@@ -137,33 +185,65 @@ static ew_result commit(ew_op *op) {
     }
     s->builtin = builtin;
     s->m = m;
+    s->tiling = tiling;
     if (builtin)
         snprintf(s->choice, sizeof s->choice, "nbg %s", ew_nbg_model_name((int)ew_op_param(op, "model")));
     else
         snprintf(s->choice, sizeof s->choice, "nbg weights %s", net_of(m)->arch);
+    if (tiled) {
+        const size_t len = strlen(s->choice);
+        snprintf(s->choice + len, sizeof s->choice - len, ", %dx%d tiles", tiling.nx, tiling.ny);
+    }
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->row_out = (double *)s->dmem.mem;
+    /* device: row sums (doubles first, for alignment), then the
+     * parameters, the frame's packed colour/albedo/normal (3 each) and
+     * depth, then the region's (nbg.h): its inputs when tiled, radiance,
+     * clamped radiance, blend sum (sliced), one grid's slice (out, then the
+     * result), the clamp's removed light when tiled, GuideNet outputs (the
+     * hand-made guide that denoise_prepare also writes lands in the first
+     * output plane, overwritten by GuideNet), the band, the grid. */
     float *p = (float *)(void *)((char *)s->dmem.mem + row_bytes);
     s->params = p; p += net->nparams;
+    const float *in[3];
+    features_in_place(op, in);
+    const float *fc = p; p += n * 3;
+    const float *fa = in[0] ? in[0] : p; p += in[0] ? 0 : n * 3;
+    const float *fn = in[1] ? in[1] : p; p += in[1] ? 0 : n * 3;
+    const float *fd = in[2] ? in[2] : p; p += in[2] ? 0 : n;
+    s->fcolor = fc;
+    s->falbedo = fa;
+    s->fnormal = fn;
+    s->fdepth = fd;
+    const size_t rn = (size_t)tiling.rw * (size_t)tiling.rh;
     ew_denoise_buffers *b = &s->buf;
     memset(b, 0, sizeof *b);
     b->width = w;
     b->height = h;
-    b->color = p; p += n * 3;
-    b->albedo = p; p += n * 3;
-    b->normal = p; p += n * 3;
-    b->depth = p; p += n;
-    b->radiance = p; p += n * 3;
-    s->clamped = p; p += n * 3;
-    b->sliced = p; p += n * 3;
-    b->out = p; p += n * 3;
-    s->outputs = p; p += n * (size_t)net->nout;
+    if (tiled) {
+        b->color = p; p += rn * 3;
+        b->albedo = p; p += rn * 3;
+        b->normal = p; p += rn * 3;
+        b->depth = p; p += rn;
+    } else {
+        b->color = fc;
+        b->albedo = fa;
+        b->normal = fn;
+        b->depth = fd;
+    }
+    b->radiance = p; p += rn * 3;
+    s->clamped = p; p += rn * 3;
+    b->sliced = p; p += rn * 3;
+    b->out = p; p += rn * 3;
+    if (tiled) {
+        s->removed = p;
+        p += rn * 3;
+    }
+    s->outputs = p; p += rn * (size_t)net->nout;
     b->guide = s->outputs;
-    s->band = p; p += band_floats;
+    s->band = p; p += ew_nbg_band_floats(net, tiling.rw, ew_nbg_band_rows(net, tiling.rh));
     s->grid = p;
-    s->band_rows = band_rows;
-    memcpy(s->grids, gp, sizeof gp);
     ew_result r = dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
     return r;
 }
@@ -178,68 +258,127 @@ static int band_progress(void *user, double f) {
     return ew_op_report(c->op, c->from + c->span * f);
 }
 
-static ew_result execute(ew_op *op) {
+/* Copies rows of c floats a pixel between two packed images of widths dw
+ * and sw: w x h pixels from (sx, sy) of src to (dx, dy) of dst. */
+static ew_result copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx,
+                           int sy, int w, int h, int c) {
+    ew_result r = EW_OK;
+    for (int y = 0; y < h && r == EW_OK; y++)
+        r = dev->backend->mem_copy(dev, dst + (((long)(dy + y) * dw + dx) * c), src + (((long)(sy + y) * sw + sx) * c),
+                                   (size_t)w * (size_t)c * sizeof(float));
+    return r;
+}
+
+/* The whole method on one tile's region (the frame when untiled): its
+ * inputs are in s->buf; the core goes to the output view. Progress from p0
+ * over the span dp. */
+static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
     const ew_guidenet *net = net_of(s->m);
-    const long n = (long)b->width * b->height;
-    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
-    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, (float *)b->albedo, s->stage);
-    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, (float *)b->normal, s->stage);
-    if (r == EW_OK) r = ew_dev_put_view(dev, ew_op_image(op, "depth"), 1, (float *)b->depth, s->stage);
-    if (r != EW_OK) return r;
-    /* depth normalisation as in "bgrid": the largest depth below 1e9
-     * (reduce.h), computed per row on the device */
-    dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, b->width, b->height, b->depth, s->row_out);
-    r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)b->height * 2 * sizeof(double));
-    if (r != EW_OK) return r;
-    double mx = 0.0;
-    for (int y = 0; y < b->height; y++)
-        if (s->rows[2 * y] > mx) mx = s->rows[2 * y];
-    b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
-
+    const int W = s->tiling.width, tiled = s->tiling.nx * s->tiling.ny > 1;
+    const long n = (long)t->rw * t->rh;
+    ew_result r = EW_OK;
+    b->width = t->rw;
+    b->height = t->rh;
+    if (tiled) {
+        r = copy_rect(dev, (float *)b->color, t->rw, 0, 0, s->fcolor, W, t->rx, t->ry, t->rw, t->rh, 3);
+        if (r == EW_OK) r = copy_rect(dev, (float *)b->albedo, t->rw, 0, 0, s->falbedo, W, t->rx, t->ry, t->rw, t->rh, 3);
+        if (r == EW_OK) r = copy_rect(dev, (float *)b->normal, t->rw, 0, 0, s->fnormal, W, t->rx, t->ry, t->rw, t->rh, 3);
+        if (r == EW_OK) r = copy_rect(dev, (float *)b->depth, t->rw, 0, 0, s->fdepth, W, t->rx, t->ry, t->rw, t->rh, 1);
+        if (r != EW_OK) return r;
+    }
     dev->backend->denoise_prepare(dev, b); /* radiance = colour / (albedo + eps) */
     const float k = ew_op_param(op, "firefly_k");
     const float *radiance = b->radiance;
+    float *removed = ew_harm_clamp_removed(op);
     if (k > 0.0f) {
         /* the shared outlier definition (kernels/outlier.h) with the
          * statistics this clamp always had: mean and standard deviation */
-        const ew_outlier_params fp = ew_outlier_plain_params(b->width, b->height, 2, k);
-        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, ew_harm_clamp_removed(op)};
+        const ew_outlier_params fp = ew_outlier_plain_params(t->rw, t->rh, 2, k);
+        const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, tiled && removed ? s->removed : removed};
         dev->backend->outlier_guided(dev, &fp, &fb);
         radiance = s->clamped;
+        if (tiled && removed) {
+            r = copy_rect(dev, removed, W, t->cx, t->cy, s->removed, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch,
+                          3);
+            if (r != EW_OK) return r;
+        }
     }
-    if (!ew_op_report(op, 0.05)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
 
     ew_nbg_forward f;
     f.net = net;
     f.params = s->params;
-    f.width = b->width;
-    f.height = b->height;
+    f.width = t->rw;
+    f.height = t->rh;
     f.color = b->color;
     f.albedo = b->albedo;
     f.normal = b->normal;
     f.depth = b->depth;
     f.depth_scale = b->depth_scale;
     f.band_mem = s->band;
-    f.band_rows = s->band_rows;
+    f.band_rows = ew_nbg_band_rows(net, t->rh);
     f.outputs = s->outputs;
-    progress_ctx pc = {op, 0.05, 0.6};
+    progress_ctx pc = {op, p0 + 0.05 * dp, 0.6 * dp};
     r = ew_nbg_guidenet_forward(dev, &f, band_progress, &pc);
     if (r != EW_OK) return r;
     dev->backend->nbg_guides(dev, n, net->ngrids, s->outputs);
 
     for (int g = 0; g < net->ngrids; g++) {
+        ew_bgrid_params gp;
+        ew_bgrid_params_init(&gp, t->rw, t->rh, net->rate_s[g], net->rate_d[g], 3); /* checked at commit */
         const float *guide = s->outputs + (long)g * n;
-        ew_bgrid_splat(dev, &s->grids[g], radiance, guide, s->grid);
-        ew_bgrid_slice(dev, &s->grids[g], s->grid, guide, b->out);
+        ew_bgrid_splat(dev, &gp, radiance, guide, s->grid);
+        ew_bgrid_slice(dev, &gp, s->grid, guide, b->out);
         ew_nbg_blend_args ba = {n, g, net->ngrids, s->outputs, b->out, b->sliced};
         dev->backend->nbg_blend(dev, &ba);
-        if (!ew_op_report(op, 0.65 + 0.3 * (g + 1) / net->ngrids)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+        if (!ew_op_report(op, p0 + (0.65 + 0.3 * (g + 1) / net->ngrids) * dp))
+            return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
     dev->backend->denoise_finish(dev, b); /* out = blend * (albedo + eps) */
-    return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+    const ew_image *o = ew_op_image(op, "output");
+    if (!tiled) return ew_dev_get_view(dev, b->out, 3, o, s->stage);
+    /* the core, packed where the radiance was (read by nothing now), into
+     * the output view's core (the inputs are all on the device already, so
+     * an output that is the colour view is no harm) */
+    r = copy_rect(dev, b->radiance, t->cw, 0, 0, b->out, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch, 3);
+    if (r != EW_OK) return r;
+    ew_image core = *o;
+    core.data = (char *)o->data + (long)t->cy * o->row_stride + (long)t->cx * o->pixel_stride;
+    core.width = t->cw;
+    core.height = t->ch;
+    return ew_dev_get_view(dev, b->radiance, 3, &core, s->stage);
+}
+
+static ew_result execute(ew_op *op) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    ew_denoise_buffers *b = &s->buf;
+    const int W = s->tiling.width, H = s->tiling.height;
+    const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
+    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)s->fcolor, s->stage);
+    if (r == EW_OK && s->falbedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)s->falbedo, s->stage);
+    if (r == EW_OK && s->fnormal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)s->fnormal, s->stage);
+    if (r == EW_OK && s->fdepth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)s->fdepth, s->stage);
+    if (r != EW_OK) return r;
+    /* depth normalisation as in "bgrid": the largest depth below 1e9
+     * (reduce.h) of the whole frame, computed per row on the device */
+    dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, W, H, s->fdepth, s->row_out);
+    r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)H * 2 * sizeof(double));
+    if (r != EW_OK) return r;
+    double mx = 0.0;
+    for (int y = 0; y < H; y++)
+        if (s->rows[2 * y] > mx) mx = s->rows[2 * y];
+    b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
+    const int ntiles = s->tiling.nx * s->tiling.ny;
+    for (int i = 0; i < ntiles && r == EW_OK; i++) {
+        ew_tile t;
+        ew_tile_at(&s->tiling, i, &t);
+        r = run_tile(op, &t, (double)i / ntiles, 1.0 / ntiles);
+    }
+    return r;
 }
 
 /* Designated: fields added to ew_op_type later start as 0. device_memory:

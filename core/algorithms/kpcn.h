@@ -47,6 +47,7 @@
 #include "algorithms/guidenet.h"
 #include "edgewise/edgewise.h"
 #include "kernels/kpcn.h"
+#include "src/tiling.h"
 #include "src/weights.h"
 
 #define EW_KPCN_DEFAULT_SCALES 3
@@ -158,28 +159,12 @@ size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
  * whole-frame pass (tests/unit/test_kpcn.c). */
 int ew_kpcn_halo(const ew_kpcn_net *net);
 int ew_kpcn_align(const ew_kpcn_net *net);
-#define EW_KPCN_MIN_TILE 8 /* smallest core side: below it the halo is nearly all the work */
 
-typedef struct ew_kpcn_tiling {
-    int width, height; /* the frame */
-    int tw, th;        /* core size of every tile but the last of a row / column (multiples of the alignment) */
-    int halo, align;
-    int nx, ny;
-    int rw, rh;        /* the largest region */
-} ew_kpcn_tiling;
-
-typedef struct ew_kpcn_tile {
-    int cx, cy, cw, ch; /* core: what the tile outputs */
-    int rx, ry, rw, rh; /* region: what it computes */
-} ew_kpcn_tile;
-
-/* Tiles of a w x h frame whose regions each need at most budget_floats
- * device floats (ew_kpcn_device_floats + region_extra_floats a region
- * pixel); fewest region pixels in all. One tile when the frame fits; tiles
- * of EW_KPCN_MIN_TILE when even those exceed the budget. */
+/* Tiles of a w x h frame (src/tiling.h) with kpcn's halo and alignment,
+ * each region within budget_floats device floats (ew_kpcn_device_floats +
+ * region_extra_floats a region pixel). */
 void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_floats, size_t region_extra_floats,
-                         ew_kpcn_tiling *t);
-void ew_kpcn_tile_at(const ew_kpcn_tiling *t, int i, ew_kpcn_tile *tile); /* i in [0, nx * ny) */
+                         ew_tiling *t);
 
 /* ---- training (host) ---------------------------------------------------- */
 #define EW_KPCN_LOSS_TM 0  /* L1 of the metrics' tone curve (kernels/guidenet.h ew_nbg_tm) */

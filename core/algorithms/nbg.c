@@ -33,6 +33,37 @@ size_t ew_nbg_device_floats(const ew_guidenet *net, int width, int height, size_
     return net->nparams + n * (3 * 3 + 1 + 3 * 4) + n * (size_t)net->nout + band + grid;
 }
 
+int ew_nbg_align(const ew_guidenet *net) {
+    int a = 1;
+    for (int g = 0; g < net->ngrids; g++) {
+        const float r = net->rate_s[g];
+        const int ri = (int)r;
+        if ((float)ri != r || ri < 1 || (ri & (ri - 1))) return 0;
+        if (ri > a) a = ri;
+    }
+    return a;
+}
+
+int ew_nbg_halo(const ew_guidenet *net) {
+    const int align = ew_nbg_align(net);
+    if (!align) return 0;
+    const int inputs = 2 * net->nlayers > 2 ? 2 * net->nlayers : 2;
+    const int halo = 2 * align + 1 + inputs;
+    return (halo + align - 1) / align * align;
+}
+
+size_t ew_nbg_region_floats(const ew_guidenet *net, int rw, int rh, int tiled) {
+    size_t grid = 0;
+    for (int g = 0; g < net->ngrids; g++) {
+        ew_bgrid_params gp;
+        if (!ew_bgrid_params_init(&gp, rw, rh, net->rate_s[g], net->rate_d[g], 3)) return 0;
+        if (ew_bgrid_floats(&gp) > grid) grid = ew_bgrid_floats(&gp);
+    }
+    const size_t n = (size_t)rw * (size_t)rh;
+    const size_t per_px = 3 * 4 + (size_t)net->nout + (tiled ? 3 * 3 + 1 + 3 : 0);
+    return n * per_px + ew_nbg_band_floats(net, rw, ew_nbg_band_rows(net, rh)) + grid;
+}
+
 static int imax(int a, int b) { return a > b ? a : b; }
 static int imin(int a, int b) { return a < b ? a : b; }
 

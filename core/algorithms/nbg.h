@@ -46,6 +46,26 @@ ew_result ew_nbg_guidenet_forward(ew_device *dev, const ew_nbg_forward *f, int (
  * grid. */
 size_t ew_nbg_device_floats(const ew_guidenet *net, int width, int height, size_t *grid_floats, size_t *band_floats);
 
+/* ---- tiles (src/tiling.h) ------------------------------------------------
+ * A frame above the op's max_memory_mb runs in tiles. A core pixel reads
+ * the grid cells around it, which gather the pixels within 2 x rate_s + 1
+ * of it, whose clamped radiance reads 2 pixels further (the 5x5 firefly
+ * clamp) and whose guides read 2 x nlayers further (GuideNet's 5x5
+ * layers): that is the halo, rounded up to the alignment. Region origins
+ * are multiples of every grid's rate_s, so a region's cells are the
+ * frame's cells shifted by whole cells; with rates that are powers of two
+ * the tent weights (x + 0.5) / rate_s - 0.5 - u are then the same floats
+ * and a tiled frame is the same bits as one pass. A model whose rates are
+ * not powers of two has no exact tiling: ew_nbg_align returns 0 and the op
+ * runs it whole. */
+int ew_nbg_align(const ew_guidenet *net);
+int ew_nbg_halo(const ew_guidenet *net);
+/* Device floats of one rw x rh region beyond the frame's inputs: the
+ * region's inputs when tiled, radiance, clamped radiance, blend sum, one
+ * grid's slice, the firefly clamp's removed light (when tiled), nout
+ * GuideNet outputs, one band, and the largest grid. */
+size_t ew_nbg_region_floats(const ew_guidenet *net, int rw, int rh, int tiled);
+
 /* Built-in models, by the op's "model" parameter: 0 = 2layer-3grid (the
  * default, trained on 1-64 spp), 1 = 2layer-1grid, 2 = 7layer-3grid,
  * 3 = 2layer-3grid-1spp (the same net trained on 1-spp renders only). The

@@ -174,6 +174,14 @@ size_t ew_dev_stage_floats(const ew_device *dev, size_t n, int c);
  * dst, and back; stage: ew_dev_stage_floats(dev, n, c) floats, or NULL when
  * that is 0. get waits for the result unless the view is on the device. */
 ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst, float *stage);
+/* The caller's view itself as the packed buffer of c floats a pixel, when
+ * ew_dev_put_view would only copy it: the device reads the view's memory
+ * (host memory on the CPU, device-pointer views) and it is float, c
+ * channels, packed rows. NULL otherwise, or when it overlaps `written` (a
+ * view the op writes while it still reads this one; may be NULL). The
+ * views are fixed from commit to execute (ew_op_set_image uncommits), so an
+ * op decides at commit and allocates only the buffers it needs. */
+const float *ew_dev_view_in_place(const ew_device *dev, const ew_image *img, int c, const ew_image *written);
 ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage);
 /* Launch kernel NAME of EW_KERNEL_LIST with *a, its argument struct (any
  * other struct is a compile error, and the loader refuses a CUDA module

@@ -71,6 +71,27 @@ ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst
     return dev->backend->mem_upload(dev, dst, stage, (size_t)img->width * (size_t)img->height * (size_t)c * sizeof(float));
 }
 
+/* The bytes a view spans (any signs of its strides). */
+static void view_span(const ew_image *img, const char **lo, const char **hi) {
+    const int64_t ps = ew__pixel_stride(img), rs = ew__row_stride(img);
+    const int64_t dx = (int64_t)(img->width - 1) * ps, dy = (int64_t)(img->height - 1) * rs;
+    const int64_t a = (dx < 0 ? dx : 0) + (dy < 0 ? dy : 0), b = (dx > 0 ? dx : 0) + (dy > 0 ? dy : 0);
+    *lo = (const char *)img->data + a;
+    *hi = (const char *)img->data + b + (int64_t)img->channels * (int64_t)sizeof(float);
+}
+
+const float *ew_dev_view_in_place(const ew_device *dev, const ew_image *img, int c, const ew_image *written) {
+    if (!img || !img->data || (dev->device_memory && !dev->device_images)) return NULL;
+    if (img->format != EW_FORMAT_FLOAT || img->channels != c || !ew__image_packed_as(img, c)) return NULL;
+    if (written && written->data) {
+        const char *a0, *a1, *b0, *b1;
+        view_span(img, &a0, &a1);
+        view_span(written, &b0, &b1);
+        if (a0 < b1 && b0 < a1) return NULL;
+    }
+    return (const float *)img->data;
+}
+
 ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage) {
     const ew_view_desc v = view_desc(img);
     if (!dev->device_memory || dev->device_images) {

@@ -101,6 +101,7 @@ void ew_harm_forward(const ew_op *from, ew_op *to) {
 
 typedef struct ew_harm_state {
     int w, h, cc, has_a, has_n, pre;
+    int own;        /* which of colour (1), albedo (2), normal (4) the stage packs itself (else the view in place) */
     void *dmem;
     float *col, *alb, *nrm, *a, *b, *clamped;
     float *removed; /* what the method's own firefly clamp took (ew_harm_clamp_removed), then what comes back */
@@ -124,9 +125,22 @@ static int slot(const ew_op *op, const char *name) {
     return -1;
 }
 
-/* The stage's device floats for a colour of cc channels (see the commit). */
-static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre) {
-    return n * ((size_t)cc + 3 * ((size_t)has_a + (size_t)has_n) + 3 + EW_HARM_STATS_FLOATS + (pre ? (size_t)cc : 0) + 3);
+/* The stage's device floats for a colour of cc channels (see the commit);
+ * own: which of colour, albedo, normal it packs itself. */
+static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own) {
+    return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
+                EW_HARM_STATS_FLOATS + (pre ? (size_t)cc : 0) + 3);
+}
+
+/* Colour, albedo and normal read from the caller's views where they are
+ * (ew_dev_view_in_place; the colour only when the output does not overlap
+ * it: the stage reads the colour again after the method wrote the output). */
+static int views_in_place(const ew_op *op, int cc, const float *in[3]) {
+    const ew_image *o = ew_op_image(op, "output");
+    in[0] = ew_dev_view_in_place(op->dev, ew_op_image(op, "color"), cc, o);
+    in[1] = ew_dev_view_in_place(op->dev, ew_op_image(op, "albedo"), 3, o);
+    in[2] = ew_dev_view_in_place(op->dev, ew_op_image(op, "normal"), 3, o);
+    return (in[0] ? 0 : 1) | (in[1] ? 0 : 2) | (in[2] ? 0 : 4);
 }
 
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
@@ -134,7 +148,7 @@ uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     if (!has_stage(op->type) || op->type->stage_in_inner || (!pre && !post)) return 0;
     const size_t n = (size_t)w * (size_t)h, stage = ew_dev_stage_floats(op->dev, n, 4);
     /* an RGBA colour with albedo and normal: the most the commit takes */
-    return (uint64_t)stage_floats(n, 4, 1, 1, pre) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    return (uint64_t)stage_floats(n, 4, 1, 1, pre, 7) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
            (uint64_t)(stage + (pre ? stage : 0)) * sizeof(float);
 }
 
@@ -151,15 +165,22 @@ ew_result ew_harm_commit(ew_op *op) {
     const int w = c->width, h = c->height, cc = c->channels;
     const int has_a = slot(op, "albedo") >= 0 && op->images[slot(op, "albedo")].channels >= 3;
     const int has_n = slot(op, "normal") >= 0 && op->images[slot(op, "normal")].channels >= 3;
+    const float *in[3];
+    const int own = views_in_place(op, cc, in);
     ew_harm_state *s = (ew_harm_state *)op->harm;
-    if (s && s->w == w && s->h == h && s->cc == cc && s->has_a == has_a && s->has_n == has_n && s->pre == pre)
+    if (s && s->w == w && s->h == h && s->cc == cc && s->has_a == has_a && s->has_n == has_n && s->pre == pre &&
+        s->own == own) {
+        if (!(own & 1)) s->col = (float *)in[0];
+        if (has_a && !(own & 2)) s->alb = (float *)in[1];
+        if (has_n && !(own & 4)) s->nrm = (float *)in[2];
         return EW_OK;
+    }
     ew_harm_release(op);
     const size_t n = (size_t)w * (size_t)h;
-    /* col (cc), albedo, normal, a (radiance, then the method's output), b
-     * (rejected radiance, then the residual statistics, then the spread's
-     * row sums), clamped (cc), removed (3) */
-    const size_t floats = stage_floats(n, cc, has_a, has_n, pre);
+    /* col (cc), albedo, normal (those not read in place), a (radiance, then
+     * the method's output), b (rejected radiance, then the residual
+     * statistics, then the spread's row sums), clamped (cc), removed (3) */
+    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
     const size_t hclamp = pre ? stage : 0;
@@ -175,14 +196,15 @@ ew_result ew_harm_commit(ew_op *op) {
     s->has_a = has_a;
     s->has_n = has_n;
     s->pre = pre;
+    s->own = own;
     s->rows = s->host;
     s->stage = stage ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->hclamp = hclamp ? s->stage + stage : NULL;
     s->row_out = (double *)s->dmem;
     float *m = (float *)(void *)((char *)s->dmem + row_bytes);
-    s->col = m; m += n * (size_t)cc;
-    s->alb = has_a ? m : NULL; m += has_a ? n * 3 : 0;
-    s->nrm = has_n ? m : NULL; m += has_n ? n * 3 : 0;
+    s->col = own & 1 ? m : (float *)in[0]; m += own & 1 ? n * (size_t)cc : 0;
+    s->alb = !has_a ? NULL : own & 2 ? m : (float *)in[1]; m += has_a && (own & 2) ? n * 3 : 0;
+    s->nrm = !has_n ? NULL : own & 4 ? m : (float *)in[2]; m += has_n && (own & 4) ? n * 3 : 0;
     s->a = m; m += n * 3;
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
     s->clamped = pre ? m : NULL; m += pre ? n * (size_t)cc : 0;
@@ -263,9 +285,9 @@ ew_result ew_harm_execute(ew_op *op) {
     ew_harm_state *s = (ew_harm_state *)op->harm;
     ew_device *dev = op->dev;
     const int ci = slot(op, "color");
-    ew_result r = ew_dev_put_view(dev, &op->images[ci], s->cc, s->col, s->stage);
-    if (r == EW_OK && s->alb) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, s->alb, s->stage);
-    if (r == EW_OK && s->nrm) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, s->nrm, s->stage);
+    ew_result r = s->own & 1 ? ew_dev_put_view(dev, &op->images[ci], s->cc, s->col, s->stage) : EW_OK;
+    if (r == EW_OK && s->alb && (s->own & 2)) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, s->alb, s->stage);
+    if (r == EW_OK && s->nrm && (s->own & 4)) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, s->nrm, s->stage);
     if (r != EW_OK) return r;
     ew_harm_args ha;
     memset(&ha, 0, sizeof ha);

@@ -729,13 +729,13 @@ static void tiling_plan_case(const char *arch) {
     for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++)
         for (size_t bi = 0; bi < sizeof budgets / sizeof budgets[0]; bi++) {
             const int w = sizes[si][0], h = sizes[si][1];
-            ew_kpcn_tiling t;
+            ew_tiling t;
             ew_kpcn_tiling_plan(&net, w, h, budgets[bi], 3, &t);
             unsigned char *cover = calloc((size_t)w * h, 1);
             int ok = 1;
             for (int i = 0; i < t.nx * t.ny; i++) {
-                ew_kpcn_tile c;
-                ew_kpcn_tile_at(&t, i, &c);
+                ew_tile c;
+                ew_tile_at(&t, i, &c);
                 ok &= c.cx % A == 0 && c.cy % A == 0 && c.rx % A == 0 && c.ry % A == 0 && c.cw > 0 && c.ch > 0;
                 ok &= c.rx == (c.cx > HALO ? c.cx - HALO : 0);
                 ok &= c.ry == (c.cy > HALO ? c.cy - HALO : 0);
@@ -748,7 +748,7 @@ static void tiling_plan_case(const char *arch) {
             for (long j = 0; ok && j < (long)w * h; j++) ok = cover[j] == 1;
             free(cover);
             const size_t need = ew_kpcn_device_floats(&net, t.rw, t.rh) + 3 * (size_t)t.rw * t.rh;
-            const int smallest = t.tw <= EW_KPCN_MIN_TILE || t.th <= EW_KPCN_MIN_TILE;
+            const int smallest = t.tw <= EW_TILE_MIN || t.th <= EW_TILE_MIN;
             if (!ok || (need > budgets[bi] && !smallest))
                 fprintf(stderr, "  %dx%d budget %zu: %dx%d tiles of %dx%d, region %dx%d (%zu floats)\n", w, h,
                         budgets[bi], t.nx, t.ny, t.tw, t.th, t.rw, t.rh, need);

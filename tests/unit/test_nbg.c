@@ -5,6 +5,7 @@
 #include "ew_test.h"
 
 #include <stdlib.h>
+#include <string.h>
 
 #include "algorithms/guidenet.h"
 #include "algorithms/nbg.h"
@@ -316,4 +317,173 @@ TEST(tiny_images_and_aliased_output) {
     }
     ew_device_destroy(dev);
     free(w);
+}
+
+/* Run nbg with weights (NULL: the built-in default) under a memory budget;
+ * the output goes to im->out; *what gets ew_denoiser_describe. */
+static ew_result run_budget(ew_device *dev, images *im, const void *weights, size_t size, int budget_mb, char *what,
+                            size_t len) {
+    ew_denoiser *d = NULL;
+    ew_image c = ew_image_packed(im->color, im->w, im->h, 3), a = ew_image_packed(im->albedo, im->w, im->h, 3);
+    ew_image n = ew_image_packed(im->normal, im->w, im->h, 3), z = ew_image_packed(im->depth, im->w, im->h, 1);
+    ew_image o = ew_image_packed(im->out, im->w, im->h, 3);
+    ew_result r = ew_denoiser_create(dev, "nbg", &d);
+    if (r == EW_OK && weights) r = ew_denoiser_set_data(d, "weights", weights, size);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", &a);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", &n);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    snprintf(what, len, "%s", r == EW_OK ? ew_denoiser_describe(d) : "");
+    ew_denoiser_destroy(d);
+    return r;
+}
+
+/* Weights of a random net whose grids have the given spatial rates. */
+static void *weights_with_rates(const char *arch, const float *rates, size_t *size) {
+    ew_guidenet net;
+    char err[128];
+    if (ew_guidenet_init(&net, arch, err, sizeof err)) return NULL;
+    for (int g = 0; g < net.ngrids; g++) net.rate_s[g] = net.rate_d[g] = rates[g];
+    float *p = malloc(sizeof(float) * net.nparams);
+    ew_guidenet_random(&net, 21, p);
+    const ew_gn_layer *L = &net.layers[net.nlayers - 1];
+    for (size_t i = 0; i < (size_t)L->cin * L->cout * 25; i++) p[L->w_off + i] *= 10.0f;
+    void *bytes = NULL;
+    ew_guidenet_save(&net, p, &bytes, size);
+    free(p);
+    return bytes;
+}
+
+/* A frame larger than its tiles (tiles of three widths and two heights, a
+ * firefly on a seam, a far background in one corner: the depth scale and
+ * the clamp's removed light come from the whole frame) gives the same bits
+ * tiled as in one pass, with the do-no-harm stage around it as a user runs
+ * it; also with the output written over the colour view. */
+static void tiles_case(const void *weights, size_t size, const char *name, int alias) {
+    images im;
+    images_make(&im, 613, 587, 31);
+    const long n3 = 613L * 587 * 3;
+    for (int y = 0; y < 40; y++)
+        for (int x = 0; x < 50; x++) im.depth[(long)y * 613 + x] = 1e10f;
+    im.color[(250L * 613 + 257) * 3 + 1] = 800.0f;
+    im.color[(300L * 613 + 100) * 3] = 300.0f;
+    float *color0 = malloc(sizeof(float) * n3), *whole = malloc(sizeof(float) * n3);
+    memcpy(color0, im.color, sizeof(float) * n3);
+    ew_device *dev = make_device(2);
+    char what_whole[128], what_tiled[128];
+    if (alias) {
+        free(im.out);
+        im.out = im.color;
+    }
+    CHECK_EQ_INT(run_budget(dev, &im, weights, size, 1024, what_whole, sizeof what_whole), EW_OK);
+    memcpy(whole, im.out, sizeof(float) * n3);
+    memcpy(im.color, color0, sizeof(float) * n3);
+    CHECK_EQ_INT(run_budget(dev, &im, weights, size, 1, what_tiled, sizeof what_tiled), EW_OK); /* smallest tiles */
+    fprintf(stderr, "  %s%s untiled: %s; tiled: %s\n", name, alias ? " (output over the colour)" : "", what_whole,
+            what_tiled);
+    CHECK(strstr(what_whole, "tiles") == NULL);
+    CHECK_STR_CONTAINS(what_tiled, "x2 tiles"); /* seams across and down; 3x2 at this size */
+    long differ = 0, first = 0;
+    for (long i = 0; i < n3; i++)
+        if (memcmp(&whole[i], &im.out[i], sizeof(float)) != 0 && differ++ == 0) first = i;
+    if (differ)
+        fprintf(stderr, "  %ld values differ, first at pixel (%ld, %ld): %.9g tiled vs %.9g\n", differ, first / 3 % 613,
+                first / 3 / 613, (double)im.out[first], (double)whole[first]);
+    CHECK(differ == 0);
+    if (alias) im.out = malloc(1);
+    images_free(&im);
+    free(color0);
+    free(whole);
+    ew_device_destroy(dev);
+}
+
+TEST(tiles_give_the_untiled_output) {
+    tiles_case(NULL, 0, "2layer-3grid (built in, rates 8/16/32)", 0);
+    size_t size;
+    void *w = random_weights("7layer-3grid", 5, &size); /* rates 4/8/16, a 14-pixel GuideNet reach */
+    tiles_case(w, size, "7layer-3grid", 0);
+    tiles_case(w, size, "7layer-3grid", 1);
+    free(w);
+    const float one[1] = {8.0f};
+    w = weights_with_rates("2layer-1grid", one, &size);
+    tiles_case(w, size, "2layer-1grid", 0);
+    free(w);
+}
+
+/* Rates that are not powers of two have no exact tiling: such a model
+ * runs whole whatever the budget. */
+TEST(rates_without_an_exact_tiling_run_whole) {
+    const float rates[3] = {6.0f, 12.0f, 24.0f};
+    size_t size;
+    void *w = weights_with_rates("2layer-3grid", rates, &size);
+    images im;
+    images_make(&im, 400, 300, 8);
+    ew_device *dev = make_device(2);
+    char what[128];
+    CHECK_EQ_INT(run_budget(dev, &im, w, size, 1, what, sizeof what), EW_OK);
+    CHECK(strstr(what, "tiles") == NULL);
+    ew_device_destroy(dev);
+    images_free(&im);
+    free(w);
+}
+
+/* The op and its do-no-harm stage read packed float views in place
+ * (colour, albedo, normal, depth) and copy any other layout: both give the
+ * same bits, tiled and whole. */
+TEST(views_read_in_place_give_the_copies_output) {
+    images im;
+    enum { W = 613, H = 500 };
+    images_make(&im, W, H, 17);
+    const long n = (long)W * H;
+    im.color[(100L * W + 258) * 3] = 400.0f;
+    float *c4 = malloc(sizeof(float) * n * 4), *a4 = malloc(sizeof(float) * n * 4), *n4 = malloc(sizeof(float) * n * 4);
+    float *z2 = malloc(sizeof(float) * n * 2), *ref = malloc(sizeof(float) * n * 3);
+    for (long j = 0; j < n; j++) {
+        for (int k = 0; k < 3; k++) {
+            c4[j * 4 + k] = im.color[j * 3 + k];
+            a4[j * 4 + k] = im.albedo[j * 3 + k];
+            n4[j * 4 + k] = im.normal[j * 3 + k];
+        }
+        c4[j * 4 + 3] = a4[j * 4 + 3] = n4[j * 4 + 3] = -7.0f;
+        z2[j * 2] = im.depth[j];
+        z2[j * 2 + 1] = -7.0f;
+    }
+    ew_device *dev = make_device(2);
+    for (int budget = 1024; budget >= 1; budget /= 1024) {
+        char what[2][128];
+        CHECK_EQ_INT(run_budget(dev, &im, NULL, 0, budget, what[0], sizeof what[0]), EW_OK);
+        memcpy(ref, im.out, sizeof(float) * n * 3);
+        /* the same pixels, 4 floats apart (2 for the depth): copied */
+        ew_denoiser *d = NULL;
+        ew_image c = ew_image_packed(c4, W, H, 3), a = ew_image_packed(a4, W, H, 3);
+        ew_image nv = ew_image_packed(n4, W, H, 3), z = ew_image_packed(z2, W, H, 1);
+        c.pixel_stride = a.pixel_stride = nv.pixel_stride = 16;
+        z.pixel_stride = 8;
+        c.row_stride = a.row_stride = nv.row_stride = 16 * W;
+        z.row_stride = 8 * W;
+        ew_image o = ew_image_packed(im.out, W, H, 3);
+        memset(im.out, 0, sizeof(float) * n * 3);
+        CHECK(ew_denoiser_create(dev, "nbg", &d) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "normal", &nv) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+        CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget) == EW_OK);
+        CHECK(ew_denoiser_commit(d) == EW_OK);
+        CHECK(ew_denoiser_execute(d) == EW_OK);
+        snprintf(what[1], sizeof what[1], "%s", ew_denoiser_describe(d));
+        ew_denoiser_destroy(d);
+        fprintf(stderr, "  budget %d MiB: %s / %s\n", budget, what[0], what[1]);
+        CHECK(strcmp(what[0], what[1]) == 0);
+        if (budget == 1) CHECK_STR_CONTAINS(what[1], "tiles");
+        CHECK(memcmp(ref, im.out, sizeof(float) * n * 3) == 0);
+    }
+    ew_device_destroy(dev);
+    images_free(&im);
+    free(c4); free(a4); free(n4); free(z2); free(ref);
 }
