@@ -147,8 +147,16 @@ uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     const int pre = ew_op_param(op, "outlier_k") > 0.0f, post = ew_op_param(op, "do_no_harm") != 0.0f;
     if (!has_stage(op->type) || op->type->stage_in_inner || (!pre && !post)) return 0;
     const size_t n = (size_t)w * (size_t)h, stage = ew_dev_stage_floats(op->dev, n, 4);
-    /* an RGBA colour with albedo and normal: the most the commit takes */
-    return (uint64_t)stage_floats(n, 4, 1, 1, pre, 7) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    /* an RGBA colour with albedo and normal: the most the commit takes;
+     * with the views of that size set, what they make it take */
+    const ew_image *c = ew_op_image(op, "color");
+    int own = 7, cc = 4;
+    if (c && c->width == w && c->height == h) {
+        const float *in[3];
+        cc = c->channels;
+        own = views_in_place(op, cc, in);
+    }
+    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
            (uint64_t)(stage + (pre ? stage : 0)) * sizeof(float);
 }
 

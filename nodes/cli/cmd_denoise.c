@@ -358,6 +358,24 @@ static void make_spec(const job *j, const char *method, ew_method_spec *spec) {
 }
 
 /* Denoise one layer in memory and put the result back into the file. */
+
+/* A pass the CLI holds a copy of while the method runs. */
+typedef struct {
+    const char *pass, *comps;
+    const float *data;
+} feature_passes;
+
+/* The feature passes of lp copied into in (albedo, normal, depth, the
+ * motion vectors' XY), at most 4. */
+static int layer_features(const ew_layer_passes *lp, const ew_layer_data *in, feature_passes fp[4]) {
+    int n = 0;
+    if (in->albedo) fp[n++] = (feature_passes){lp->albedo, "RGB", in->albedo};
+    if (in->normal) fp[n++] = (feature_passes){lp->normal, "XYZ", in->normal};
+    if (in->depth) fp[n++] = (feature_passes){lp->depth, "Z", in->depth};
+    if (in->vector) fp[n++] = (feature_passes){"Vector", "XY", in->vector};
+    return n;
+}
+
 static int denoise_layer(job *j, const ew_layer_passes *lp) {
     const int w = ewio_width(j->f), h = ewio_height(j->f);
     const char *layer = lp->layer;
@@ -416,6 +434,13 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         free(in.depth);
         in.albedo = in.normal = in.depth = NULL;
     }
+    /* the features are copied into `in` too, and go back into the file from
+     * there, the same floats, before it is written: the file need not hold
+     * them twice while the method works */
+    feature_passes fp[4];
+    const int nfp = layer_features(lp, &in, fp);
+    for (int k = 0; k < nfp; k++) ewio_release_pass(j->f, layer, fp[k].pass, fp[k].comps);
+    cli_return_freed_memory();
     ew_method_spec spec;
     char chosen[200] = "";
     make_spec(j, method, &spec);
@@ -437,7 +462,15 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     cli_progress_end(&prog);
     const int guided = in.albedo != NULL;
     const int has_nd = in.normal && in.depth, has_n = in.normal != NULL, has_d = in.depth != NULL;
+    char back_err[256] = "";
+    int back = 0;
+    for (int k = 0; k < nfp && back == 0; k++)
+        back = ewio_set_pass(j->f, layer, fp[k].pass, fp[k].comps, fp[k].data, back_err, sizeof back_err);
     ew_layer_data_free(&in);
+    if (back != 0 && !bad) {
+        free(orig);
+        return cli_fail("%s", back_err);
+    }
     if (bad) {
         free(orig);
         return cli_fail("denoising layer '%s' failed: %s", layer, j->err);
