@@ -56,6 +56,7 @@
 #define HARM_BLEND_THETA_N 0.2f   /* ... no blend from it while D is below 0.2 of R (1 spp: random) */
 #define HARM_QUIET_NOISE 0.007    /* a frame of noise level (EW_REDUCE_NOISE) up to this: theta_n 0 ... */
 #define HARM_NOISY_NOISE 0.011    /* ... from this: theta_n as above, in between a ramp */
+#define HARM_QUIET_KAPPA 0.85f    /* on a quiet frame a share of H is the method's own error */
 #define HARM_REJECT_KEEP 0.75     /* a rejection that took more of the frame's mean runs again */
 #define HARM_GIVE_RADIUS 24       /* clamped light comes back over 49x49 pixels */
 #define HARM_GIVE_LIMIT 30.0      /* a pixel gives back at most 30x the output frame's mean luminance */
@@ -252,7 +253,11 @@ static ew_result frame_noise(ew_harm_state *s, ew_device *dev, const float *buf,
  * scatters; on a quiet frame (16-64 spp) the ratio is steady and every bit
  * of the method's error it reads is worth blending away. On the 11 training
  * scenes, theta_n 0 on every frame gained 0.1-0.6 dB on the frames below
- * 0.009 and lost 0.1-1.8 dB on those above 0.010 (1 spp is 0.011-0.11). */
+ * 0.009 and lost 0.1-1.8 dB on those above 0.010 (1 spp is 0.011-0.11).
+ * On a quiet frame the residual's Haar detail H is not all noise: a grid
+ * method's error at the scale of one pixel (an edge it moved) passes into
+ * it too, so D is R - kappa H with kappa 0.85 there (0.7 cost kpcn 0.24 dB
+ * at 64 spp; 0.85 lifts bgrid's worst training scene 0.5 dB for 0.05). */
 static float quietness(double noise) {
     const double t = (HARM_NOISY_NOISE - noise) / (HARM_NOISY_NOISE - HARM_QUIET_NOISE);
     return (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
@@ -320,6 +325,7 @@ ew_result ew_harm_execute(ew_op *op) {
     const float quiet = quietness(noise);
     ha.theta_n = HARM_BLEND_THETA_N * (1.0f - quiet);
     ha.tone_share = quiet;
+    ha.kappa = HARM_BLEND_KAPPA - (HARM_BLEND_KAPPA - HARM_QUIET_KAPPA) * quiet;
     const ew_image saved = op->images[ci];
     if (s->pre) {
         r = reject(op, s, &ha);
