@@ -15,6 +15,9 @@
  *      sample hundreds of times brighter than everything around it, whose
  *      energy the frame would otherwise over-represent by orders of
  *      magnitude (one such sample at 4 spp lifted a frame's mean to 1.7x).
+ *      A filter used as a denoiser then gets the denoisers' own firefly
+ *      clamp too (mean + 3 sigma, kernels/outlier.h), which it lacks: its
+ *      colour edge-stopping keeps a bright sample where it is.
  *   2. the do-no-harm blend after it (parameter do_no_harm): output = input
  *      + alpha (output - input), alpha = 1 - C / R from the residual's
  *      energy R and its neighbour correlation C over a window
@@ -23,7 +26,8 @@
  *      firefly does not come back.
  *   3. energy return: the light the clamps took (step 1's, at most twice
  *      what it left, and all that the method's own firefly_k clamp took,
- *      recorded through ew_harm_clamp_removed) is given back over a 49x49
+ *      recorded through ew_harm_clamp_removed, or the stage's firefly clamp
+ *      for a filter) is given back over a 49x49
  *      window in proportion to the output there (kernels/harm.h). The
  *      method still reads the clamped colour it was trained on (kpcn's
  *      input preparation is unchanged); the frame keeps its mean.
@@ -62,6 +66,7 @@
 #define HARM_GIVE_LIMIT 30.0      /* a pixel gives back at most 30x the output frame's mean luminance */
 #define HARM_GIVE_CAP 2.0f        /* of the rejection's share: at most 2x the luminance it left */
 #define HARM_GIVE_GAIN 0.5f       /* and no pixel grows by more than half */
+#define HARM_FIREFLY_K 3.0f       /* the denoisers' firefly_k default, for a method without that clamp */
 #define HARM_TAKE_FLOOR 0.1        /* of the rejection's share: at most 2x the luminance it left */
 
 static const ew_param_desc stage_on[] = {
@@ -105,7 +110,9 @@ typedef struct ew_harm_state {
     int own;        /* which of colour (1), albedo (2), normal (4) the stage packs itself (else the view in place) */
     void *dmem;
     float *col, *alb, *nrm, *a, *b, *clamped;
-    float *removed; /* what the method's own firefly clamp took (ew_harm_clamp_removed), then what comes back */
+    float *fed;     /* the colour the method reads: clamped, or (pre 2) that after the firefly clamp too */
+    float *removed; /* what the firefly clamp took (the method's own through ew_harm_clamp_removed, or the
+                       stage's for a filter), then what comes back */
     double *row_out;
     float *stage;   /* host staging for views, or NULL */
     float *hclamp;  /* host copy of the clamped colour handed to a method on a device with memory of its own */
@@ -130,7 +137,7 @@ static int slot(const ew_op *op, const char *name) {
  * own: which of colour, albedo, normal it packs itself. */
 static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own) {
     return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
-                EW_HARM_STATS_FLOATS + (pre ? (size_t)cc : 0) + 3);
+                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)cc + 3);
 }
 
 /* Colour, albedo and normal read from the caller's views where they are
@@ -144,8 +151,16 @@ static int views_in_place(const ew_op *op, int cc, const float *in[3]) {
     return (in[0] ? 0 : 1) | (in[1] ? 0 : 2) | (in[2] ? 0 : 4);
 }
 
+/* What runs before the method: 0 nothing, 1 the rejection, 2 the rejection
+ * and then the denoisers' own firefly clamp (a method without one of its
+ * own: a filter used as a denoiser). */
+static int pre_steps(const ew_op *op) {
+    if (!(ew_op_param(op, "outlier_k") > 0.0f)) return 0;
+    return strcmp(op->type->kind, "denoiser") ? 2 : 1;
+}
+
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
-    const int pre = ew_op_param(op, "outlier_k") > 0.0f, post = ew_op_param(op, "do_no_harm") != 0.0f;
+    const int pre = pre_steps(op), post = ew_op_param(op, "do_no_harm") != 0.0f;
     if (!has_stage(op->type) || op->type->stage_in_inner || (!pre && !post)) return 0;
     const size_t n = (size_t)w * (size_t)h, stage = ew_dev_stage_floats(op->dev, n, 4);
     /* an RGBA colour with albedo and normal: the most the commit takes;
@@ -164,7 +179,7 @@ uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
 ew_result ew_harm_commit(ew_op *op) {
     ew_device *dev = op->dev;
     const int ci = slot(op, "color"), oi = slot(op, "output");
-    const int pre = ew_op_param(op, "outlier_k") > 0.0f, post = ew_op_param(op, "do_no_harm") != 0.0f;
+    const int pre = pre_steps(op), post = ew_op_param(op, "do_no_harm") != 0.0f;
     if (!has_stage(op->type) || op->type->stage_in_inner || ci < 0 || oi < 0 || (!pre && !post) ||
         op->images[ci].channels < 3 || op->images[oi].channels < 3) {
         ew_harm_release(op);
@@ -192,7 +207,7 @@ ew_result ew_harm_commit(ew_op *op) {
     const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
-    const size_t hclamp = pre ? stage : 0;
+    const size_t hclamp = pre ? stage : 0; /* the colour the method reads */
     s = (ew_harm_state *)calloc(1, sizeof *s + row_bytes + (stage + hclamp) * sizeof(float));
     if (s) s->dmem = ew_dev_alloc(dev, row_bytes + floats * sizeof(float));
     op->harm = s;
@@ -217,6 +232,7 @@ ew_result ew_harm_commit(ew_op *op) {
     s->a = m; m += n * 3;
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
     s->clamped = pre ? m : NULL; m += pre ? n * (size_t)cc : 0;
+    s->fed = pre == 2 ? m : s->clamped; m += pre == 2 ? n * (size_t)cc : 0;
     s->removed = m;
     return EW_OK;
 }
@@ -285,7 +301,27 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
         if (pass == 2 || (r = frame_mean(s, dev, s->b, &left)) != EW_OK || left >= HARM_REJECT_KEEP * mean) break;
         mean = left;
     }
-    if (r == EW_OK) dev->backend->harm(dev, EW_HARM_REMOD, ha);
+    if (r != EW_OK) return r;
+    dev->backend->harm(dev, EW_HARM_REMOD, ha);
+    if (s->pre == 2) {
+        /* then the denoisers' own firefly clamp (kernels/outlier.h: mean +
+         * 3 sigma of the 5x5 window, no features) on the rejected radiance,
+         * for a method that has none: a filter keeps an isolated bright
+         * sample where it is (its colour edge-stopping sees an edge all
+         * around it), so what the rejection left in a dark region at 1-4
+         * spp, 16x the frame's mean radiance, came out at 15-26x the
+         * reference's local maximum. What it takes comes back after the
+         * method as the denoisers' clamp's does (step 3). */
+        const ew_outlier_params fp = ew_outlier_plain_params(s->w, s->h, 2, HARM_FIREFLY_K);
+        const ew_outlier_buffers fb = {s->b, NULL, NULL, s->a, 3, s->removed};
+        dev->backend->outlier_guided(dev, &fp, &fb);
+        ew_harm_args hf = *ha;
+        hf.color = s->clamped;
+        hf.radiance = s->b;
+        hf.rejected = s->a;
+        hf.clamped = s->fed;
+        dev->backend->harm(dev, EW_HARM_REMOD, &hf);
+    }
     return r;
 }
 
@@ -332,15 +368,17 @@ ew_result ew_harm_execute(ew_op *op) {
         if (r != EW_OK) return r;
         /* the method reads the clamped colour where it reads views from */
         if (s->hclamp) {
-            r = dev->backend->mem_download(dev, s->hclamp, s->clamped, (size_t)s->w * s->h * s->cc * sizeof(float));
+            r = dev->backend->mem_download(dev, s->hclamp, s->fed, (size_t)s->w * s->h * s->cc * sizeof(float));
             if (r != EW_OK) return r;
             op->images[ci] = ew_image_packed(s->hclamp, s->w, s->h, s->cc);
         } else {
-            op->images[ci] = ew_image_packed(s->clamped, s->w, s->h, s->cc);
+            op->images[ci] = ew_image_packed(s->fed, s->w, s->h, s->cc);
         }
     }
-    r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
-    if (r != EW_OK) return r;
+    if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
+        r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
+        if (r != EW_OK) return r;
+    }
     r = op->type->execute(op);
     op->images[ci] = saved;
     if (r != EW_OK) return r;

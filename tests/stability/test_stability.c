@@ -458,17 +458,24 @@ TEST(frame_8k) {
  * issue's targets above are not met (BENCHMARKS.md lists them). Checked:
  * the stage never makes a method worse — output - input at least the
  * stage-off figure - 0.1 dB; on the firefly render no peak above the
- * input's own, and at 64 spp the mean within 0.85-1.10; and at 16 spp
- * every method at least as good as its input. */
+ * input's own nor above 10x the reference's local maximum (15x at 4 spp,
+ * below), and at 64 spp the mean within 0.85-1.10; and at 16 spp every
+ * method at least as good as its input. The filters used as denoisers came
+ * out at 26x at 4 spp and 16x at 64 spp before the stage gave them the
+ * denoisers' firefly clamp (now <= 4.7x at 1, 16 and 64 spp); at 4 spp two
+ * adjacent bright samples, each inside the other's mean + 3 sigma, still
+ * come out at 13.5-13.7x through pyramid, bilateral and separable (atrous
+ * 7.7x, the denoisers <= 7x): printed as "target missed". */
 
 static int is_denoising(const ew_method_spec *s) {
     return s->kind && (!strcmp(s->kind, "denoiser") || (strcmp(s->name, "dof") && strcmp(s->name, "outlier")));
 }
 
 /* One committed render at one sample count, every denoising method with
- * and without the stage. firefly: check the energy and the peaks; else
- * check output - input against `margin` dB; must_meet: check the target
- * too. Returns the failures. */
+ * and without the stage. firefly: check the peaks against `margin` (x the
+ * reference's local maximum) and the energy; else check output - input
+ * against `margin` dB; must_meet: check the target (the energy, or the
+ * margin) too. Returns the failures. */
 static int harm_case(const char *scene, int spp, int firefly, double margin, int must_meet) {
     collect();
     const char *root = getenv("EW_STABILITY_DATA");
@@ -523,7 +530,7 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
         if (firefly) {
             const int energy = fig[1][0] >= 0.85 && fig[1][0] <= 1.10;
             target = energy && fig[1][1] <= 10.0;
-            ok = fig[1][1] <= in_peak && (!check || energy);
+            ok = fig[1][1] <= margin && fig[1][1] <= in_peak && (!check || energy);
             fprintf(stderr, "    %-10s lum %.3fx peak %7.2fx   (stage off: lum %.3fx peak %7.2fx)%s%s\n",
                     all_specs[m].label, fig[1][0], fig[1][1], fig[0][0], fig[0][1], target ? "" : "  target missed",
                     ok ? "" : "  FAIL");
@@ -542,12 +549,12 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
     return fails;
 }
 
-TEST(firefly_energy_1spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 1, 1, 0.0, 0), 0); }
-TEST(firefly_energy_4spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 4, 1, 0.0, 0), 0); }
-TEST(firefly_energy_16spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 16, 1, 0.0, 0), 0); }
+TEST(firefly_energy_1spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 1, 1, 10.0, 0), 0); }
+TEST(firefly_energy_4spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 4, 1, 15.0, 0), 0); }
+TEST(firefly_energy_16spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 16, 1, 10.0, 0), 0); }
 /* 64 spp: the mean within 0.85-1.10 checked (the clamps' light given back;
  * 0.75-0.84 before) */
-TEST(firefly_energy_64spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 64, 1, 0.0, 1), 0); }
+TEST(firefly_energy_64spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 64, 1, 10.0, 1), 0); }
 /* 16 spp: every method at least as good as its input; 64 spp: within 0.2
  * dB of it (checked; before the blend's quiet-frame estimate bgrid and nbg
  * were at -0.82 dB on f_motionblur_1, now -0.04 and +0.07) */
