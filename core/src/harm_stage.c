@@ -85,7 +85,9 @@ static const ew_param_desc stage_off[] = {
      "input by more than the input's noise explains; 0 (default): the filter's output as it is"},
     {"outlier_k", EW_PARAM_FLOAT, 0.0f, 0.0f, 1000.0f,
      "when the filter is used as a denoiser: before it, scale isolated extreme samples (fireflies) down to "
-     "the median + k spreads of their neighbours (8 is the denoisers' default); 0 (default) turns it off"},
+     "the median + k spreads of their neighbours (8 is the denoisers' default), then clamp what is left as the "
+     "denoisers do (above the 5x5 mean + 3 standard deviations), giving the light back after the filter; 0 "
+     "(default) turns it off"},
 };
 #define STAGE_PARAMS ((int)(sizeof stage_on / sizeof stage_on[0]))
 
