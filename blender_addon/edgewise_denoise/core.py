@@ -526,11 +526,20 @@ def denoise_frame(passes, settings, frame, history=None, progress=None, ew=None)
         return single, ran
     # accumulated demodulated, as the denoisers work: the library's own
     # demodulate/remodulate nodes, so the add-on has no copy of the formula
-    # or its epsilon
+    # or its epsilon. The albedo divided out and multiplied back is itself
+    # accumulated along the vectors (its own stream, the colour's settings):
+    # kpcn-large remodulates by an albedo it filtered, so dividing its output
+    # by the frame's raw albedo and multiplying the accumulation by that raw
+    # albedo again would put the raw albedo's few-spp noise back (0.3-0.6 dB
+    # below per-frame denoising at 4 spp in tests/blender/test_addon_anim.py);
+    # the accumulated albedo keeps the texture and changes little from one
+    # frame to the next.
     albedo = passes.get("albedo")
     base = single[:, :, :3]
     if albedo is not None:
         albedo = np.ascontiguousarray(np.asarray(albedo, np.float32)[:, :, :3])
+        albedo = history.accumulate(frame, albedo, passes.get("normal"), _depth(passes.get("depth")),
+                                    passes["vector"], stream="albedo", **TEMPORAL_PARAMS)
         base = ew.run_node("demodulate", color=np.ascontiguousarray(base), albedo=albedo)
     acc = history.accumulate(frame, base, passes.get("normal"), _depth(passes.get("depth")), passes["vector"],
                              **TEMPORAL_PARAMS)

@@ -15,11 +15,11 @@
  *   3 (33-)       bgrid finest grid              finest grid (2, 4, 4; 0.9)
  *
  * The "quality" parameter says how far up the ladder it may climb: fast is
- * the table above; balanced, the default, runs the kernel-predicting network
- * kpcn-large (24 channels, four scales) at levels 1 to 3, where it measured
- * better by 0.7-1.0 dB for 2-3x the fast rungs' time; high runs it at every
- * level, also at 1-2 spp where it measured only 0.2-0.3 dB better (the rows
- * below).
+ * the table above; balanced, the default, and high run the kernel-predicting
+ * network kpcn-large (24 channels, four scales, a learned remodulation) at
+ * every level, where it measured 0.6-2.6 dB better than the fast rungs for
+ * about 3x their time (the rows below). The two differ only in the table's
+ * history: high was the first to take kpcn-large down to 1-2 spp.
  * Without albedo, normal and depth every quality is the grid.
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
@@ -60,9 +60,9 @@ static const ew_image_desc images[] = {
 static const ew_param_desc params[] = {
     {"samples", EW_PARAM_INT, 0.0f, 0.0f, 16777216.0f, "samples per pixel of the render (0: unknown, estimate the noise)"},
     {"quality", EW_PARAM_INT, 1.0f, 0.0f, 2.0f,
-     "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn-large at "
-     "3 spp and up, where it measured 0.7-1.0 dB better on the held-out scenes for 2-3x the time), high (kpcn-large "
-     "at every sample count); kpcn needs albedo, normal and depth"},
+     "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default) and high (kpcn-large "
+     "at every sample count: 0.6-2.6 dB better than fast on the held-out scenes for about 3x the time; the two "
+     "choose the same today); kpcn needs albedo, normal and depth"},
 };
 
 static const char *const quality_names[] = {"fast", "balanced", "high", NULL};
@@ -85,7 +85,11 @@ typedef struct {
 #define KPCN_24 2 /* kpcn's built-in model kpcn-large (algorithms/kpcn.h) */
 
 /* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md).
- * The four-scale kpcn-large on 42 held-out scenes (render cache val split
+ * kpcn-large with its learned remodulation, on the 42 held-out scenes below
+ * (edgewise bench, do-no-harm stage on), against quality fast at 1 / 4 / 16 /
+ * 64 spp: +2.55 / +2.33 / +1.35 / +0.61 dB (below fast on 7 / 0 / 1 / 7
+ * scenes, by up to 1.3 dB) for 2.7-3.2x the time: balanced climbs at every
+ * level now, 1-2 spp included. Before it, the four-scale kpcn-large on 42 held-out scenes (render cache val split
  * and held-out training scenes; edgewise bench, do-no-harm stage on),
  * against quality fast: +0.21 dB at 1 spp (below it on 15 scenes, by up to
  * 3.0 dB) for 2.7x the time, +0.70 dB at 64 spp (below on 7, by up to 1.3 dB;
@@ -101,7 +105,7 @@ typedef struct {
  * suite) and below the fast rungs on glass; kpcn-small did not beat the fast
  * rungs at all. */
 static const level_choice levels[] = {
-    {-1, KPCN_24, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
+    {KPCN_24, KPCN_24, NBG_1SPP, "coarse", 8.0f, 8.0f, 8.0f, 0.7f},
     {KPCN_24, KPCN_24, NBG_ALL_SPP, "medium", 4.0f, 8.0f, 4.0f, 0.7f},
     {KPCN_24, KPCN_24, -1, "fine", 2.0f, 8.0f, 4.0f, 0.9f},
     {KPCN_24, KPCN_24, -1, "finest", 2.0f, 4.0f, 4.0f, 0.9f},
@@ -290,8 +294,8 @@ const ew_op_type ew_denoise_auto = {
     .name = "auto",
     .summary = "picks the cheapest method that reaches the best quality for the frame's noise level (sample "
                "count, or a noise estimate), its passes and the quality setting: with albedo/normal/depth "
-               "kpcn-large at 3 spp and up (quality balanced, the default) and nbg at 1-2 spp, else a bilateral grid as "
-               "fine as the frame allows",
+               "kpcn-large (quality balanced, the default, and high; nbg and the grids at quality fast), else a "
+               "bilateral grid as fine as the frame allows",
     .images = images,
     .num_images = (int)(sizeof images / sizeof images[0]),
     .params = params,

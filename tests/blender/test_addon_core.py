@@ -229,6 +229,8 @@ class WithLibrary(unittest.TestCase):
     def test_auto_says_what_it_ran(self):
         p = self._sample()
         _, ran = core.denoise_arrays(p, core.Settings("auto", samples=1))
+        self.assertEqual(ran, "kpcn kpcn-large (1 spp, quality balanced)")
+        _, ran = core.denoise_arrays(p, core.Settings("auto", params={"quality": "fast"}, samples=1))
         self.assertEqual(ran, "nbg 2layer-3grid-1spp (1 spp)")
 
     def test_temporal_follows_blender_vectors(self):

@@ -115,7 +115,8 @@ picks() { # NAME EXPECTED_SUBSTRING ARGS...
   "$EW" denoise "$@" -o "$T/pick.exr" 2>"$T/err" >/dev/null
   if grep -qF "$want" "$T/err"; then ok "$name"; else bad "$name (stderr: $(head -c 300 "$T/err"))"; fi
 }
-picks auto_1spp_nbg_1spp_model "nbg 2layer-3grid-1spp (1 spp)" "$SAMPLE/cornell/f0001_spp0001.exr"
+picks auto_1spp_kpcn "kpcn kpcn-large (1 spp, quality balanced)" "$SAMPLE/cornell/f0001_spp0001.exr"
+picks auto_1spp_fast_nbg_1spp_model "nbg 2layer-3grid-1spp (1 spp)" "$SAMPLE/cornell/f0001_spp0001.exr" --quality fast
 picks auto_4spp_kpcn "kpcn kpcn-large (4 spp, quality balanced)" "$SAMPLE/cornell/f0001_spp0004.exr"
 picks auto_4spp_fast_nbg "nbg 2layer-3grid (4 spp)" "$SAMPLE/cornell/f0001_spp0004.exr" --quality fast
 picks auto_4spp_high_kpcn_large "kpcn kpcn-large (4 spp, quality high)" "$SAMPLE/cornell/f0001_spp0004.exr" --quality high

@@ -84,7 +84,8 @@ TEST(sample_count_picks_the_model) {
     static frame f;
     make_frame(&f, 0.5f, 1);
     char what[200];
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, NULL, f.out, what, sizeof what), EW_OK);
+    static const param fast1[] = {{"quality", 0}, {NULL, 0}};
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, fast1, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
     CHECK_STR_CONTAINS(what, "1 spp");
     CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 3}, {NULL, 0}}, f.out2, what, sizeof what), EW_OK);
@@ -98,7 +99,7 @@ TEST(sample_count_picks_the_model) {
     CHECK(same(f.out, f.out2));
 
     /* quality fast stays on the grids and nbg; balanced (the default)
-     * climbs to kpcn-large from 3 spp up, not at 1 spp; high at every count;
+     * and high climb to kpcn-large at every count;
      * the output is that model's own */
     static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
                        high[] = {{"quality", 2}, {NULL, 0}};
@@ -111,6 +112,8 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, (const param[]){{"model", 2}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, balanced, f.out, what, sizeof what), EW_OK);
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (1 spp, quality balanced)");
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, high, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "kpcn kpcn-large (4 spp, quality high)");
@@ -151,12 +154,12 @@ TEST(noise_estimate_when_the_count_is_unknown) {
     ew_device *dev = make_device();
     static frame f;
     char what[200];
-    make_frame(&f, 0.9f, 3); /* very noisy: the 1-spp level */
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
+    static const param fast[] = {{"quality", 0}, {NULL, 0}};
+    make_frame(&f, 0.9f, 3); /* very noisy: the 1-spp level (nbg's 1-spp model at quality fast) */
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "1spp");
     CHECK_STR_CONTAINS(what, "noise estimate");
     make_frame(&f, 0.0f, 3); /* clean: the finest grid at quality fast, kpcn-large at balanced */
-    static const param fast[] = {{"quality", 0}, {NULL, 0}};
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "finest");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
