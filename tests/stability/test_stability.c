@@ -17,6 +17,7 @@
  */
 #include "ew_test.h"
 
+#include <math.h>
 #include <sys/resource.h>
 #include <time.h>
 
