@@ -143,32 +143,31 @@ EW_HD float ew_harm_lin_residual(const ew_harm_args *a, long j, int c) {
     return ew_finitef(v) ? v : 0.0f;
 }
 
-EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
-    const long j = (long)y * a->width + x;
+/* The statistics of (x, y) from its residuals (3 floats each, T then
+ * linear): t at the pixel, tr and td at its right and lower neighbours
+ * (NULL past the frame), tb and lb at the 2x2 block of the diagonal Haar
+ * detail (the one at (x, y), moved inward at the last row and column; NULL
+ * when the frame has none), l at the pixel. The CPU backend passes rows of
+ * residuals it computed once (each pixel's are read by up to seven
+ * pixels); ew_harm_stats_px computes them here: the same bits either way. */
+EW_HD void ew_harm_stats_from(long j, const ew_harm_args *a, const float *t, const float *tr, const float *td,
+                              const float *const *tb, const float *const *lb, const float *l) {
     float sq = 0.0f, cross = 0.0f, hh2 = 0.0f, lin2 = 0.0f, th2 = 0.0f;
-    int pairs = 0;
-    /* the 2x2 block of the diagonal Haar detail: the one at (x, y), moved
-     * inward at the last row and column (a 1-pixel frame has none) */
-    const int bx = x + 1 < a->width ? x : x - 1, by = y + 1 < a->height ? y : y - 1;
-    const long b0 = (long)by * a->width + bx;
     for (int c = 0; c < 3; c++) {
-        const float r = ew_harm_residual(a, j, c);
+        const float r = t[c];
         sq += r * r;
-        if (x + 1 < a->width) cross += r * ew_harm_residual(a, j + 1, c);
-        if (y + 1 < a->height) cross += r * ew_harm_residual(a, j + a->width, c);
-        if (bx >= 0 && by >= 0) {
-            const float hh = 0.5f * (ew_harm_lin_residual(a, b0, c) - ew_harm_lin_residual(a, b0 + 1, c) -
-                                     ew_harm_lin_residual(a, b0 + a->width, c) +
-                                     ew_harm_lin_residual(a, b0 + a->width + 1, c));
+        if (tr) cross += r * tr[c];
+        if (td) cross += r * td[c];
+        if (tb) {
+            const float hh = 0.5f * (lb[0][c] - lb[1][c] - lb[2][c] + lb[3][c]);
             hh2 += hh * hh;
-            const float th = 0.5f * (ew_harm_residual(a, b0, c) - ew_harm_residual(a, b0 + 1, c) -
-                                     ew_harm_residual(a, b0 + a->width, c) + ew_harm_residual(a, b0 + a->width + 1, c));
+            const float th = 0.5f * (tb[0][c] - tb[1][c] - tb[2][c] + tb[3][c]);
             th2 += th * th;
         }
-        const float d = ew_harm_lin_residual(a, j, c);
+        const float d = l[c];
         lin2 += d * d;
     }
-    pairs = (x + 1 < a->width) + (y + 1 < a->height);
+    const int pairs = (tr != 0) + (td != 0);
     cross = pairs ? cross / (float)pairs : 0.0f;
     float *st = a->stats + j * EW_HARM_STATS_FLOATS;
     st[0] = sq;
@@ -179,19 +178,42 @@ EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
     st[5] = th2;
 }
 
-EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
+/* The T and linear residuals of pixel j into t[3], l[3]. */
+EW_HD void ew_harm_residuals(const ew_harm_args *a, long j, float *t, float *l) {
+    for (int c = 0; c < 3; c++) {
+        t[c] = ew_harm_residual(a, j, c);
+        l[c] = ew_harm_lin_residual(a, j, c);
+    }
+}
+
+EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x;
-    float sq = 0.0f, cross = 0.0f, cross2 = 0.0f, hh2 = 0.0f, lin2 = 0.0f, th2 = 0.0f;
-    for (int yy = ew_maxi(y - a->radius, 0); yy <= ew_mini(y + a->radius, a->height - 1); yy++)
-        for (int xx = ew_maxi(x - a->radius, 0); xx <= ew_mini(x + a->radius, a->width - 1); xx++) {
-            const float *st = a->stats + ((long)yy * a->width + xx) * EW_HARM_STATS_FLOATS;
-            sq += st[0];
-            cross += st[1];
-            cross2 += st[2];
-            hh2 += st[3];
-            lin2 += st[4];
-            th2 += st[5];
+    /* the 2x2 block of the diagonal Haar detail: the one at (x, y), moved
+     * inward at the last row and column (a 1-pixel frame has none) */
+    const int bx = x + 1 < a->width ? x : x - 1, by = y + 1 < a->height ? y : y - 1;
+    const long b0 = (long)by * a->width + bx;
+    float t[3], l[3], tr[3], td[3], lr[3], ld[3], tbv[4][3], lbv[4][3];
+    ew_harm_residuals(a, j, t, l);
+    if (x + 1 < a->width) ew_harm_residuals(a, j + 1, tr, lr);
+    if (y + 1 < a->height) ew_harm_residuals(a, j + a->width, td, ld);
+    const float *tb[4], *lb[4];
+    const int block = bx >= 0 && by >= 0;
+    if (block) {
+        const long at[4] = {b0, b0 + 1, b0 + a->width, b0 + a->width + 1};
+        for (int i = 0; i < 4; i++) {
+            ew_harm_residuals(a, at[i], tbv[i], lbv[i]);
+            tb[i] = tbv[i];
+            lb[i] = lbv[i];
         }
+    }
+    ew_harm_stats_from(j, a, t, x + 1 < a->width ? tr : 0, y + 1 < a->height ? td : 0, block ? tb : 0,
+                       block ? lb : 0, l);
+}
+
+/* BLEND at pixel j from the window sums of its statistics (sums[k]: the
+ * sum of stats[k] over the window, in raster order). */
+EW_HD void ew_harm_blend_apply(long j, const ew_harm_args *a, const float *sums) {
+    const float sq = sums[0], cross = sums[1], cross2 = sums[2], hh2 = sums[3], lin2 = sums[4], th2 = sums[5];
     /* C is a sum of products of noisy residuals: only what stands z of its
      * own standard deviations above 0 counts as structure (at 1-4 spp the
      * products of pure noise would otherwise pull alpha below 1 at random) */
@@ -218,6 +240,16 @@ EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
     if (a->give)
         for (int c = 0; c < 3; c++) a->give[j * 3 + c] *= alpha;
     for (int c = 0; c < 3; c++) o[c] = in[c] + alpha * (o[c] - in[c]);
+}
+
+EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
+    float sums[EW_HARM_STATS_FLOATS] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    for (int yy = ew_maxi(y - a->radius, 0); yy <= ew_mini(y + a->radius, a->height - 1); yy++)
+        for (int xx = ew_maxi(x - a->radius, 0); xx <= ew_mini(x + a->radius, a->width - 1); xx++) {
+            const float *st = a->stats + ((long)yy * a->width + xx) * EW_HARM_STATS_FLOATS;
+            for (int k = 0; k < EW_HARM_STATS_FLOATS; k++) sums[k] += st[k];
+        }
+    ew_harm_blend_apply((long)y * a->width + x, a, sums);
 }
 
 /* Energy return. Every clamp before the method (the rejection above, the

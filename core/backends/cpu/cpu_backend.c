@@ -10,6 +10,10 @@
 #include "kernels/temporal.h"
 #include "src/backend.h"
 #include "src/internal.h"
+#include "src/cpu_clones.h" /* EW_MULTIVERSION */
+
+#include <stdlib.h>
+#include <string.h>
 
 typedef struct {
     const ew_bgrid_params *p;
@@ -81,25 +85,158 @@ typedef struct {
     const ew_harm_args *a;
 } harm_job;
 
+/* The steps with windows, a row at a time: the per-pixel functions of
+ * kernels/harm.h add each pixel's window in raster order; these add whole
+ * rows shifted by each offset, in the same order for every pixel (so the
+ * same bits, as the launch-grid test checks against the CUDA bodies), with
+ * what several pixels read (residuals, luminances) computed once a row. */
+
+/* acc[i] += src[i + shift] for the i in [lo, hi) */
+static EW_MULTIVERSION void harm_add_shifted(float *EW_RESTRICT acc, const float *EW_RESTRICT src, long lo, long hi,
+                                              long shift) {
+    for (long i = lo; i < hi; i++) acc[i] += src[i + shift];
+}
+
+/* acc[x * k ..] = the sum over dx = -r..r (ascending) of v[(x + dx) * k ..],
+ * the offsets inside the row; k floats a pixel */
+static void harm_row_window(float *acc, const float *v, int w, int r, int k) {
+    memset(acc, 0, (size_t)w * (size_t)k * sizeof(float));
+    for (int dx = -r; dx <= r; dx++) {
+        const long lo = dx < 0 ? -dx : 0, hi = dx > 0 ? w - dx : w;
+        if (lo < hi) harm_add_shifted(acc, v, lo * k, hi * k, (long)dx * k);
+    }
+}
+
+/* acc[x] = the sum over the rows yy of the window around y (ascending) of
+ * v[yy * w + x] */
+static void harm_col_window(float *acc, const float *v, int w, int h, int y, int r) {
+    memset(acc, 0, (size_t)w * sizeof(float));
+    for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++)
+        harm_add_shifted(acc, v + (long)yy * w, 0, w, 0);
+}
+
+/* rows t (T residual) and l (linear) of row y, 3 floats a pixel */
+static void harm_residual_row(const ew_harm_args *a, int y, float *t, float *l) {
+    for (int x = 0; x < a->width; x++) ew_harm_residuals(a, (long)y * a->width + x, t + 3 * x, l + 3 * x);
+}
+
+static void harm_stats_rows(const ew_harm_args *a, int64_t begin, int64_t end, float *buf) {
+    const int w = a->width, h = a->height;
+    float *t0 = buf, *l0 = t0 + 3 * (size_t)w, *t1 = l0 + 3 * (size_t)w, *l1 = t1 + 3 * (size_t)w;
+    for (int64_t yl = begin; yl < end; yl++) {
+        const int y = (int)yl;
+        /* t0/l0: row y; t1/l1: row y + 1, or y - 1 at the last row (its block) */
+        if (yl == begin) {
+            harm_residual_row(a, y, t0, l0);
+        } else {
+            float *tt = t0, *ll = l0;
+            t0 = t1; l0 = l1; t1 = tt; l1 = ll;
+        }
+        const int last = y + 1 >= h, other = last ? y - 1 : y + 1;
+        if (other >= 0) harm_residual_row(a, other, t1, l1);
+        /* blocks on rows (by, by + 1) */
+        const float *bt0 = last ? t1 : t0, *bt1 = last ? t0 : t1, *bl0 = last ? l1 : l0, *bl1 = last ? l0 : l1;
+        for (int x = 0; x < w; x++) {
+            const int bx = x + 1 < w ? x : x - 1, block = bx >= 0 && other >= 0;
+            const float *tb[4], *lb[4];
+            if (block) {
+                tb[0] = bt0 + 3 * bx; tb[1] = bt0 + 3 * (bx + 1); tb[2] = bt1 + 3 * bx; tb[3] = bt1 + 3 * (bx + 1);
+                lb[0] = bl0 + 3 * bx; lb[1] = bl0 + 3 * (bx + 1); lb[2] = bl1 + 3 * bx; lb[3] = bl1 + 3 * (bx + 1);
+            }
+            ew_harm_stats_from((long)y * w + x, a, t0 + 3 * x, x + 1 < w ? t0 + 3 * (x + 1) : NULL,
+                               last ? NULL : t1 + 3 * x, block ? tb : NULL, block ? lb : NULL, l0 + 3 * x);
+        }
+    }
+}
+
 static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const harm_job *h = (const harm_job *)ctx;
     const ew_harm_args *a = h->a;
-    for (int64_t y = begin; y < end; y++)
-        for (int x = 0; x < a->width; x++) {
-            const long j = (long)y * a->width + x;
+    const int w = a->width, H = a->height;
+    const long n = (long)w * H;
+    float *buf = NULL;
+    switch (h->step) {
+    case EW_HARM_STATS: buf = (float *)malloc(12 * (size_t)w * sizeof(float)); break;
+    case EW_HARM_BLEND: buf = (float *)malloc((size_t)EW_HARM_STATS_FLOATS * (size_t)w * sizeof(float)); break;
+    case EW_HARM_SUM_H:
+    case EW_HARM_SPREAD_H: buf = (float *)malloc(2 * (size_t)w * sizeof(float)); break;
+    case EW_HARM_SUM_V:
+    case EW_HARM_SPREAD_V: buf = (float *)malloc((size_t)w * sizeof(float)); break;
+    default: break;
+    }
+    const int rows = buf != NULL;
+    if (rows && h->step == EW_HARM_STATS) {
+        harm_stats_rows(a, begin, end, buf);
+    } else if (rows) {
+        for (int64_t yl = begin; yl < end; yl++) {
+            const int y = (int)yl;
+            const long j0 = (long)y * w;
             switch (h->step) {
-            case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
-            case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
-            case EW_HARM_STATS: ew_harm_stats_px(x, (int)y, a); break;
-            case EW_HARM_SUM_H: ew_harm_sum_h_px(x, (int)y, a); break;
-            case EW_HARM_SUM_V: ew_harm_sum_v_px(x, (int)y, a); break;
-            case EW_HARM_GIVE: ew_harm_give_px(x, (int)y, a); break;
-            case EW_HARM_SPREAD_H: ew_harm_spread_h_px(x, (int)y, a); break;
-            case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, (int)y, a); break;
-            default: ew_harm_blend_px(x, (int)y, a); break;
+            case EW_HARM_BLEND: {
+                /* the window's rows in order, each added over its offsets in order */
+                const int r = a->radius;
+                memset(buf, 0, (size_t)EW_HARM_STATS_FLOATS * (size_t)w * sizeof(float));
+                for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, H - 1); yy++) {
+                    const float *st = a->stats + (long)yy * w * EW_HARM_STATS_FLOATS;
+                    for (int dx = -r; dx <= r; dx++) {
+                        const long lo = dx < 0 ? -dx : 0, hi = dx > 0 ? w - dx : w;
+                        if (lo < hi)
+                            harm_add_shifted(buf, st, lo * EW_HARM_STATS_FLOATS, hi * EW_HARM_STATS_FLOATS,
+                                             (long)dx * EW_HARM_STATS_FLOATS);
+                    }
+                }
+                for (int x = 0; x < w; x++) ew_harm_blend_apply(j0 + x, a, buf + (size_t)x * EW_HARM_STATS_FLOATS);
+                break;
+            }
+            case EW_HARM_SUM_H: { /* as ew_harm_sum_h_px: a luminance that is not finite and positive adds 0 */
+                float *v = buf + w;
+                for (int x = 0; x < w; x++) {
+                    const float l = ew_luminance(a->out + (j0 + x) * 3);
+                    v[x] = ew_finitef(l) && l > 0.0f ? l : 0.0f;
+                }
+                harm_row_window(a->spread + j0, v, w, a->give_radius, 1);
+                break;
+            }
+            case EW_HARM_SUM_V: /* as ew_harm_sum_v_px */
+                harm_col_window(a->spread + n + j0, a->spread, w, H, y, a->give_radius);
+                break;
+            case EW_HARM_SPREAD_H: { /* as ew_harm_spread_h_px */
+                float *v = buf + w;
+                for (int x = 0; x < w; x++) v[x] = a->give[(j0 + x) * 3];
+                harm_row_window(a->spread + 2 * n + j0, v, w, a->give_radius, 1);
+                break;
+            }
+            default: { /* EW_HARM_SPREAD_V, as ew_harm_spread_v_px */
+                harm_col_window(buf, a->spread + 2 * n, w, H, y, a->give_radius);
+                for (int x = 0; x < w; x++) {
+                    const float t = ew_minf(buf[x], a->give_gain);
+                    float *o = a->out + (j0 + x) * 3;
+                    if (!ew_harm_finite3(o) || !(t > 0.0f)) continue;
+                    for (int c = 0; c < 3; c++) o[c] *= 1.0f + t;
+                }
+                break;
+            }
             }
         }
+    } else {
+        for (int64_t y = begin; y < end; y++)
+            for (int x = 0; x < w; x++) {
+                const long j = (long)y * w + x;
+                switch (h->step) {
+                case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
+                case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
+                case EW_HARM_STATS: ew_harm_stats_px(x, (int)y, a); break;
+                case EW_HARM_SUM_H: ew_harm_sum_h_px(x, (int)y, a); break;
+                case EW_HARM_SUM_V: ew_harm_sum_v_px(x, (int)y, a); break;
+                case EW_HARM_GIVE: ew_harm_give_px(x, (int)y, a); break;
+                case EW_HARM_SPREAD_H: ew_harm_spread_h_px(x, (int)y, a); break;
+                case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, (int)y, a); break;
+                default: ew_harm_blend_px(x, (int)y, a); break;
+                }
+            }
+    }
+    free(buf);
 }
 
 static void cpu_harm(ew_device *dev, int step, const ew_harm_args *a) {
