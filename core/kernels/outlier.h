@@ -145,6 +145,32 @@ EW_HD float ew_outlier_select(float *v, int n, int k) {
     return v[k];
 }
 
+/* The bound from the centre and spread of a finite pixel's similar
+ * neighbours; a pixel above it is scaled down to it (RGB of o; removed: 3
+ * floats or NULL, already 0). */
+EW_HD void ew_outlier_bound_apply(const ew_outlier_params *p, const float *c0, float lum, float centre, float spread,
+                                  float *o, float *removed) {
+    spread = ew_maxf(ew_maxf(spread, p->sigma_floor * fabsf(centre)), p->abs_floor);
+    const float bound = centre + p->k * spread;
+    if (lum > bound) {
+        const float s = ew_maxf(bound, 0.0f) / lum;
+        o[0] = c0[0] * s;
+        o[1] = c0[1] * s;
+        o[2] = c0[2] * s;
+        if (removed)
+            for (int c = 0; c < 3; c++) removed[c] = c0[c] - o[c];
+    }
+}
+
+/* ... with the mean statistics: n (>= EW_OUTLIER_MIN_SIMILAR) neighbours'
+ * luminances less shift, summed (sum) and squared and summed (sum2). */
+EW_HD void ew_outlier_mean_clamp(const ew_outlier_params *p, const float *c0, float lum, int n, float shift,
+                                 float sum, float sum2, float *o, float *removed) {
+    const float mean_d = sum / (float)n; /* mean - shift */
+    const float spread = sqrtf(ew_maxf(sum2 / (float)n - mean_d * mean_d, 0.0f));
+    ew_outlier_bound_apply(p, c0, lum, shift + mean_d, spread, o, removed);
+}
+
 EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     const long j = (long)y * p->width + x, cc = b->channels;
     const float *c0 = b->color + j * cc;
@@ -190,8 +216,12 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
         return;
     }
     if (n < EW_OUTLIER_MIN_SIMILAR) return;
+    if (!robust) {
+        ew_outlier_mean_clamp(p, c0, lum, n, shift, sum, sum2, o, b->removed ? b->removed + j * 3 : 0);
+        return;
+    }
     float centre, spread;
-    if (robust) {
+    {
         /* Most pixels lie far below their bound, and the bound grows with the
          * median (the spread is at least sigma_floor * centre and abs_floor):
          * a median of t or more already puts the bound above lum, and the
@@ -207,21 +237,8 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
         centre = ew_outlier_select(window, n, (n - 1) / 2);
         for (int i = 0; i < n; i++) window[i] = fabsf(window[i] - centre);
         spread = EW_OUTLIER_MAD_SCALE * ew_outlier_select(window, n, (n - 1) / 2);
-    } else {
-        const float mean_d = sum / (float)n; /* mean - shift */
-        spread = sqrtf(ew_maxf(sum2 / (float)n - mean_d * mean_d, 0.0f));
-        centre = shift + mean_d;
     }
-    spread = ew_maxf(ew_maxf(spread, p->sigma_floor * fabsf(centre)), p->abs_floor);
-    const float bound = centre + p->k * spread;
-    if (lum > bound) {
-        const float s = ew_maxf(bound, 0.0f) / lum;
-        o[0] = c0[0] * s;
-        o[1] = c0[1] * s;
-        o[2] = c0[2] * s;
-        if (b->removed)
-            for (int c = 0; c < 3; c++) b->removed[j * 3 + c] = c0[c] - o[c];
-    }
+    ew_outlier_bound_apply(p, c0, lum, centre, spread, o, b->removed ? b->removed + j * 3 : 0);
 }
 
 #endif

@@ -68,9 +68,74 @@ typedef struct {
     const ew_outlier_buffers *b;
 } outlier_guided_job;
 
+/* acc[x] += v[x + dx], sq[x] += v2[x + dx], cnt[x] += f[x + dx] for the x in [lo, hi) */
+static EW_MULTIVERSION void outlier_add_shifted(float *EW_RESTRICT acc, float *EW_RESTRICT sq, float *EW_RESTRICT cnt,
+                                                const float *EW_RESTRICT v, const float *EW_RESTRICT v2,
+                                                const float *EW_RESTRICT f, int lo, int hi, int dx) {
+    for (int x = lo; x < hi; x++) {
+        acc[x] += v[x + dx];
+        sq[x] += v2[x + dx];
+        cnt[x] += f[x + dx];
+    }
+}
+
+/* The plain clamp (mean statistics of every finite neighbour, no features,
+ * no shift: the denoisers' own firefly_k clamp) a row at a time: each row's
+ * luminances once, then for every offset of the window in raster order
+ * the whole row's sums, as ew_outlier_guided_px adds them pixel by pixel (a
+ * non-finite neighbour adds 0 and counts 0, which leaves the sums as its
+ * skipping does: they start at +0). The same bits; non-finite pixels go
+ * through the per-pixel function (they are rebuilt from their neighbours). */
+static int outlier_plain_rows(const ew_outlier_params *p, const ew_outlier_buffers *b, int64_t begin, int64_t end) {
+    const int w = p->width, h = p->height, r = p->radius, cc = b->channels;
+    float *buf = (float *)malloc((size_t)w * 6 * sizeof(float));
+    if (!buf) return 0;
+    float *sum = buf, *sum2 = sum + w, *cnt = sum2 + w, *lv = cnt + w, *l2 = lv + w, *fv = l2 + w;
+    for (int64_t yl = begin; yl < end; yl++) {
+        const int y = (int)yl;
+        memset(sum, 0, (size_t)w * 3 * sizeof(float));
+        for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++) {
+            for (int x = 0; x < w; x++) {
+                const float *c1 = b->color + ((long)yy * w + x) * cc;
+                const int fin = ew_outlier_finite3(c1);
+                const float l = fin ? ew_luminance(c1) - 0.0f : 0.0f; /* - shift, as the per-pixel sums */
+                lv[x] = l;
+                l2[x] = l * l;
+                fv[x] = fin ? 1.0f : 0.0f;
+            }
+            for (int dx = -r; dx <= r; dx++) {
+                const int lo = dx < 0 ? -dx : 0, hi = dx > 0 ? w - dx : w;
+                if (yy != y || dx != 0) {
+                    if (lo < hi) outlier_add_shifted(sum, sum2, cnt, lv, l2, fv, lo, hi, dx);
+                }
+            }
+        }
+        for (int x = 0; x < w; x++) {
+            const long j = (long)y * w + x;
+            const float *c0 = b->color + j * cc;
+            if (!ew_outlier_finite3(c0)) {
+                ew_outlier_guided_px(x, y, p, b);
+                continue;
+            }
+            float *o = b->out + j * cc;
+            float *removed = b->removed ? b->removed + j * 3 : NULL;
+            if (removed) removed[0] = removed[1] = removed[2] = 0.0f;
+            for (int c = 0; c < cc; c++) o[c] = c0[c];
+            const float lum = ew_luminance(c0);
+            const int n = (int)cnt[x];
+            if (p->k <= 0.0f || lum <= 0.0f || n < EW_OUTLIER_MIN_SIMILAR) continue;
+            ew_outlier_mean_clamp(p, c0, lum, n, 0.0f, sum[x], sum2[x], o, removed);
+        }
+    }
+    free(buf);
+    return 1;
+}
+
 static void outlier_guided_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const outlier_guided_job *j = (const outlier_guided_job *)ctx;
+    if (!j->p->robust && !j->p->shift && !j->b->albedo && !j->b->normal && outlier_plain_rows(j->p, j->b, begin, end))
+        return;
     for (int64_t y = begin; y < end; y++)
         for (int x = 0; x < j->p->width; x++) ew_outlier_guided_px(x, (int)y, j->p, j->b);
 }
