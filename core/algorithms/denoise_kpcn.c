@@ -58,6 +58,12 @@ static const ew_net_kind kind = {"kpcn", sizeof(ew_kpcn_net), from_weights, ew_k
 
 static const ew_kpcn_net *net_of(const ew_net_model *m) { return (const ew_kpcn_net *)m->net; }
 
+/* The network as the op lays out its planes (ew_kpcn_inference_planes). */
+static void op_net(const ew_net_model *m, ew_kpcn_net *net) {
+    *net = *net_of(m);
+    ew_kpcn_inference_planes(net);
+}
+
 static ew_result set_data(ew_op *op, const char *name, const void *data, size_t size) {
     return ew_net_model_set_data(op, &kind, name, data, size);
 }
@@ -65,6 +71,7 @@ static ew_result set_data(ew_op *op, const char *name, const void *data, size_t 
 typedef struct {
     ew_net_model *builtin;
     const ew_net_model *m;
+    ew_kpcn_net net; /* m's network with the op's plane layout */
     ew_denoise_buffers buf;
     float *params, *clamped;
     ew_tiling tiling;
@@ -144,7 +151,9 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     const ew_net_model *m = NULL;
     if (ew_net_model_of(op, &kind, &m, &builtin) != EW_OK) return 0;
     ew_tiling t;
-    const uint64_t bytes = (uint64_t)plan(op, net_of(m), w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    ew_kpcn_net net;
+    op_net(m, &net);
+    const uint64_t bytes = (uint64_t)plan(op, &net, w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
                            (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
     ew_net_model_free(builtin);
     return bytes;
@@ -158,7 +167,9 @@ static ew_result commit(ew_op *op) {
     const ew_net_model *m = NULL;
     ew_result mr = ew_net_model_of(op, &kind, &m, &builtin);
     if (mr != EW_OK) return mr;
-    const ew_kpcn_net *net = net_of(m);
+    ew_kpcn_net run;
+    op_net(m, &run);
+    const ew_kpcn_net *net = &run;
     const size_t n = (size_t)w * (size_t)h;
     /* device: row sums (doubles first), then as plan() counts */
     ew_tiling tiling;
@@ -176,11 +187,12 @@ static ew_result commit(ew_op *op) {
     }
     s->builtin = builtin;
     s->m = m;
+    s->net = run;
     s->tiling = tiling;
     if (builtin)
         snprintf(s->choice, sizeof s->choice, "kpcn %s", ew_kpcn_model_name((int)ew_op_param(op, "model")));
     else
-        snprintf(s->choice, sizeof s->choice, "kpcn weights %s", net->arch);
+        snprintf(s->choice, sizeof s->choice, "kpcn weights %s", net_of(m)->arch);
     if (tiling.nx * tiling.ny > 1) {
         const size_t len = strlen(s->choice);
         snprintf(s->choice + len, sizeof s->choice - len, ", %dx%d tiles", tiling.nx, tiling.ny);
@@ -230,7 +242,7 @@ static ew_kpcn_tensor flat_t(float *p, int w, int h) {
 
 static void conv(ew_device *dev, const state *s, int l) {
     ew_conv_args a;
-    ew_kpcn_layer_args(net_of(s->m), l, s->params, s->sb, &a);
+    ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
     dev->backend->conv5(dev, &a);
 }
 
@@ -254,7 +266,7 @@ static float *tile_target(const state *s, const ew_kpcn_net *net) { return net->
  * entries only write inside the planes). */
 static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
     if (s->lw == rw && s->lh == rh) return EW_OK;
-    const ew_kpcn_net *net = net_of(s->m);
+    const ew_kpcn_net *net = &s->net;
     ew_kpcn_scale_sizes(net, rw, rh, s->sw, s->sh);
     float *p = s->scale_mem;
     for (int k = 0; k < net->scales; k++) {
@@ -273,7 +285,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    const ew_kpcn_net *net = net_of(s->m);
+    const ew_kpcn_net *net = &s->net;
     const int W = b->width, C = net->ch, rw = tile->rw, rh = tile->rh;
     ew_result r = layout_region(dev, s, rw, rh);
     if (r != EW_OK) return r;
@@ -349,7 +361,7 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    const ew_kpcn_net *net = net_of(s->m);
+    const ew_kpcn_net *net = &s->net;
     const int w = b->width, h = b->height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
     ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);

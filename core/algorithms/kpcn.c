@@ -201,6 +201,19 @@ void ew_kpcn_layer_args(const ew_kpcn_net *net, int l, const float *params, cons
     a->act = L->act;
 }
 
+void ew_kpcn_inference_planes(ew_kpcn_net *net) {
+    const int S = net->scales;
+    for (int k = 0; k < S; k++) {
+        /* the planes below the head's input are dead once the head runs */
+        const int below = k < S - 1 ? net->d[k] : net->hb;
+        ew_kpcn_layer *head = &net->layers[net->lhead[k]];
+        if (head->cout > below) continue;
+        net->nplanes[k] = below + net->ch;
+        net->head[k] = 0;
+        head->out_plane = 0;
+    }
+}
+
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, w, h, sw, sh);

@@ -139,6 +139,17 @@ extern const unsigned char *const ew_kpcn_builtin_bytes[EW_KPCN_NUM_MODELS];
 extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
 
 /* ---- inference on a device -------------------------------------------- */
+/* The op's plane layout of net (inference only: the trainer keeps every
+ * plane for the backward pass): each scale's head writes its logits over
+ * the planes below its input (the inputs or pooled planes, the encoder's
+ * output, the upsampled planes; the coarsest scale's pooled planes and
+ * first encoder), which nothing reads once the decoder has run, where they
+ * fit. kpcn-large's full-resolution scale holds 83 planes instead of 134
+ * (109 without the remodulation kernel): the memory the op touches, the
+ * page faults of a first run and the tiles it needs shrink with it. The
+ * arithmetic is the same. */
+void ew_kpcn_inference_planes(ew_kpcn_net *net);
+
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
  * the scale buffers, radiance pyramid and outputs of the scales below 0. */
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
