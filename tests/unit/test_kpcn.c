@@ -484,6 +484,10 @@ TEST(op_matches_training_forward) {
     op_matches_training_forward_for("kpcn-c8-noise-s4");
     op_matches_training_forward_for("kpcn-c4-s5");
     op_matches_training_forward_for("kpcn-c8-noise-s4-ra");
+    /* the op writes each head over the planes below its input where they
+     * fit (ew_kpcn_inference_planes): at c24 every scale's do, the 51
+     * logits of a remodulating head0 included; at c8 only some */
+    op_matches_training_forward_for("kpcn-c24-noise-s4-ra");
 }
 
 static void patch_forward(const ew_kpcn_net *net, const float *params, const ew_kpcn_frame *f, int P, float *grad,
