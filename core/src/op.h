@@ -123,6 +123,10 @@ struct ew_op {
      * it writes (op_alpha.c), made at commit */
     struct ew_op *alpha_op;
     float *alpha_out;
+    /* this execute's alpha was one finite value everywhere: alpha_op did not
+     * run and the output's alpha is alpha_value (op_alpha.c) */
+    int alpha_uniform;
+    float alpha_value;
 };
 
 /* Registry of every method, by kind. NULL-terminated. */

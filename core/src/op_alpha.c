@@ -18,6 +18,8 @@
  * Images in device memory (ew_device_desc.device_images) keep alpha as the
  * method leaves it: the copy below is a host loop.
  */
+#include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -78,12 +80,44 @@ ew_result ew_op_alpha_commit(ew_op *op) {
     return r;
 }
 
-ew_result ew_op_alpha_execute(ew_op *op) { return op->alpha_op ? ew_op_execute(op->alpha_op) : EW_OK; }
+/* Whether the colour's alpha is one finite value everywhere (the same
+ * bits), as a render's is without a transparent film. */
+static int alpha_is_uniform(const ew_image *color, float *value) {
+    const float a = ew__pixel(color, 0, 0)[3];
+    uint32_t bits;
+    memcpy(&bits, &a, sizeof bits);
+    if (!isfinite(a)) return 0;
+    for (int y = 0; y < color->height; y++)
+        for (int x = 0; x < color->width; x++) {
+            uint32_t b;
+            memcpy(&b, &ew__pixel(color, x, y)[3], sizeof b);
+            if (b != bits) return 0;
+        }
+    *value = a;
+    return 1;
+}
+
+/* A uniform alpha is not filtered: a normalised filter of a constant is
+ * that constant. The filters give exactly it for 0, 0.5 and 1 and within a
+ * few ulp for other values (their weights' sums rounded twice); the value
+ * itself is the exact result. The alpha run's frame-sized scratch then is
+ * never touched, so it costs no memory beside the colour's. */
+ew_result ew_op_alpha_execute(ew_op *op) {
+    op->alpha_uniform = 0;
+    if (!op->alpha_op) return EW_OK;
+    if (alpha_is_uniform(ew_op_image(op, "color"), &op->alpha_value)) {
+        op->alpha_uniform = 1;
+        return EW_OK;
+    }
+    return ew_op_execute(op->alpha_op);
+}
 
 void ew_op_alpha_store(ew_op *op) {
     if (!op->alpha_op) return;
     const ew_image *output = ew_op_image(op, "output");
     const int w = output->width;
     for (int y = 0; y < output->height; y++)
-        for (int x = 0; x < w; x++) ew__pixel(output, x, y)[3] = op->alpha_out[(size_t)y * (size_t)w + (size_t)x];
+        for (int x = 0; x < w; x++)
+            ew__pixel(output, x, y)[3] =
+                op->alpha_uniform ? op->alpha_value : op->alpha_out[(size_t)y * (size_t)w + (size_t)x];
 }

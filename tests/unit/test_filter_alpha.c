@@ -172,3 +172,41 @@ TEST(opaque_rgba_colour_equals_rgb) {
     free(depth);
     ew_device_destroy(dev);
 }
+
+/* A uniform alpha (one finite value everywhere, as a render without a
+ * transparent film has) is not filtered: the output's alpha is that value
+ * bit for bit (a filter run gives it for 0 and 1 and within a few ulp for
+ * 0.3 or 3.7), and a non-uniform alpha next to it still is. */
+TEST(uniform_alpha_is_kept_exactly) {
+    ew_device *dev = dev_cpu();
+    CHECK(dev);
+    float *in = malloc(sizeof(float) * W * H * 4), *out = malloc(sizeof(float) * W * H * 4);
+    float *depth = malloc(sizeof(float) * W * H);
+    CHECK(in && out && depth);
+    const char *const all[] = {"pyramid", "bilateral", "separable", "dof", "atrous", NULL};
+    const float values[] = {1.0f, 0.0f, 0.3f, 3.7f};
+    for (int m = 0; all[m]; m++)
+        for (int v = 0; v < 4; v++)
+            for (int uniform = 0; uniform < 2; uniform++) {
+                make_rgba(in, depth);
+                for (size_t i = 0; i < (size_t)W * H; i++) {
+                    for (int c = 0; c < 3; c++) in[i * 4 + c] = 0.1f + 0.5f * in[i * 4 + c];
+                    in[i * 4 + 3] = values[v];
+                }
+                if (!uniform) in[3] = values[v] + 0.25f; /* pixel (0, 0) */
+                CHECK_EQ_INT(run(dev, all[m], in, depth, out), EW_OK);
+                long alpha_off = 0;
+                for (size_t i = 0; i < (size_t)W * H; i++)
+                    alpha_off += memcmp(&out[i * 4 + 3], &values[v], sizeof(float)) != 0;
+                if (uniform) {
+                    if (alpha_off) fprintf(stderr, "  %s alpha %g: %ld changed\n", all[m], (double)values[v], alpha_off);
+                    CHECK_EQ_INT(alpha_off, 0);
+                } else {
+                    CHECK(alpha_off > 0); /* the corner's alpha was filtered */
+                }
+            }
+    free(in);
+    free(out);
+    free(depth);
+    ew_device_destroy(dev);
+}
