@@ -415,6 +415,33 @@ static const char *given_pass(const parser *p, const char *image) {
 
 /* ---- running ---- */
 
+#define MAX_IMAGES 8
+
+/* Decode, in one pass over the file, the pass the method runs on and the
+ * passes its other input images will be read from (as the loop that binds
+ * them picks them: the given pass, else the first default the layer has);
+ * every other pass stays in the file and is copied from it when the
+ * result is written. A pass this misses is still decoded when it is read. */
+static int load_used_passes(const parser *p, ewio_file *f, const char *method, const char *layer, const char *pass,
+                            char *err, size_t errlen) {
+    ewio_pass_ref refs[MAX_IMAGES + 1];
+    int n = 0;
+    refs[n++] = (ewio_pass_ref){layer, pass, NULL};
+    ew_image_info im;
+    for (int32_t k = 0; k < MAX_IMAGES && ew_method_image(NULL, method, k, &im) == EW_OK; k++) {
+        uint32_t fl = 0;
+        ew_method_image_flags(NULL, method, k, &fl);
+        if (!strcmp(im.name, "color") || !strcmp(im.name, "output") || (fl & EW_IMAGE_OUTPUT)) continue;
+        const char *src = given_pass(p, im.name);
+        if (src && !cli_pass_comps(f, layer, src)) src = NULL;
+        const char *const *defaults = cli_default_passes(im.name);
+        for (int d = 0; !src && defaults && defaults[d]; d++)
+            if (cli_pass_comps(f, layer, defaults[d])) src = defaults[d];
+        if (src) refs[n++] = (ewio_pass_ref){layer, src, NULL};
+    }
+    return ewio_load_passes(f, refs, n, err, errlen);
+}
+
 static int same_file(const char *a, const char *b) {
     struct stat sa, sb;
     if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
@@ -433,7 +460,6 @@ static const char *comps_for(int channels) {
     return c[(channels < 1 ? 1 : channels > 4 ? 4 : channels) - 1];
 }
 
-#define MAX_IMAGES 8
 
 /* Everything after parsing: read, bind, run, report, write. */
 static int execute(const parser *p) {
@@ -446,7 +472,8 @@ static int execute(const parser *p) {
     ewio_file *f = NULL;
     const double t_read = cli_seconds();
     ewio_set_threads(threads); /* the read decodes on them too (the device comes after) */
-    if (ewio_read(in_path, &f, err, sizeof err) != 0) return cli_fail("%s", err); /* err names the file */
+    /* the passes the method does not use stay in the file (load_used_passes) */
+    if (ewio_open(in_path, &f, err, sizeof err) != 0) return cli_fail("%s", err); /* err names the file */
     int rc = EW_EXIT_FAIL;
     float *pix = NULL, *out = NULL, *bufs[MAX_IMAGES] = {NULL};
     ew_device *dev = NULL;
@@ -473,6 +500,7 @@ static int execute(const parser *p) {
     const char *comps = cli_pass_comps(f, layer, pass);
     if (!comps) { cli_fail("layer '%s' has no pass '%s'", layer, pass); goto done; }
     const int C = (int)strlen(comps);
+    if (load_used_passes(p, f, method, layer, pass, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
     if (!(pix = cli_read_pass(f, layer, pass, comps, err, sizeof err))) { cli_fail("%s", err); goto done; }
     long bad = cli_count_nonfinite(pix, n * (size_t)C);
     /* a method that may filter in place writes over the pass read for it

@@ -181,6 +181,14 @@ static const char *library_method(const char *name) {
     return name;
 }
 
+/* Whether the method behind --method `name` has an input image `image`. */
+static int method_takes(const char *name, const char *image) {
+    ew_image_info im;
+    for (int32_t k = 0; ew_method_image(NULL, library_method(name), k, &im) == EW_OK; k++)
+        if (!strcmp(im.name, image)) return 1;
+    return 0;
+}
+
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
     param_options *po = (param_options *)malloc(sizeof *po);
@@ -408,20 +416,28 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     }
 
     const double t_read = cli_seconds();
+    /* The noisy original goes beside the result, as Blender keeps it: from
+     * the input file at write time when the file still holds it there (a
+     * scanline EXR), else from a copy taken now. */
+    const int keep_noisy = strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0';
+    const int noisy_in_file = ewio_pass_in_source(j->f, layer, lp->color, lp->color_comps);
     int nc = (int)strlen(lp->color_comps);
-    float *orig = (float *)malloc((size_t)w * h * nc * sizeof(float));
-    if (!orig) return cli_fail("out of memory");
-    if (ewio_get_pass(j->f, layer, lp->color, lp->color_comps, orig, j->err, sizeof j->err) != 0) {
-        free(orig);
-        return cli_fail("%s", j->err);
+    float *orig = NULL;
+    if (keep_noisy && !noisy_in_file) {
+        if (!(orig = (float *)malloc((size_t)w * h * nc * sizeof(float)))) return cli_fail("out of memory");
+        if (ewio_get_pass(j->f, layer, lp->color, lp->color_comps, orig, j->err, sizeof j->err) != 0) {
+            free(orig);
+            return cli_fail("%s", j->err);
+        }
     }
     ew_layer_data in;
     if (ew_layer_data_read(j->f, lp, &in, j->err, sizeof j->err) != 0) {
         free(orig);
         return cli_fail("%s", j->err);
     }
-    /* the colour is in orig and in.color now, and the result goes back over
-     * it: the file need not hold it too while the method works */
+    /* the colour is in in.color now (and in orig or the input file for the
+     * noisy pass), and the result goes back over it: the file need not hold
+     * it too while the method works */
     const char *dst = lp->layer[0] != '\0' ? "Combined" : lp->color;
     if (!strcmp(dst, lp->color)) ewio_release_pass(j->f, layer, lp->color, "RGB");
     cli_return_freed_memory();
@@ -479,8 +495,10 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         snprintf(chosen, sizeof chosen, "%s %s", lm, j->o->data_path);
     /* Keep the noisy original beside the result, as Blender does. */
     int put = 0;
-    if (strcmp(lp->color, "Noisy Image") != 0 && lp->layer[0] != '\0')
+    if (keep_noisy && orig)
         put = ewio_set_pass(j->f, layer, "Noisy Image", lp->color_comps, orig, j->err, sizeof j->err);
+    else if (keep_noisy)
+        put = ewio_set_pass_from_source(j->f, layer, "Noisy Image", lp->color_comps, lp->color, j->err, sizeof j->err);
     if (put == 0) put = ewio_set_pass(j->f, layer, dst, "RGB", j->out, j->err, sizeof j->err);
     free(orig);
     if (put != 0) return cli_fail("%s", j->err);
@@ -601,7 +619,8 @@ int cmd_denoise(int argc, char **argv) {
         return EW_EXIT_FAIL;
     }
     const double t_read = cli_seconds();
-    if (ewio_read(o.in, &j.f, j.err, sizeof j.err) != 0) {
+    /* the passes no layer's method reads stay in the file (ewio_load_passes below) */
+    if (ewio_open(o.in, &j.f, j.err, sizeof j.err) != 0) {
         cli_view_free(&o.view);
         ew_device_destroy(j.dev);
         return cli_fail("%s", j.err);
@@ -628,6 +647,23 @@ int cmd_denoise(int argc, char **argv) {
             if (o.layer) { cli_fail("%s", j.err); goto done; }
             continue; /* a layer without colour (e.g. only data passes) is left alone */
         }
+        /* the layer's colour and features in one pass over the file; the
+         * motion vectors only for a method that reads them (else they stay
+         * in the file, and are copied from it when the result is written) */
+        lp.skip_vector = !method_takes(o.method, "vector");
+        const ewio_pass_ref used[] = {{layer, lp.color, lp.color_comps}, {layer, lp.albedo, "RGB"},
+                                      {layer, lp.normal, "XYZ"},         {layer, lp.depth, "Z"},
+                                      {layer, lp.skip_vector ? NULL : "Vector", "XY"}};
+        const double t_load = cli_seconds();
+        int nused = 0;
+        ewio_pass_ref refs[5];
+        for (int k = 0; k < 5; k++)
+            if (used[k].pass) refs[nused++] = used[k];
+        if (ewio_load_passes(j.f, refs, nused, j.err, sizeof j.err) != 0) {
+            cli_fail("%s", j.err);
+            goto done;
+        }
+        cli_timing.read += cli_seconds() - t_load;
         if (done_layers == 0) {
             first = lp;
             if (noisy_first && ewio_get_pass(j.f, layer, lp.color, "RGB", noisy_first, j.err, sizeof j.err) != 0) {

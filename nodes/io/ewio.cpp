@@ -71,6 +71,14 @@ struct Channel {
     std::string name, layer, pass, comp;
     TypeDesc type; /* the type it was read with (or half for new channels) */
     Plane px; /* width*height, row-major */
+    /* Left in the source file (ewio_open): px is empty and the pixels are
+     * decoded from channel part_ch of part `part` when they are asked for
+     * or written. A channel with neither pixels nor on_disk was released. */
+    bool on_disk = false;
+    /* The source (a scanline EXR) holds the values this channel was read
+     * with, as channel part_ch of part `part`, whatever it holds now. */
+    bool in_src = false;
+    int part = 0, part_ch = 0;
 };
 
 } // namespace
@@ -88,6 +96,11 @@ struct ewio_file {
     dev_t src_dev = 0;
     ino_t src_ino = 0;
     std::string src_real; /* realpath() of the source, "" if unknown */
+    /* What the source was when it was read, for channels left on disk:
+     * they are decoded from it only while it is still that file. */
+    std::string src_path, src_name; /* to open; as given, for messages */
+    off_t src_size = 0;
+    struct timespec src_mtime = {0, 0};
 };
 
 namespace {
@@ -486,7 +499,7 @@ int make_temp(TempGuard &guard, const std::string &dir, const std::string &base,
 /* ------------------------------------------------------------------ read */
 
 /* hdr non-NULL: stop after the header checks, with its figures in *hdr. */
-int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *hdr = nullptr) {
+int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *hdr = nullptr, bool defer = false) {
     const std::string p(path);
     struct stat st;
     if (stat(path, &st) != 0) {
@@ -653,9 +666,19 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
             }
             split_name(ch.name, ch.layer, ch.pass, ch.comp);
             ch.type = s.channelformat(c);
-            ch.px.resize(npix);
+            ch.part = sub;
+            ch.part_ch = c;
             f->ch.push_back(std::move(ch));
         }
+        /* A scanline EXR part's pixels can be decoded later, channel by
+         * channel and band by band: ewio_open leaves them in the file. */
+        if (fmt == "openexr" && s.tile_width == 0)
+            for (size_t c = first; c < f->ch.size(); c++) f->ch[c].in_src = true;
+        if (defer && fmt == "openexr" && s.tile_width == 0) {
+            for (size_t c = first; c < f->ch.size(); c++) f->ch[c].on_disk = true;
+            continue;
+        }
+        for (size_t c = first; c < f->ch.size(); c++) f->ch[c].px.resize(npix);
 
         const size_t w = size_t(s.width);
         if (s.tile_width > 0) {
@@ -744,9 +767,128 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
     f->src_dev = st.st_dev;
     f->src_ino = st.st_ino;
     f->src_real = real_path(p);
+    f->src_path = f->src_real.empty() ? p : f->src_real;
+    f->src_name = p;
+    f->src_size = st.st_size;
+    f->src_mtime = st.st_mtim;
     *out = f.release();
     return 0;
 }
+
+/* ------------------------------------------------- channels left on disk */
+
+/* Decodes channels that ewio_open left in the source file, band by band of
+ * rows, converted to float exactly as read_impl converts them (the stored
+ * type through convert_image): what comes out is what an ewio_read would
+ * have held. Refuses a source that is no longer the file that was read
+ * (another inode, size or modification time). */
+class SourceReader {
+  public:
+    bool open(const ewio_file &f, const std::vector<int> &chans, std::string &why) {
+        file_ = &f;
+        const std::string &p = f.src_path;
+        struct stat a, b;
+        const bool before = stat(p.c_str(), &a) == 0;
+        in_ = before ? ImageInput::open(p) : nullptr;
+        const bool after = in_ && stat(p.c_str(), &b) == 0;
+        auto same = [&](const struct stat &s) {
+            return s.st_dev == f.src_dev && s.st_ino == f.src_ino && s.st_size == f.src_size &&
+                   s.st_mtim.tv_sec == f.src_mtime.tv_sec && s.st_mtim.tv_nsec == f.src_mtime.tv_nsec;
+        };
+        if (!before || !after || !same(a) || !same(b)) {
+            why = "cannot read " + q(f.src_name) +
+                  " again: it changed or went away since it was first read (the passes a command does not "
+                  "use are read from it when they are written)";
+            if (!in_) why += " (" + oiio_msg(OIIO::geterror(), "cannot open it") + ")";
+            in_.reset();
+            return false;
+        }
+        for (size_t k = 0; k < chans.size(); k++) {
+            const Channel &c = f.ch[size_t(chans[k])];
+            Part *pt = nullptr;
+            for (Part &q2 : parts_)
+                if (q2.sub == c.part) pt = &q2;
+            if (!pt) {
+                parts_.push_back(Part());
+                pt = &parts_.back();
+                pt->sub = c.part;
+                pt->chb = pt->che = c.part_ch;
+            }
+            pt->chb = std::min(pt->chb, c.part_ch);
+            pt->che = std::max(pt->che, c.part_ch + 1);
+            pt->want.push_back({int(k), c.part_ch});
+        }
+        for (Part &pt : parts_) {
+            if (!in_->seek_subimage(pt.sub, 0)) {
+                why = "cannot read " + q(f.src_name) + " again: " + oiio_msg(in_->geterror(), "a part is missing");
+                return false;
+            }
+            const ImageSpec s = in_->spec();
+            if (s.width != f.width || s.height != f.height || s.tile_width > 0 || pt.che > s.nchannels) {
+                why = "cannot read " + q(f.src_name) + " again: it no longer has the layout it was first read with";
+                return false;
+            }
+            pt.y = s.y;
+            pt.pxb = 0;
+            pt.off.assign(size_t(pt.che - pt.chb), 0);
+            pt.cf.assign(size_t(pt.che - pt.chb), OIIO::TypeFloat);
+            for (int c = pt.chb; c < pt.che; c++) {
+                pt.cf[size_t(c - pt.chb)] = s.channelformat(c);
+                pt.off[size_t(c - pt.chb)] = pt.pxb;
+                pt.pxb += s.channelformat(c).size();
+            }
+        }
+        return true;
+    }
+
+    /* planes[k] (for chans[k]) receives rows y0..y1, width floats a row,
+     * `ystride` floats apart. */
+    bool read(int y0, int y1, float *const *planes, size_t ystride, std::string &why) {
+        const size_t w = size_t(file_->width);
+        for (Part &pt : parts_) {
+            buf_.resize(size_t(y1 - y0) * w * pt.pxb);
+            bool ok = in_->read_native_scanlines(pt.sub, 0, pt.y + y0, pt.y + y1, 0, pt.chb, pt.che, buf_.data());
+            for (size_t j = 0; ok && j < pt.want.size(); j++) {
+                const size_t c = size_t(pt.want[j].second - pt.chb);
+                ok = OIIO::convert_image(1, file_->width, y1 - y0, 1, buf_.data() + pt.off[c], pt.cf[c],
+                                         OIIO::stride_t(pt.pxb), OIIO::stride_t(w * pt.pxb), OIIO::AutoStride,
+                                         planes[pt.want[j].first], OIIO::TypeFloat, OIIO::stride_t(sizeof(float)),
+                                         OIIO::stride_t(ystride * sizeof(float)), OIIO::AutoStride);
+            }
+            if (!ok) {
+                why = "cannot read " + q(file_->src_name) + ": corrupt or truncated image data (" +
+                      oiio_msg(in_->geterror(), "read failed") + ")";
+                return false;
+            }
+        }
+        return true;
+    }
+
+    /* Rows a band of n float channels (and of the parts' stored channels
+     * it decodes) takes at about kBandFloats floats, in
+     * whole 32-row chunks (a zip or piz chunk is decoded once, not once for
+     * each band it straddles). */
+    int band_rows(size_t n) const {
+        for (const Part &pt : parts_) n = std::max(n, (pt.pxb + sizeof(float) - 1) / sizeof(float));
+        const int w = file_->width, h = file_->height;
+        size_t rows = std::max<size_t>(1, kBandFloats / (size_t(w) * std::max<size_t>(n, 1)));
+        if (rows > 32) rows -= rows % 32;
+        return int(std::min(rows, size_t(h)));
+    }
+
+  private:
+    struct Part {
+        int sub = 0, chb = 0, che = 0, y = 0;
+        size_t pxb = 0;
+        std::vector<TypeDesc> cf;
+        std::vector<size_t> off;
+        std::vector<std::pair<int, int>> want; /* (index into chans, channel in the part) */
+    };
+    const ewio_file *file_ = nullptr;
+    std::unique_ptr<ImageInput> in_;
+    std::vector<Part> parts_;
+    std::vector<unsigned char> buf_;
+};
 
 /* ----------------------------------------------------------------- write */
 
@@ -920,8 +1062,11 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         }
     }
     const int nch = int(src.size());
+    std::vector<int> disk; /* output channels left in the source file */
+    for (int c = 0; c < int(src.size()); c++)
+        if (f.ch[size_t(src[size_t(c)])].on_disk) disk.push_back(c);
     for (int i : src)
-        if (f.ch[size_t(i)].px.size() != size_t(w) * size_t(h)) {
+        if (!f.ch[size_t(i)].on_disk && f.ch[size_t(i)].px.size() != size_t(w) * size_t(h)) {
             msg = what + "the pixels of channel " + q(f.ch[size_t(i)].name) +
                   " were released (ewio_release_pass) and not set again";
             return 1;
@@ -1003,20 +1148,42 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         close(fd);
     }
 
+    /* the passes left in the source are decoded from it band by band */
+    SourceReader disk_in;
+    if (!disk.empty()) {
+        std::vector<int> chans;
+        for (int c : disk) chans.push_back(src[size_t(c)]);
+        std::string why;
+        if (!disk_in.open(f, chans, why)) {
+            msg = what + why;
+            return 1;
+        }
+    }
     if (!out->open(guard.path, spec)) {
         msg = what + oiio_msg(out->geterror(), "could not open the output");
         return 1;
     }
     {
-        size_t rows = std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch)));
-        rows = std::min(rows, size_t(h));
+        const size_t rows = size_t(disk.empty() ? std::min<size_t>(size_t(h), std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch))))
+                                                : size_t(disk_in.band_rows(size_t(nch))));
         std::vector<float> buf(rows * size_t(w) * size_t(nch));
+        std::vector<float> dbuf(rows * size_t(w) * disk.size());
+        std::vector<float *> dplanes(disk.size());
+        std::vector<const float *> from(size_t(nch), nullptr);
+        for (size_t k = 0; k < disk.size(); k++) {
+            dplanes[k] = dbuf.data() + k * rows * size_t(w);
+            from[size_t(disk[k])] = dplanes[k];
+        }
         for (int y0 = 0; y0 < h; y0 += int(rows)) {
             const int y1 = std::min(h, y0 + int(rows));
             const size_t b = size_t(y0) * size_t(w);
             const size_t n = size_t(y1 - y0) * size_t(w);
+            if (!disk.empty() && !disk_in.read(y0, y1, dplanes.data(), size_t(w), msg)) {
+                msg = what + msg;
+                return 1;
+            }
             for (int c = 0; c < nch; c++) {
-                const float *s = f.ch[size_t(src[size_t(c)])].px.data() + b;
+                const float *s = from[size_t(c)] ? from[size_t(c)] : f.ch[size_t(src[size_t(c)])].px.data() + b;
                 float *d = buf.data() + c;
                 if (clamp01) {
                     for (size_t i = 0; i < n; i++) {
@@ -1276,6 +1443,80 @@ int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
     return 1;
 }
 
+int ewio_open(const char *path, ewio_file **out, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (out) *out = nullptr;
+    if (!path || !*path || !out) {
+        set_err(err, errlen, "ewio_open: invalid argument (NULL or empty path, or NULL out)");
+        return 1;
+    }
+    try {
+        std::string msg;
+        int rc = read_impl(path, out, msg, nullptr, true);
+        if (rc) set_err(err, errlen, msg);
+        return rc;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': out of memory");
+    } catch (const std::exception &e) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': " + one_line(e.what()));
+    } catch (...) {
+        set_err(err, errlen, std::string("cannot read '") + path + "': unknown error");
+    }
+    return 1;
+}
+
+int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!f || (n > 0 && !refs) || n < 0) {
+        set_err(err, errlen, "ewio_load_passes: invalid argument");
+        return 1;
+    }
+    try {
+        std::vector<int> chans;
+        for (int r = 0; r < n; r++) {
+            const std::string L = refs[r].layer ? refs[r].layer : "", P = refs[r].pass ? refs[r].pass : "";
+            for (size_t i = 0; i < f->ch.size(); i++) {
+                const Channel &c = f->ch[i];
+                if (!c.on_disk || c.layer != L || c.pass != P) continue;
+                if (refs[r].comps && !std::strstr(refs[r].comps, c.comp.c_str())) continue;
+                if (refs[r].comps && c.comp.size() != 1) continue;
+                if (std::find(chans.begin(), chans.end(), int(i)) == chans.end()) chans.push_back(int(i));
+            }
+        }
+        if (chans.empty()) return 0;
+        const size_t npix = size_t(f->width) * size_t(f->height), w = size_t(f->width);
+        std::vector<Plane> px(chans.size());
+        for (Plane &pl : px) pl.resize(npix);
+        SourceReader rd;
+        std::string why;
+        if (!rd.open(*f, chans, why)) {
+            set_err(err, errlen, why);
+            return 1;
+        }
+        std::vector<float *> planes(chans.size());
+        const int rows = rd.band_rows(chans.size());
+        for (int y0 = 0; y0 < f->height; y0 += rows) {
+            const int y1 = std::min(f->height, y0 + rows);
+            for (size_t k = 0; k < chans.size(); k++) planes[k] = px[k].data() + size_t(y0) * w;
+            if (!rd.read(y0, y1, planes.data(), w, why)) {
+                set_err(err, errlen, why);
+                return 1;
+            }
+        }
+        for (size_t k = 0; k < chans.size(); k++) {
+            Channel &c = f->ch[size_t(chans[k])];
+            c.px.swap(px[k]);
+            c.on_disk = false;
+        }
+        return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "ewio_load_passes: out of memory");
+    } catch (...) {
+        set_err(err, errlen, "ewio_load_passes: unexpected error");
+    }
+    return 1;
+}
+
 int ewio_read_header(const char *path, ewio_header *out, char *err, size_t errlen) {
     clear_err(err, errlen);
     if (!path || !*path || !out) {
@@ -1335,15 +1576,43 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
             return 1;
         }
         const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
-        for (size_t k = 0; k < n; k++)
-            if (f->ch[size_t(idx[k])].px.size() != npix) {
+        std::vector<int> disk;
+        for (size_t k = 0; k < n; k++) {
+            const Channel &c = f->ch[size_t(idx[k])];
+            if (c.on_disk) disk.push_back(int(k));
+            else if (c.px.size() != npix) {
                 set_err(err, errlen, "ewio_get_pass: the pixels of " + display_pass(L, P) +
                                          " were released (ewio_release_pass) and not set again");
                 return 1;
             }
-        for (size_t k = 0; k < n; k++) {
-            const float *s = f->ch[size_t(idx[k])].px.data();
-            for (size_t i = 0; i < npix; i++) dst[i * n + k] = s[i];
+        }
+        SourceReader rd;
+        std::vector<int> chans;
+        for (int k : disk) chans.push_back(idx[size_t(k)]);
+        std::string why;
+        if (!disk.empty() && !rd.open(*f, chans, why)) {
+            set_err(err, errlen, why);
+            return 1;
+        }
+        const size_t w = size_t(f->width);
+        const int rows = disk.empty() ? f->height : rd.band_rows(disk.size());
+        std::vector<float> band(disk.empty() ? 0 : size_t(rows) * w * disk.size());
+        std::vector<float *> planes(disk.size());
+        for (size_t j = 0; j < disk.size(); j++) planes[j] = band.data() + j * size_t(rows) * w;
+        for (int y0 = 0; y0 < f->height; y0 += rows) {
+            const int y1 = std::min(f->height, y0 + rows);
+            if (!disk.empty() && !rd.read(y0, y1, planes.data(), w, why)) {
+                set_err(err, errlen, why);
+                return 1;
+            }
+            const size_t b = size_t(y0) * w, m = size_t(y1 - y0) * w;
+            size_t j = 0;
+            for (size_t k = 0; k < n; k++) {
+                const bool from_disk = j < disk.size() && disk[j] == int(k);
+                const float *s = from_disk ? planes[j++] : f->ch[size_t(idx[k])].px.data() + b;
+                float *d = dst + b * n + k;
+                for (size_t i = 0; i < m; i++) d[i * n] = s[i];
+            }
         }
         return 0;
     } catch (const std::bad_alloc &) {
@@ -1364,7 +1633,10 @@ int ewio_release_pass(ewio_file *f, const char *layer, const char *pass, const c
             if (i < 0) return 1;
             idx.push_back(i);
         }
-        for (int i : idx) Plane().swap(f->ch[size_t(i)].px);
+        for (int i : idx) {
+            Plane().swap(f->ch[size_t(i)].px);
+            f->ch[size_t(i)].on_disk = false;
+        }
         return 0;
     } catch (...) {
         return 1;
@@ -1383,6 +1655,116 @@ int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const
     }
 }
 
+namespace {
+/* Where a new channel of pass P goes: after the pass's last channel, else
+ * the layer's, else at the end. */
+size_t new_channel_pos(const ewio_file &f, const std::string &L, const std::string &P) {
+    size_t pos = f.ch.size();
+    int last_pass = -1, last_layer = -1;
+    for (size_t j = 0; j < f.ch.size(); j++) {
+        if (f.ch[j].layer != L) continue;
+        last_layer = int(j);
+        if (f.ch[j].pass == P) last_pass = int(j);
+    }
+    if (last_pass >= 0)
+        pos = size_t(last_pass) + 1;
+    else if (last_layer >= 0)
+        pos = size_t(last_layer) + 1;
+    return pos;
+}
+
+/* "" when (L, P, C) names channels that read back as that layer, pass and
+ * those components; else why not (ewio_set_pass's rules). */
+std::string pass_names_problem(const std::string &L, const std::string &P, const std::string &C, const char *fn) {
+    if (!L.empty() && P.empty())
+        return std::string(fn) + ": a pass name is required for layer " + q(L) + " (\"" + L + ".R\" would read back as pass " +
+               q(L) + ")";
+    for (size_t i = 0; i < C.size(); i++) {
+        std::string l2, p2, c2;
+        const std::string name = join_name(L, P, std::string(1, C[i]));
+        split_name(name, l2, p2, c2);
+        if (C.find(C[i]) != i || l2 != L || p2 != P || c2 != std::string(1, C[i]))
+            return std::string(fn) + ": " + display_pass(L, P) + " components " + q(C) + ": channel name " + q(name) +
+                   " is ambiguous (dots in the pass name or component, or a repeated component)";
+    }
+    return "";
+}
+} // namespace
+
+int ewio_pass_in_source(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
+    if (!f || !comps || !*comps) return 0;
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "";
+        for (const char *c = comps; *c; c++) {
+            const int i = find_channel(*f, L, P, std::string(1, *c));
+            if (i < 0 || !f->ch[size_t(i)].in_src) return 0;
+        }
+        return 1;
+    } catch (...) {
+        return 0;
+    }
+}
+
+int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass, const char *comps,
+                              const char *from_pass, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!f || !comps || !*comps) {
+        set_err(err, errlen, "ewio_set_pass_from_source: invalid argument (NULL file or empty comps)");
+        return 1;
+    }
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps, F = from_pass ? from_pass : "";
+        std::string why = pass_names_problem(L, P, C, "ewio_set_pass_from_source");
+        if (!why.empty()) {
+            set_err(err, errlen, why);
+            return 1;
+        }
+        std::vector<int> from;
+        for (char c : C) {
+            const int i = find_channel(*f, L, F, std::string(1, c));
+            if (i < 0 || !f->ch[size_t(i)].in_src) {
+                set_err(err, errlen, "ewio_set_pass_from_source: " + display_pass(L, F) + " component " +
+                                         q(std::string(1, c)) + " is not in the file it was read from");
+                return 1;
+            }
+            from.push_back(i);
+        }
+        /* the source channels' places, before any insertion moves them */
+        std::vector<std::pair<int, int>> refs;
+        for (int i : from) refs.push_back({f->ch[size_t(i)].part, f->ch[size_t(i)].part_ch});
+        std::vector<std::string> layers = f->layers;
+        if (!has_layer(*f, L)) layers.push_back(L);
+        f->ch.reserve(f->ch.size() + C.size());
+        for (size_t k = 0; k < C.size(); k++) {
+            int i = find_channel(*f, L, P, std::string(1, C[k]));
+            if (i < 0) {
+                Channel c;
+                c.layer = L;
+                c.pass = P;
+                c.comp = std::string(1, C[k]);
+                c.name = join_name(L, P, c.comp);
+                c.type = OIIO::TypeHalf; /* as ewio_set_pass's new channels */
+                const size_t pos = new_channel_pos(*f, L, P);
+                f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(c));
+                i = int(pos);
+            }
+            Channel &c = f->ch[size_t(i)];
+            Plane().swap(c.px);
+            c.on_disk = true;
+            c.in_src = true;
+            c.part = refs[k].first;
+            c.part_ch = refs[k].second;
+        }
+        f->layers.swap(layers);
+        return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, "ewio_set_pass_from_source: out of memory");
+    } catch (...) {
+        set_err(err, errlen, "ewio_set_pass_from_source: unexpected error");
+    }
+    return 1;
+}
+
 int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
                   const float *src, char *err, size_t errlen) {
     clear_err(err, errlen);
@@ -1392,24 +1774,10 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
     }
     try {
         const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
-        if (!L.empty() && P.empty()) {
-            set_err(err, errlen,
-                    "ewio_set_pass: a pass name is required for layer " + q(L) +
-                        " (\"" + L + ".R\" would read back as pass " + q(L) + ")");
+        const std::string why = pass_names_problem(L, P, C, "ewio_set_pass");
+        if (!why.empty()) {
+            set_err(err, errlen, why);
             return 1;
-        }
-        for (size_t i = 0; i < C.size(); i++) {
-            std::string l2, p2, c2;
-            const std::string name = join_name(L, P, std::string(1, C[i]));
-            split_name(name, l2, p2, c2);
-            if (C.find(C[i]) != i || l2 != L || p2 != P || c2 != std::string(1, C[i])) {
-                set_err(err, errlen,
-                        "ewio_set_pass: " + display_pass(L, P) + " components " + q(C) +
-                            ": channel name " + q(name) +
-                            " is ambiguous (dots in the pass name or component, or a repeated "
-                            "component)");
-                return 1;
-            }
         }
         const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
         /* Prepare everything that allocates before changing the file: planes
@@ -1445,20 +1813,10 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
             for (size_t j = 0; j < npix; j++) dst[j] = src[j * n + k];
             if (i >= 0) {
                 if (&dst != &f->ch[size_t(i)].px) f->ch[size_t(i)].px.swap(data[k]);
+                f->ch[size_t(i)].on_disk = false;
                 continue;
             }
-            /* After the pass's last channel, else the layer's, else at the end. */
-            size_t pos = f->ch.size();
-            int last_pass = -1, last_layer = -1;
-            for (size_t j = 0; j < f->ch.size(); j++) {
-                if (f->ch[j].layer != L) continue;
-                last_layer = int(j);
-                if (f->ch[j].pass == P) last_pass = int(j);
-            }
-            if (last_pass >= 0)
-                pos = size_t(last_pass) + 1;
-            else if (last_layer >= 0)
-                pos = size_t(last_layer) + 1;
+            const size_t pos = new_channel_pos(*f, L, P);
             Channel &c = fresh[fi++];
             c.px.swap(data[k]);
             f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(c));

@@ -53,6 +53,29 @@ typedef struct ewio_file ewio_file;
 int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen);
 void ewio_free(ewio_file *f); /* NULL is a no-op */
 
+/* As ewio_read, with the same checks, but the pixels of a scanline EXR
+ * stay in the file: names, layers and metadata are read, and each
+ * channel's pixels are decoded only when they are asked for
+ * (ewio_get_pass decodes them into its dst; ewio_load_passes keeps them)
+ * or written (ewio_write copies them from the source, band by band). So
+ * passes a command does not use are never held as float planes. The values
+ * are the ones ewio_read would hold. A later decode refuses a source that
+ * is no longer the file that was read (another inode, size or modification
+ * time) with a message; the write then fails and leaves its destination as
+ * it was. Other files (tiled EXR, PNG, TIFF...) are read whole, as by
+ * ewio_read. */
+int ewio_open(const char *path, ewio_file **out, char *err, size_t errlen);
+
+/* Decode the listed passes of a file from ewio_open (the channels still in
+ * the file; comps NULL = every component of the pass) in one pass over
+ * the file and keep them, so several ewio_get_pass calls do not each
+ * decode it. Passes that do not exist are skipped (ewio_get_pass reports
+ * them). 0 on success; on failure nothing is loaded. */
+typedef struct ewio_pass_ref {
+    const char *layer, *pass, *comps;
+} ewio_pass_ref;
+int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, size_t errlen);
+
 /* What ewio_read would read, from the headers alone, with the same checks
  * (file type, size and channel limits, every part): size and the number of
  * channels over all parts. Lets a command refuse work that will not fit
@@ -120,6 +143,22 @@ int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const
  * components — names that would not read back as the same layer/pass. */
 int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
                   const float *src, char *err, size_t errlen);
+
+/* 1 if every component of the pass is in the file the data was read from
+ * (a scanline EXR), which still holds the values it was read with whatever
+ * ewio_set_pass or ewio_release_pass did to them since. */
+int ewio_pass_in_source(const ewio_file *f, const char *layer, const char *pass, const char *comps);
+
+/* Set pass (layer, pass, comps) to the values pass `from_pass` of the same
+ * layer was read with (ewio_pass_in_source must hold for it), as
+ * ewio_set_pass would with a copy of them taken at read time, but without
+ * holding them: they are decoded from the source when read or written
+ * (the source must then still be that file, as for ewio_open). New
+ * channels go where ewio_set_pass puts them, stored as half under
+ * EWIO_KEEP; existing ones keep their type. Refused as ewio_set_pass
+ * refuses names. */
+int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass, const char *comps,
+                              const char *from_pass, char *err, size_t errlen);
 
 /* Header metadata as text ("" if absent), e.g. "cycles.ViewLayer.samples",
  * "compression" (EXR input only). The pointer stays valid until that

@@ -23,6 +23,8 @@ typedef struct ew_layer_passes {
     const char *albedo;      /* NULL when absent */
     const char *normal;      /* NULL when absent; "Denoising Normal" is camera space */
     const char *depth;       /* NULL when absent */
+    int skip_vector;         /* 0 as found; a caller whose method takes no motion vectors sets 1, and
+                                ew_layer_data_read leaves the Vector pass unread */
 } ew_layer_passes;
 
 /* Find the passes of `layer` for a denoiser (colour: "Noisy Image", else

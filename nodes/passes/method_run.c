@@ -43,7 +43,7 @@ int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_d
     out->albedo = read_pass(f, lp->layer, lp->albedo, "RGB", err, errlen, &fail);
     out->normal = read_pass(f, lp->layer, lp->normal, "XYZ", err, errlen, &fail);
     out->depth = read_pass(f, lp->layer, lp->depth, "Z", err, errlen, &fail);
-    if (!fail && ewio_has_pass(f, lp->layer, "Vector", "XY"))
+    if (!fail && !lp->skip_vector && ewio_has_pass(f, lp->layer, "Vector", "XY"))
         out->vector = read_pass(f, lp->layer, "Vector", "XY", err, errlen, &fail);
     if (fail) ew_layer_data_free(out);
     char key[320];

@@ -10,6 +10,7 @@
 #include "ewio.h"
 
 #include <dirent.h>
+#include <fcntl.h>
 #include <errno.h>
 #include <signal.h>
 #include <stdint.h>
@@ -501,6 +502,84 @@ TEST(png_and_tiff_colour_only) {
 }
 
 /* Multi-part EXR: made with oiiotool (ewio itself writes single-part files). */
+/* ewio_open leaves a scanline EXR's pixels in the file: each pass reads
+ * as ewio_read reads it (decoded on demand, or loaded by
+ * ewio_load_passes), a pass set from the source is the values read, and
+ * the written file is the same bytes as from a whole read; a source that
+ * changed since is refused with a message and the destination left alone.
+ * 4096 x 300 so the decodes run in several bands. */
+TEST(open_leaves_passes_in_the_file) {
+    char dir[4096], src[4200], a[4200], b[4200], err[512];
+    CHECK(make_tmpdir(dir, sizeof dir));
+    const int w = 4096, h = 300;
+    ewio_file *f = make_blender_like(w, h, "ViewLayer");
+    CHECK(f != NULL);
+    snprintf(src, sizeof src, "%s/src.exr", dir);
+    CHECK(ewio_write(f, src, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    ewio_free(f);
+    ewio_file *g = NULL, *d = NULL;
+    CHECK(ewio_read(src, &g, err, sizeof err) == 0);
+    CHECK(ewio_open(src, &d, err, sizeof err) == 0);
+    CHECK_EQ_INT(ewio_num_channels(d), ewio_num_channels(g));
+    const char *passes[][2] = {{"Combined", "RGBA"}, {"Denoising Albedo", "RGB"}, {"Denoising Normal", "XYZ"},
+                               {"Denoising Depth", "Z"}, {"Vector", "XYZW"}, {"Vector", "WX"}};
+    const size_t n = (size_t)w * h;
+    float *pg = malloc(sizeof(float) * n * 4), *pd = malloc(sizeof(float) * n * 4);
+    CHECK(pg && pd);
+    for (int round = 0; round < 2; round++) { /* on demand, then loaded */
+        for (int k = 0; k < 6; k++) {
+            const size_t c = strlen(passes[k][1]);
+            CHECK(ewio_get_pass(g, "ViewLayer", passes[k][0], passes[k][1], pg, err, sizeof err) == 0);
+            CHECK(ewio_get_pass(d, "ViewLayer", passes[k][0], passes[k][1], pd, err, sizeof err) == 0);
+            CHECK(memcmp(pg, pd, sizeof(float) * n * c) == 0);
+        }
+        const ewio_pass_ref refs[] = {{"ViewLayer", "Combined", NULL}, {"ViewLayer", "Vector", "XY"},
+                                      {"ViewLayer", "Missing", NULL}};
+        CHECK(ewio_load_passes(d, refs, 3, err, sizeof err) == 0);
+    }
+    /* the same edits on both: a pass replaced, one released and set, one set from the source */
+    CHECK(ewio_pass_in_source(d, "ViewLayer", "Combined", "RGBA"));
+    CHECK(!ewio_pass_in_source(d, "ViewLayer", "Combined", "RGBAQ"));
+    CHECK(ewio_get_pass(g, "ViewLayer", "Combined", "RGBA", pg, err, sizeof err) == 0);
+    CHECK(ewio_set_pass(g, "ViewLayer", "Noisy Image", "RGBA", pg, err, sizeof err) == 0);
+    CHECK(ewio_set_pass_from_source(d, "ViewLayer", "Noisy Image", "RGBA", "Combined", err, sizeof err) == 0);
+    CHECK(ewio_set_pass_from_source(d, "ViewLayer", "New", "RGB", "Absent", err, sizeof err) != 0);
+    CHECK(strstr(err, "not in the file") != NULL);
+    ewio_file *both[2] = {g, d};
+    for (int i = 0; i < 2; i++) {
+        CHECK(set_pattern(both[i], "ViewLayer", "Combined", "RGB", 9) == 0);
+        CHECK(ewio_release_pass(both[i], "ViewLayer", "Denoising Depth", "Z") == 0);
+        CHECK(set_pattern(both[i], "ViewLayer", "Denoising Depth", "Z", 8) == 0);
+    }
+    CHECK(ewio_get_pass(d, "ViewLayer", "Noisy Image", "RGBA", pd, err, sizeof err) == 0);
+    CHECK(memcmp(pg, pd, sizeof(float) * n * 4) == 0); /* the values read, not the pattern set since */
+    snprintf(a, sizeof a, "%s/a.exr", dir);
+    snprintf(b, sizeof b, "%s/b.exr", dir);
+    CHECK(ewio_write(g, a, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    CHECK(ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    long la = 0, lb = 0;
+    unsigned char *ba = slurp(a, &la), *bb = slurp(b, &lb);
+    CHECK(ba && bb && la == lb && memcmp(ba, bb, (size_t)la) == 0);
+    free(ba);
+    free(bb);
+    /* the source changes under the file: refused, destination untouched */
+    struct timespec ts[2] = {{1000000000, 0}, {1000000000, 0}};
+    CHECK(utimensat(AT_FDCWD, src, ts, 0) == 0);
+    CHECK(ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) != 0);
+    CHECK(strstr(err, "changed") != NULL);
+    CHECK(ewio_get_pass(d, "ViewLayer", "Denoising Normal", "XYZ", pd, err, sizeof err) != 0);
+    CHECK(strstr(err, "changed") != NULL);
+    unsigned char *bb2 = slurp(b, &lb);
+    CHECK(bb2 && lb == la);
+    free(bb2);
+    CHECK_EQ_INT(count_entries(dir, ".tmp-"), 0);
+    free(pg);
+    free(pd);
+    ewio_free(g);
+    ewio_free(d);
+    rm_tree(dir);
+}
+
 TEST(multipart_exr) {
     if (system("oiiotool --version >/dev/null 2>&1") != 0) SKIP("oiiotool not found");
     char dir[4096], a[4200], b[4200], mp[4200], out[4200], cmd[16384], err[512];
@@ -536,6 +615,20 @@ TEST(multipart_exr) {
     CHECK_EQ_INT(ewio_num_channels(h), 7);
     CHECK(pattern_diff(h, "ViewLayer", "Denoising Albedo", "RGB", 2) == 0.0);
     ewio_free(h);
+    /* the parts' passes left in the file: the same values, the same output */
+    ewio_file *o = NULL;
+    CHECK(ewio_open(mp, &o, err, sizeof err) == 0);
+    CHECK(pattern_diff(o, "ViewLayer", "Combined", "RGBA", 1) == 0.0);
+    CHECK(pattern_diff(o, "ViewLayer", "Denoising Albedo", "RGB", 2) == 0.0);
+    char out2[4300];
+    snprintf(out2, sizeof out2, "%s/single2.exr", dir);
+    CHECK(ewio_write(o, out2, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    ewio_free(o);
+    long l1 = 0, l2 = 0;
+    unsigned char *b1 = slurp(out, &l1), *b2 = slurp(out2, &l2);
+    CHECK(b1 && b2 && l1 == l2 && memcmp(b1, b2, (size_t)l1) == 0);
+    free(b1);
+    free(b2);
     ewio_free(g);
     rm_tree(dir);
 }
