@@ -1421,16 +1421,18 @@ long long ewio_max_pixels(void) {
     return kMaxPixels;
 }
 
-int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
+/* ewio_read and ewio_open: the same checks and error text around read_impl,
+ * which decodes every pass now or (defer) only the headers. */
+static int read_entry(const char *fn, const char *path, ewio_file **out, bool defer, char *err, size_t errlen) {
     clear_err(err, errlen);
     if (out) *out = nullptr;
     if (!path || !*path || !out) {
-        set_err(err, errlen, "ewio_read: invalid argument (NULL or empty path, or NULL out)");
+        set_err(err, errlen, std::string(fn) + ": invalid argument (NULL or empty path, or NULL out)");
         return 1;
     }
     try {
         std::string msg;
-        int rc = read_impl(path, out, msg);
+        int rc = read_impl(path, out, msg, nullptr, defer);
         if (rc) set_err(err, errlen, msg);
         return rc;
     } catch (const std::bad_alloc &) {
@@ -1443,26 +1445,12 @@ int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
     return 1;
 }
 
+int ewio_read(const char *path, ewio_file **out, char *err, size_t errlen) {
+    return read_entry("ewio_read", path, out, false, err, errlen);
+}
+
 int ewio_open(const char *path, ewio_file **out, char *err, size_t errlen) {
-    clear_err(err, errlen);
-    if (out) *out = nullptr;
-    if (!path || !*path || !out) {
-        set_err(err, errlen, "ewio_open: invalid argument (NULL or empty path, or NULL out)");
-        return 1;
-    }
-    try {
-        std::string msg;
-        int rc = read_impl(path, out, msg, nullptr, true);
-        if (rc) set_err(err, errlen, msg);
-        return rc;
-    } catch (const std::bad_alloc &) {
-        set_err(err, errlen, std::string("cannot read '") + path + "': out of memory");
-    } catch (const std::exception &e) {
-        set_err(err, errlen, std::string("cannot read '") + path + "': " + one_line(e.what()));
-    } catch (...) {
-        set_err(err, errlen, std::string("cannot read '") + path + "': unknown error");
-    }
-    return 1;
+    return read_entry("ewio_open", path, out, true, err, errlen);
 }
 
 int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, size_t errlen) {
