@@ -77,6 +77,10 @@ static ew_result run(ew_device *dev, const char *method, frame *f, int features,
     return r;
 }
 
+/* the three qualities as auto's parameter */
+static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
+                   high[] = {{"quality", 2}, {NULL, 0}};
+
 static int same(const float *a, const float *b) { return memcmp(a, b, sizeof(float) * N * 3) == 0; }
 
 TEST(sample_count_picks_the_model) {
@@ -84,16 +88,14 @@ TEST(sample_count_picks_the_model) {
     static frame f;
     make_frame(&f, 0.5f, 1);
     char what[200];
-    static const param fast1[] = {{"quality", 0}, {NULL, 0}};
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, fast1, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
     CHECK_STR_CONTAINS(what, "1 spp");
     CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 3}, {NULL, 0}}, f.out2, what, sizeof what), EW_OK);
     CHECK(same(f.out, f.out2));
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp"); /* nbg names its model too */
 
-    static const param fast4[] = {{"quality", 0}, {NULL, 0}};
-    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, fast4, f.out, what, sizeof what), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, fast, f.out, what, sizeof what), EW_OK);
     CHECK(strstr(what, "nbg 2layer-3grid (") != NULL);
     CHECK_EQ_INT(run(dev, "nbg", &f, 1, -1, (const param[]){{"model", 0}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
     CHECK(same(f.out, f.out2));
@@ -101,8 +103,6 @@ TEST(sample_count_picks_the_model) {
     /* quality fast stays on the grids and nbg; balanced (the default)
      * and high climb to kpcn-large at every count;
      * the output is that model's own */
-    static const param fast[] = {{"quality", 0}, {NULL, 0}}, balanced[] = {{"quality", 1}, {NULL, 0}},
-                       high[] = {{"quality", 2}, {NULL, 0}};
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
@@ -154,7 +154,6 @@ TEST(noise_estimate_when_the_count_is_unknown) {
     ew_device *dev = make_device();
     static frame f;
     char what[200];
-    static const param fast[] = {{"quality", 0}, {NULL, 0}};
     make_frame(&f, 0.9f, 3); /* very noisy: the 1-spp level (nbg's 1-spp model at quality fast) */
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "1spp");
