@@ -63,6 +63,31 @@ static char (*allowed)[256];
 static int nallowed;
 static int auto_quality; /* the "auto" row of --eval */
 
+/* --train-spp LIST: the sample counts a training scene loads (default every
+ * one rendered). Each frame holds its features and target, ~6.4 MB at
+ * 256x256, so seven counts over 600 scenes outgrow a 24 GB machine. */
+#define MAX_TRAIN_SPP 16
+static int train_spp[MAX_TRAIN_SPP], ntrain_spp;
+
+static int parse_spp_list(const char *v) {
+    ntrain_spp = 0;
+    for (const char *c = v; *c;) {
+        char *end;
+        long n = strtol(c, &end, 10);
+        if (end == c || n < 1 || ntrain_spp == MAX_TRAIN_SPP || (*end && *end != ',')) return 0;
+        train_spp[ntrain_spp++] = (int)n;
+        c = *end ? end + 1 : end;
+    }
+    return ntrain_spp > 0;
+}
+
+static int train_loads_spp(int spp) {
+    if (!ntrain_spp) return 1;
+    for (int i = 0; i < ntrain_spp; i++)
+        if (train_spp[i] == spp) return 1;
+    return 0;
+}
+
 static int is_test_scene(const char *name) {
     for (size_t i = 0; i < sizeof test_scenes / sizeof test_scenes[0]; i++)
         if (!strncmp(name, test_scenes[i], strlen(test_scenes[i]))) return 1;
@@ -89,6 +114,7 @@ static const char usage[] =
     "  --val-every N         validate every N steps (default 250)\n"
     "  --val-max N           validate on at most N scenes (default 12)\n"
     "  --rescan              look for new scenes at every validation\n"
+    "  --train-spp LIST      sample counts a training scene loads, e.g. 1,4,16,64 (default all rendered)\n"
     "  --scenes FILE         load only the scene folders FILE names (one a line; the last word's last path\n"
     "                        component counts, so a run's MODEL.scenes, which every validation rewrites, repeats\n"
     "                        its data)\n"
@@ -150,6 +176,13 @@ static int parse(int argc, char **argv, options *o) {
         else if (!strcmp(a, "--rescan")) o->rescan = 1;
         else if (!strcmp(a, "--holdout")) { VAL(); holdout = atoi(v); }
         else if (!strcmp(a, "--scenes")) { VAL(); o->scenes = v; }
+        else if (!strcmp(a, "--train-spp")) {
+            VAL();
+            if (!parse_spp_list(v)) {
+                fprintf(stderr, "train_kpcn: --train-spp takes sample counts >= 1 separated by commas\n");
+                return 0;
+            }
+        }
         else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(usage, stdout); exit(0); }
         else { fprintf(stderr, "train_kpcn: unknown option '%s'\n%s", a, usage); return 0; }
 #undef VAL
@@ -301,6 +334,7 @@ static int load_scene(scene_t *s) {
         int fno, spp;
         if (sscanf(names[k], "f%d_spp%d.exr", &fno, &spp) != 2) continue;
         if (s->val && spp != 1 && spp != 4 && spp != 16 && spp != 64) continue;
+        if (!s->val && !train_loads_spp(spp)) continue;
         frame_t *f = &s->frames[s->nframes];
         snprintf(path, sizeof path, "%.1300s/%.255s", sdir, names[k]);
         if (read_render(path, 1, &f->w, &f->h, &f->color, &f->albedo, &f->normal, &f->depth)) continue;
