@@ -29,6 +29,8 @@ EXR (pyramid, the filter on a plain image).
     /usr/bin/python3 bench/bench_e2e.py --cli build/bin/edgewise --out /tmp/ew_e2e
     # two builds, alternating case by case:
     /usr/bin/python3 bench/bench_e2e.py --cli before=OLD/bin/edgewise --cli after=build/bin/edgewise
+    # peak memory only (one plain one-shot run per case, no warm runs or graphs), e.g. at 4K:
+    /usr/bin/python3 bench/bench_e2e.py --peak-rss --sizes 3840x2160 --cli before=... --cli after=...
 """
 import argparse
 import json
@@ -144,6 +146,37 @@ def graph(cli, method, src, d, frames):
             "user": ru.ru_utime, "sys": ru.ru_stime, "rss_mb": ru.ru_maxrss / 1024.0, "minflt": ru.ru_minflt}
 
 
+def peak_rss(a, clis, sizes, methods):
+    """One plain one-shot run per case and build (no --timings runs, no graph), builds alternating:
+    peak RSS against the float RGB frame, user and system time, minor faults."""
+    rows = []
+    for size in sizes:
+        inputs = make_inputs(a.out, size)
+        rgb_mb = size[0] * size[1] * 3 * 4 / 1e6
+        for method in methods:
+            kind, args, _ = METHODS[method]
+            for rep in range(a.repeat):
+                for label, cli in clis:
+                    out = os.path.join(a.out, "out_%s_%s.exr" % (method, label))
+                    wall, ru, _ = run([cli] + args[:1] + [inputs[kind], "-o", out, "-q"] + args[1:])
+                    r = {"build": label, "method": method, "size": "%dx%d" % size, "wall": wall,
+                         "user": ru.ru_utime, "sys": ru.ru_stime, "rss_mb": ru.ru_maxrss * 1024 / 1e6,
+                         "minflt": ru.ru_minflt, "rgb_mb": rgb_mb}
+                    rows.append(r)
+                    print("%-8s %-8s %-9s peak RSS %5.0f MB (%.1fx RGB) user %.2f sys %.2f wall %.2f faults %d"
+                          % (label, method, r["size"], r["rss_mb"], r["rss_mb"] / rgb_mb, r["user"], r["sys"],
+                             wall, r["minflt"]), flush=True)
+    print("\nload average at end: %.2f %.2f %.2f" % os.getloadavg())
+    print("\n| method | size | build | peak RSS (MB = 10^6 B) | x float RGB (<= 5) | user + sys s | minor faults |")
+    print("|---|---|---|---:|---:|---|---:|")
+    for r in rows:
+        print("| %s | %s | %s | %.0f | %.1f | %.2f + %.2f | %d |" % (r["method"], r["size"], r["build"], r["rss_mb"],
+              r["rss_mb"] / r["rgb_mb"], r["user"], r["sys"], r["minflt"]))
+    if a.json:
+        with open(a.json, "w") as fp:
+            json.dump({"rows": rows, "load": os.getloadavg()}, fp, indent=1)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cli", action="append",
@@ -154,6 +187,9 @@ def main():
     ap.add_argument("--methods", default="auto,nbg,pyramid,dof")
     ap.add_argument("--frames", default="24", help="graph frames, one number or one per size (24,8)")
     ap.add_argument("--json", help="also write the figures here")
+    ap.add_argument("--peak-rss", action="store_true",
+                    help="only the plain one-shot run of each case (as a user types it): peak RSS, CPU time, faults")
+    ap.add_argument("--repeat", type=int, default=1, help="--peak-rss: runs of each case, builds alternating")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     clis = []
@@ -172,6 +208,10 @@ def main():
         startup[label] = {"wall": ver[0], "rss_mb": ver[1].ru_maxrss / 1024.0, "minflt": ver[1].ru_minflt}
         print("%s: edgewise --version: %.3f s, peak RSS %.0f MB, %d minor faults"
               % (label, ver[0], startup[label]["rss_mb"], startup[label]["minflt"]))
+
+    if a.peak_rss:
+        peak_rss(a, clis, sizes, methods)
+        return
 
     rows = []
     for size, nframes in zip(sizes, frames):

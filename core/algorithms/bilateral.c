@@ -93,17 +93,18 @@ static EW_MULTIVERSION long unpack_image_fast(const float *EW_RESTRICT src, size
     return zeroed;
 }
 
-static long unpack_image(const float *src, size_t ks, size_t js, int C, const ew_image *img,
+/* src's pixel j is at j - jsub (a band of rows starting at pixel jsub) */
+static long unpack_image(const float *src, size_t ks, size_t js, size_t jsub, int C, const ew_image *img,
                          const ew_image *alpha_from, int y0, int y1) {
     if (js == 1 && (C == 3 || C == 4) && ew__image_packed_as(img, C) &&
         (C == 3 || !alpha_from || ew__image_packed_as(alpha_from, 4))) {
         const size_t w = (size_t)img->width, j0 = (size_t)y0 * w;
         float *out = (float *)img->data + j0 * (size_t)C;
         const long count = (long)((size_t)(y1 - y0) * w);
-        if (C == 3) return unpack_image_fast(src, ks, j0, 3, out, NULL, count);
+        if (C == 3) return unpack_image_fast(src, ks, j0 - jsub, 3, out, NULL, count);
         /* alpha copied from another view; onto itself it stays */
         const float *alpha = alpha_from && alpha_from->data != img->data ? (const float *)alpha_from->data + j0 * 4 : NULL;
-        return unpack_image_fast(src, ks, j0, 4, out, alpha, count);
+        return unpack_image_fast(src, ks, j0 - jsub, 4, out, alpha, count);
     }
     const int n = C < EW_BF_COLOR ? C : EW_BF_COLOR;
     const int64_t ps = ew__pixel_stride(img);
@@ -113,9 +114,9 @@ static long unpack_image(const float *src, size_t ks, size_t js, int C, const ew
         char *row = (char *)img->data + (int64_t)y * ew__row_stride(img);
         for (int x = 0; x < img->width; x++, j++) {
             float *p = (float *)(void *)(row + (int64_t)x * ps);
-            const float mask = src[EW_BF_COLOR * ks + j * js];
+            const float mask = src[EW_BF_COLOR * ks + (j - jsub) * js];
             const int ok = mask > 0.0f;
-            for (int c = 0; c < n; c++) p[c] = ok ? src[(size_t)c * ks + j * js] / mask : 0.0f;
+            for (int c = 0; c < n; c++) p[c] = ok ? src[(size_t)c * ks + (j - jsub) * js] / mask : 0.0f;
             if (C > EW_BF_COLOR && alpha_from) p[EW_BF_COLOR] = ew__pixel(alpha_from, x, y)[EW_BF_COLOR];
             zeroed += !ok;
         }
@@ -209,10 +210,14 @@ typedef struct {
     long counts[EW_IO_MAX_THREADS]; /* per thread, summed at the end (no atomics, no allocation) */
 } io_job;
 
-static long job_rows(const ew_bf_io_job *j, int y0, int y1) {
+static long job_rows(const ew_bf_io_job *j, int y0, int y1, int tid) {
     switch (j->what) {
     case IO_IMAGE: return pack_image(j->v, j->C, j->dst, j->ks, j->js, y0, y1);
-    case IO_UNPACK: return unpack_image(j->src, j->ks, j->js, j->C, j->v, j->v2, y0, y1);
+    case IO_UNPACK:
+        if (j->band) /* rows [y0, y1) lie in one band: thread tid's buffer */
+            return unpack_image(j->src + (size_t)tid * j->band_stride, j->ks, 1,
+                                (size_t)(y0 - y0 % j->band) * (size_t)j->v->width, j->C, j->v, j->v2, y0, y1);
+        return unpack_image(j->src, j->ks, j->js, 0, j->C, j->v, j->v2, y0, y1);
     case IO_CHANNELS: return pack_channels(j->v, j->C, j->dst, j->ks, j->js, y0, y1);
     default: return pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, y0, y1);
     }
@@ -220,7 +225,7 @@ static long job_rows(const ew_bf_io_job *j, int y0, int y1) {
 
 static void io_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     io_job *j = (io_job *)ctx;
-    j->counts[tid] += job_rows(&j->j, (int)begin, (int)end); /* tid < threads <= EW_IO_MAX_THREADS (run_io) */
+    j->counts[tid] += job_rows(&j->j, (int)begin, (int)end, tid); /* tid < threads <= EW_IO_MAX_THREADS (run_io) */
 }
 
 /* Run a job over the rows of `any` (the views' common size), laid out as
@@ -328,10 +333,21 @@ void ew_bf_io_unpack_image(ew_bf_io_set *s, const float *src, int C, const ew_im
             planes);
 }
 
+void ew_bf_io_unpack_band(ew_bf_io_set *s, const float *src, int band, long band_stride, int C, const ew_image *img,
+                          const ew_image *alpha_from) {
+    if (!band) {
+        ew_bf_io_unpack_image(s, src, C, img, alpha_from, 1);
+        return;
+    }
+    if (s->n >= EW_BF_IO_JOBS || !img) return;
+    s->job[s->n++] = (ew_bf_io_job){.what = IO_UNPACK, .C = C, .v = img, .v2 = alpha_from, .src = src,
+                                    .ks = (size_t)band * (size_t)img->width, .js = 1, .band = band,
+                                    .band_stride = (size_t)band_stride};
+}
+
 void ew_bf_io_rows(void *set, int y0, int y1, int tid) {
-    (void)tid;
     const ew_bf_io_set *s = (const ew_bf_io_set *)set;
-    for (int k = 0; k < s->n; k++) (void)job_rows(&s->job[k], y0, y1);
+    for (int k = 0; k < s->n; k++) (void)job_rows(&s->job[k], y0, y1, tid);
 }
 
 static void set_rows(void *set, int64_t begin, int64_t end, int tid) { ew_bf_io_rows(set, (int)begin, (int)end, tid); }

@@ -59,6 +59,8 @@ typedef struct ew_bf_io_job {
     const float *src;            /* unpack: the planes */
     float *dst;                  /* pack: the planes */
     size_t ks, js;               /* element k of pixel j at k * ks + j * js */
+    int band;                    /* unpack: src holds bands of this many rows, one a thread (0: the frame) */
+    size_t band_stride;          /* floats from one thread's band to the next */
 } ew_bf_io_job;
 typedef struct ew_bf_io_set {
     int n;
@@ -70,7 +72,13 @@ void ew_bf_io_pack_gi(ew_bf_io_set *s, const ew_image *normal, const ew_image *d
                       float *attr, int planes);
 void ew_bf_io_unpack_image(ew_bf_io_set *s, const float *src, int C, const ew_image *img,
                            const ew_image *alpha_from, int planes);
-/* Run every job of the set (an ew_bf_io_set *) on rows [y0, y1). */
+/* The same as ew_bf_io_unpack_image from planes, from the pyramid's result
+ * held in bands (ew_pyr_plan.band; band 0: a whole frame): the rows a call
+ * runs on lie in one band, in the buffer of the thread that runs it. */
+void ew_bf_io_unpack_band(ew_bf_io_set *s, const float *src, int band, long band_stride, int C, const ew_image *img,
+                          const ew_image *alpha_from);
+/* Run every job of the set (an ew_bf_io_set *) on rows [y0, y1) (tid: the
+ * thread running it, for a banded unpack). */
 void ew_bf_io_rows(void *set, int y0, int y1, int tid);
 /* Run every job on all rows of `any` (the views' size), on dev's threads. */
 void ew_bf_io_run(ew_device *dev, ew_bf_io_set *s, const ew_image *any);

@@ -118,7 +118,9 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
     /* the pyramid packs into its plan's planes; the others use interleaved buffers */
     size_t need = method == EW_BF_PYRAMID ? 0 : n * (size_t)(2 * EW_BF_CH + m.attrs);
     if (method == EW_BF_SEPARABLE) need += n * (size_t)EW_BF_CH;
-    if (method == EW_BF_PYRAMID) need += ew_pyr_scratch_floats(&m, w, h, levels, uniform);
+    /* the pyramid's result drained from bands on the CPU (ew_pyr_band_threads) */
+    const int band_threads = method == EW_BF_PYRAMID ? ew_pyr_band_threads(dev, w, h) : 0;
+    if (method == EW_BF_PYRAMID) need += ew_pyr_scratch_floats_banded(&m, w, h, levels, uniform, band_threads);
     state *s = (state *)ew_op_state_block(op, sizeof(state) + need * sizeof(float));
     if (!s)
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: filtering %dx%d needs %.1f MiB", w, h,
@@ -148,10 +150,10 @@ ew_result ew_bf_op_commit(ew_op *op, ew_bf_method method) {
             s->table = tbl;
             table = &s->table;
         }
-        ew_pyr_plan_init(&s->plan, &pm, w, h, levels, uniform, table, 1.0f, p);
+        ew_pyr_plan_init_banded(&s->plan, &pm, w, h, levels, uniform, table, 1.0f, p, band_threads);
         /* the paper's analytic setting uses gamma = 0 for diffuse GI */
         if (!table && m.kind == EW_RANGE_GI && !m.use_roughness)
-            ew_pyr_plan_init(&s->plan, &pm, w, h, levels, uniform, NULL, 0.0f, p);
+            ew_pyr_plan_init_banded(&s->plan, &pm, w, h, levels, uniform, NULL, 0.0f, p, band_threads);
     }
     return EW_OK;
 }
@@ -185,7 +187,8 @@ ew_result ew_bf_op_execute(ew_op *op) {
     }
     if (planes) { /* unpacks inside its last pass too */
         ew_bf_io_set drain = {0};
-        ew_bf_io_unpack_image(&drain, s->plan.out, m->channels, ew_op_image(op, "output"), color, 1);
+        ew_bf_io_unpack_band(&drain, s->plan.out, s->plan.band, s->plan.band_stride, m->channels,
+                             ew_op_image(op, "output"), color);
         const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
         if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         return EW_OK;

@@ -86,7 +86,9 @@ static ew_result commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     size_t need = n * (size_t)(2 * EW_BF_CH + 1) + ew_dof_scratch_floats(w, h);
     if (method == 2) need += n * (size_t)EW_BF_CH;
-    if (method == 0) need += ew_pyr_scratch_floats(&m, w, h, levels, 0);
+    /* the pyramid's result drained from bands on the CPU (ew_pyr_band_threads) */
+    const int band_threads = method == 0 ? ew_pyr_band_threads(op->dev, w, h) : 0;
+    if (method == 0) need += ew_pyr_scratch_floats_banded(&m, w, h, levels, 0, band_threads);
     state *s = (state *)ew_op_state_block(op, sizeof(state) + need * sizeof(float));
     if (!s)
         return ew__fail(op->dev, EW_ERR_OUT_OF_MEMORY, "out of memory: depth of field at %dx%d needs %.1f MiB", w, h,
@@ -121,7 +123,7 @@ static ew_result commit(ew_op *op) {
             s->table = tbl;
             table = &s->table;
         }
-        ew_pyr_plan_init(&s->plan, &m, w, h, levels, 0, table, 1.0f, p);
+        ew_pyr_plan_init_banded(&s->plan, &m, w, h, levels, 0, table, 1.0f, p, band_threads);
     }
     return EW_OK;
 }
@@ -148,7 +150,7 @@ static ew_result execute(ew_op *op) {
     case 0: {
         ew_bf_io_set fill = {0}, drain = {0};
         ew_bf_io_pack_image(&fill, color, s->C, s->plan.down[0], 1);
-        ew_bf_io_unpack_image(&drain, s->plan.out, s->C, output, color, 1);
+        ew_bf_io_unpack_band(&drain, s->plan.out, s->plan.band, s->plan.band_stride, s->C, output, color);
         const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
         if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;

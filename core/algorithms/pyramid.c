@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "src/backend.h"
+#include "src/thread_pool.h"
 
 int ew_pyr_levels(float sigma_max, int w, int h) {
     if (!(sigma_max > 0.0f)) return 0;
@@ -146,8 +147,26 @@ static size_t level_floats(const ew_bf_model *m, int w, int h) {
            (size_t)(EW_BF_CH + 3 * m->attrs + 2 * EW_BF_CH + (m->kind == EW_RANGE_DOF ? 2 : 0));
 }
 
+int ew_pyr_band_threads(const ew_device *dev, int w, int h) {
+    (void)w;
+    const int threads = dev->pool ? ew_pool_threads(dev->pool) : 1;
+    /* the bands should be at most half the frame's rows */
+    if (!dev->backend->pyr_row_hooks || (long)threads * EW_PYR_BAND * 2 > (long)h) return 0;
+    return threads;
+}
+
+/* Floats of level 0's result: a whole frame, or the threads' bands. */
+static size_t out_floats(int w, int h, int band_threads) {
+    return (band_threads ? (size_t)band_threads * EW_PYR_BAND : (size_t)h) * (size_t)w * EW_BF_CH;
+}
+
 size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int uniform) {
-    size_t n = (size_t)w * (size_t)h * (size_t)(2 * EW_BF_CH + m->attrs); /* level 0: in, attributes, out */
+    return ew_pyr_scratch_floats_banded(m, w, h, levels, uniform, 0);
+}
+
+size_t ew_pyr_scratch_floats_banded(const ew_bf_model *m, int w, int h, int levels, int uniform, int band_threads) {
+    /* level 0: in, attributes, out */
+    size_t n = (size_t)w * (size_t)h * (size_t)(EW_BF_CH + m->attrs) + out_floats(w, h, band_threads);
     for (int l = 1; l <= levels; l++) {
         w = (w + 1) / 2;
         h = (h + 1) / 2;
@@ -159,6 +178,11 @@ size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int
 
 void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
                       const ew_pyr_table *table, float analytic_gamma, float *scratch) {
+    ew_pyr_plan_init_banded(p, m, w, h, levels, uniform, table, analytic_gamma, scratch, 0);
+}
+
+void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
+                             const ew_pyr_table *table, float analytic_gamma, float *scratch, int band_threads) {
     memset(p, 0, sizeof *p);
     p->model = *m;
     p->width = w;
@@ -177,7 +201,11 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
     p->attr[0] = s;
     s += n0 * (size_t)m->attrs;
     p->out = s;
-    s += n0 * EW_BF_CH;
+    s += out_floats(w, h, band_threads);
+    if (band_threads) {
+        p->band = EW_PYR_BAND;
+        p->band_stride = (long)EW_PYR_BAND * w * EW_BF_CH;
+    }
     for (int l = 1; l <= levels; l++) {
         p->w[l] = (p->w[l - 1] + 1) / 2;
         p->h[l] = (p->h[l - 1] + 1) / 2;
@@ -242,8 +270,20 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
     const int inside = be->pyr_row_hooks && p->levels > 0;
     if (io->fill && !inside) io->fill(io->fill_user, 0, p->height, 0);
     if (p->levels == 0) {
-        memcpy(p->out, p->down[0], n0 * sizeof(float));
-        if (io->drain) io->drain(io->drain_user, 0, p->height, 0);
+        if (!p->band) {
+            memcpy(p->out, p->down[0], n0 * sizeof(float));
+            if (io->drain) io->drain(io->drain_user, 0, p->height, 0);
+            return 1;
+        }
+        /* band by band through thread 0's buffer */
+        const size_t n = (size_t)p->width * (size_t)p->height, bs = (size_t)p->band * (size_t)p->width;
+        for (int y0 = 0; y0 < p->height; y0 += p->band) {
+            const int y1 = y0 + p->band < p->height ? y0 + p->band : p->height;
+            for (int c = 0; c < EW_BF_CH; c++)
+                memcpy(p->out + (size_t)c * bs, p->down[0] + (size_t)c * n + (size_t)y0 * p->width,
+                       (size_t)(y1 - y0) * p->width * sizeof(float));
+            if (io->drain) io->drain(io->drain_user, y0, y1, 0);
+        }
         return 1;
     }
     for (int l = 0; l < p->levels; l++) {
@@ -295,6 +335,10 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
             a.drain = io->drain;
             a.drain_user = io->drain_user;
         }
+        if (l == 0) {
+            a.band = p->band;
+            a.band_stride = p->band_stride;
+        }
         be->pyr_up(dev, &a);
     }
     if (io->drain && !inside) io->drain(io->drain_user, 0, p->height, 0);
@@ -304,6 +348,7 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
 int ew_pyr_run(ew_device *dev, const ew_pyr_plan *p, const float *image, const float *attr, float *out,
                int (*progress)(void *user, double fraction), void *user) {
     const size_t n = (size_t)p->width * (size_t)p->height;
+    if (p->band) return 0; /* the result is read back whole: a plan without bands */
     ew_pyr_to_planes(image, EW_BF_CH, n, p->down[0]);
     ew_pyr_to_planes(attr, p->model.attrs, n, p->attr[0]);
     if (!ew_pyr_run_planes(dev, p, NULL, progress, user)) return 0;

@@ -78,7 +78,9 @@ typedef struct ew_pyr_plan {
     float *down[EW_PYR_MAX_LEVELS + 1], *attr[EW_PYR_MAX_LEVELS + 1], *up[EW_PYR_MAX_LEVELS + 1];
     float *attr2[EW_PYR_MAX_LEVELS + 1];
     float *coc[EW_PYR_MAX_LEVELS + 1]; /* DOF: content CoC of Up(l), 1 <= l < levels */
-    float *out;                        /* the result: EW_BF_CH planes of width x height */
+    float *out;                        /* the result: EW_BF_CH planes of width x height, or in bands: */
+    int band;                          /* rows of a band of the result (0: out is a whole frame) ... */
+    long band_stride;                  /* ... one band a thread, this many floats apart, planes band x width */
 } ew_pyr_plan;
 
 /* Squared distance (full-resolution pixels) substituted for the coarse
@@ -93,6 +95,20 @@ size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int
  * weight rows. uniform: every pixel has sigma m->sigma (COLOR/DEPTH/NONE). */
 void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
                       const ew_pyr_table *table, float analytic_gamma, float *scratch);
+
+/* The result in bands instead of a whole frame, for ew_pyr_run_planes with
+ * a drain on a device whose backend drains row by row (pyr_row_hooks): each
+ * thread writes the rows of a band into a buffer of its own and drains them
+ * from there (ew_bf_io_unpack_band), so level 0 holds its input planes but
+ * not 4 floats a pixel of result. ew_pyr_band_threads: the threads to give
+ * bands to on dev at width x height, 0 when a whole frame is the better
+ * choice (no row hooks, or bands as large as the frame). The _banded
+ * functions take it (0: as ew_pyr_scratch_floats / ew_pyr_plan_init). */
+#define EW_PYR_BAND 64
+int ew_pyr_band_threads(const ew_device *dev, int w, int h);
+size_t ew_pyr_scratch_floats_banded(const ew_bf_model *m, int w, int h, int levels, int uniform, int band_threads);
+void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
+                             const ew_pyr_table *table, float analytic_gamma, float *scratch, int band_threads);
 
 /* Filling level 0's input planes (p->down[0], p->attr[0]) and handing on
  * the result (p->out) by rows, inside the first and the last pass (the

@@ -310,6 +310,15 @@ typedef struct ew_pyr_up_args {
      * (NULL: none): the CPU backend unpacks each row of the result so */
     void (*drain)(void *user, int y0, int y1, int tid);
     void *drain_user;
+    /* Up(0) held in a band of rows (not duplicated): row y at y - up_y0,
+     * planes up_ps floats apart (0: a whole frame, up_y0 0) */
+    int up_y0;
+    long up_ps;
+    /* CPU (pyr_row_hooks): Up(0) in bands of `band` rows, one per thread,
+     * band_stride floats apart from a->up (0: a whole frame); the backend
+     * sets up, up_y0 and up_ps for each band it runs */
+    int band;
+    long band_stride;
 } ew_pyr_up_args;
 
 /* log2 of the domain sigma at a centre with attributes ap, for the table
@@ -431,9 +440,9 @@ EW_HD void ew_pyr_up_store(int x, int y, const ew_pyr_up_args *a, const int kind
         for (int c = 0; c < EW_BF_CH; c++) a->up[c * 2 * n + j2] = a->up[c * 2 * n + j2 + 1] = o[c];
         if (kind == EW_RANGE_DOF && wcoc) a->ucoc[j2] = a->ucoc[j2 + 1] = coc;
     } else {
-        const long j = (long)y * a->w + x;
+        const long j = (long)y * a->w + x, ju = (long)(y - a->up_y0) * a->w + x, ps = a->up_ps ? a->up_ps : n;
         EW_PYR_UNROLL
-        for (int c = 0; c < EW_BF_CH; c++) a->up[c * n + j] = o[c];
+        for (int c = 0; c < EW_BF_CH; c++) a->up[c * ps + ju] = o[c];
         if (kind == EW_RANGE_DOF && wcoc) a->ucoc[j] = coc;
     }
 }

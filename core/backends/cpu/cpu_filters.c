@@ -451,10 +451,32 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
     if (sym) up_spans_sym_color(a, begin, end, g1, dup, tid);
 }
 
-EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_body(j, begin, end, kind, tid);, EW_FLATTEN)
+/* Up(0) in bands (a->band rows, one buffer a thread): each band's rows are
+ * written and drained by one thread, into its own buffer, so the result
+ * never needs a whole frame of planes. The rows are split on the bands'
+ * boundaries whatever the chunks (one thread runs every row in one chunk);
+ * every pixel is computed as without bands. */
+static inline void up_rows_banded(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind, int tid) {
+    if (!j->band) {
+        up_rows_body(j, begin, end, kind, tid);
+        return;
+    }
+    for (int64_t b = begin; b < end;) {
+        const int64_t b0 = b - b % j->band, e = b0 + j->band < end ? b0 + j->band : end;
+        ew_pyr_up_args t = *j;
+        t.band = 0;
+        t.up = j->up + (long)tid * j->band_stride;
+        t.up_y0 = (int)b0;
+        t.up_ps = (long)j->band * j->w;
+        up_rows_body(&t, b, e, kind, tid);
+        b = e;
+    }
+}
+
+EW_ROWS_PER_KIND(up_rows, ew_pyr_up_args, up_rows_banded(j, begin, end, kind, tid);, EW_FLATTEN)
 
 void ew_cpu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
-    ew_pool_run(dev->pool, a->h, 0, up_rows(a->m->kind), (void *)a);
+    ew_pool_run(dev->pool, a->h, a->band, up_rows(a->m->kind), (void *)a);
 }
 
 typedef struct {
