@@ -203,6 +203,12 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
         pu.coarse_d2 = 0.75f;
         pu.row = &row;
         pu.lut = 0;
+        pu.drain = 0;
+        pu.drain_user = 0;
+        pu.up_y0 = 0; /* Up(0) a whole frame */
+        pu.up_ps = 0;
+        pu.band = 0;
+        pu.band_stride = 0;
         {
             const ew_launch l2 = ew_kl_pyr_up(&pu);
             EW_PROBE_FOR_THREADS(l2, t, ew_kb_pyr_up(&t, &pu, &m, &row))
