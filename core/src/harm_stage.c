@@ -67,7 +67,6 @@
 #define HARM_GIVE_CAP 2.0f        /* of the rejection's share: at most 2x the luminance it left */
 #define HARM_GIVE_GAIN 0.5f       /* and no pixel grows by more than half */
 #define HARM_FIREFLY_K 3.0f       /* the denoisers' firefly_k default, for a method without that clamp */
-#define HARM_TAKE_FLOOR 0.1        /* of the rejection's share: at most 2x the luminance it left */
 
 static const ew_param_desc stage_on[] = {
     {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
