@@ -70,7 +70,9 @@ enum {
     EW_HARM_SUM_V = 5,    /* ... (columns) */
     EW_HARM_GIVE = 6,     /* what the clamps took at each pixel, over that sum */
     EW_HARM_SPREAD_H = 7, /* ... summed over each window (rows) */
-    EW_HARM_SPREAD_V = 8  /* ... (columns), and the output scaled by it */
+    EW_HARM_SPREAD_V = 8, /* ... (columns), and the output scaled by it */
+    EW_HARM_TAKE = 9,     /* what the rejection took that comes back, as a grey of that luminance */
+    EW_HARM_SCALE = 10    /* the output scaled by 1 + the frame's gain */
 };
 #define EW_HARM_STATS_FLOATS 6
 
@@ -94,15 +96,18 @@ typedef struct ew_harm_args {
                                detail); 0: off */
     float theta_n;          /* ... and alpha stays 1 while D / R_lin <= theta_n */
     float tone_share;       /* ... D / R taken this share in T, the rest in linear units */
-    /* energy return (GIVE, SPREAD_H, SPREAD_V): */
+    /* energy return (SUM_H, SUM_V, GIVE, SPREAD_H, SPREAD_V; TAKE, SCALE): */
     float *give;            /* 3 per pixel: in, the RGB the method's own clamp took (demodulated, as
-                               ew_outlier_buffers.removed); GIVE writes each pixel's share into its first */
+                               ew_outlier_buffers.removed); GIVE writes each pixel's share into its first,
+                               then TAKE what the rejection took that comes back into all three */
     float *spread;          /* 3 per pixel: the box sums (SUM_H, S, SPREAD_H) */
     int give_radius;        /* each pixel's light goes back over its (2 give_radius + 1)^2 window */
     float give_cap;         /* of what the rejection (color - clamped) took, at most give_cap x the
                                luminance it left comes back; 0: none */
     float give_limit;       /* and of all a pixel gives back, at most this luminance */
     float give_gain;        /* SPREAD_V: no pixel is scaled by more than 1 + give_gain */
+    float take_limit;       /* TAKE: of what the rejection took, a pixel gives back at most this luminance */
+    float gain;             /* SCALE: every pixel of the output is scaled by 1 + gain */
 } ew_harm_args;
 
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
@@ -256,21 +261,33 @@ EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
  * method's own firefly clamp) takes light the frame had; the method cannot
  * put it back, so a frame lit by sparse bright samples (a caustic, a small
  * light at 1-16 spp) came out at 0.6-0.8 of its mean. The light is given
- * back after the method over a window around where it was taken, in
- * proportion to the method's output there: the frame's luminance sum is
- * kept, and the light goes where the method says light is (a lamp's rim
- * clamped next to the lamp goes back into the lamp, not into a halo on the
- * dark wall; a sparse-lit region gets brighter as it is shaped), never
- * the spike again. Pixel i gives g_i; pixel j gets out_j x the sum over the
- * windows holding it of g_i / S_i, S_i the output's luminance summed over
- * i's window (box sums, two passes each). The method's own clamp comes back
- * whole (a mean + 3 sigma bound cuts legitimate light), times the blend's
- * alpha (the blend already gave 1 - alpha of the input back); the
- * rejection's at most give_cap times the luminance it left, since a sample
- * hundreds of times brighter than its surface carries far more than its
- * pixel's share of the frame; a pixel gives at most give_limit; and no
- * pixel grows by more than give_gain of itself (in a dark window with one
- * bright remnant, the remnant would take it all). */
+ * back after the method, each clamp's where its kind of light belongs.
+ *
+ * What the method's own clamp took (mean + 3 sigma of a 5x5 window: it cuts
+ * legitimate light, the sparse samples of a dark region at 1-4 spp) comes
+ * back over a window around where it was taken, in proportion to the
+ * method's output there: the light goes where the method says light is (a
+ * lamp's rim clamped next to the lamp goes back into the lamp, not into a
+ * halo on the dark wall; a sparse-lit region gets brighter as it is
+ * shaped), never the spike again. Pixel i gives g_i; pixel j gets out_j x
+ * the sum over the windows holding it of g_i / S_i, S_i the output's
+ * luminance summed over i's window (box sums, two passes each). It comes
+ * back whole, times the blend's alpha (the blend already gave 1 - alpha of
+ * the input back); a pixel gives at most give_limit; and no pixel grows by
+ * more than give_gain of itself (in a dark window with one bright remnant,
+ * the remnant would take it all).
+ *
+ * What the rejection took (a sample orders of magnitude above the median
+ * of its surface) is a rare path whose expected light is spread over a
+ * region of unknown size: given back over its own window it lit that
+ * window (raising the caps to return more of it that way cost a firefly
+ * training scene up to 4.6 dB), while over the whole frame, in proportion
+ * to the output (one gain for every pixel), the same light changes each
+ * pixel by the same small ratio (0.8 dB there with the caps off). TAKE
+ * adds it up, at most give_cap times the luminance the rejection left (a
+ * sample hundreds of times brighter than its surface carries far more than
+ * its pixel's share of the frame) and take_limit a pixel (a damaged sample
+ * would otherwise brighten the frame); SCALE applies the gain. */
 EW_HD float ew_harm_box_row(const float *v, int x, int y, int r, int w) {
     float s = 0.0f;
     for (int xx = ew_maxi(x - r, 0); xx <= ew_mini(x + r, w - 1); xx++) s += v[(long)y * w + xx];
@@ -299,22 +316,39 @@ EW_HD void ew_harm_sum_v_px(int x, int y, const ew_harm_args *a) {
     a->spread[n + (long)y * a->width + x] = ew_harm_box_col(a->spread, x, y, a->give_radius, a->width, a->height);
 }
 
-/* GIVE: g / S into give[3 j] */
+/* GIVE: g / S into give[3 j] (what the method's clamp took; the rejection's
+ * share goes to the whole frame, TAKE) */
 EW_HD void ew_harm_give_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x, n = (long)a->width * a->height;
-    const float *c0 = a->color + j * a->channels, *c1 = a->clamped + j * a->channels;
-    float g[3], ex[3];
+    float g[3];
     for (int c = 0; c < 3; c++) {
         const float m = a->give[j * 3 + c] * ew_harm_albedo(a, j, c);
         g[c] = ew_finitef(m) ? m : 0.0f;
+    }
+    const float lg = ew_minf(ew_maxf(ew_luminance(g), 0.0f), a->give_limit), sum = a->spread[n + j];
+    a->give[j * 3] = sum > 0.0f ? lg / sum : 0.0f;
+}
+
+/* TAKE: the luminance of what the rejection (color - clamped) took that
+ * comes back, at most give_cap x the luminance it left and take_limit, as a
+ * grey of it into give[3 j ..] (the frame's luminance sum adds it up) */
+EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
+    const float *c0 = a->color + j * a->channels, *c1 = a->clamped + j * a->channels;
+    float ex[3];
+    for (int c = 0; c < 3; c++) {
         const float e = c0[c] - c1[c];
         ex[c] = ew_finitef(e) && e > 0.0f ? e : 0.0f;
     }
     const float le = ew_luminance(ex), lk = ew_maxf(ew_luminance(c1), 0.0f);
-    const float s = le > 0.0f ? ew_minf(1.0f, a->give_cap * lk / le) : 0.0f;
-    for (int c = 0; c < 3; c++) g[c] += s * ex[c];
-    const float lg = ew_minf(ew_maxf(ew_luminance(g), 0.0f), a->give_limit), sum = a->spread[n + j];
-    a->give[j * 3] = sum > 0.0f ? lg / sum : 0.0f;
+    const float lr = ew_minf(ew_minf(le, a->give_cap * lk), a->take_limit);
+    for (int c = 0; c < 3; c++) a->give[j * 3 + c] = lr > 0.0f ? lr : 0.0f;
+}
+
+/* SCALE: the output scaled by 1 + the frame's gain (finite pixels) */
+EW_HD void ew_harm_scale_px(long j, const ew_harm_args *a) {
+    float *o = a->out + j * 3;
+    if (!ew_harm_finite3(o) || !(a->gain > 0.0f)) return;
+    for (int c = 0; c < 3; c++) o[c] *= 1.0f + a->gain;
 }
 
 /* SPREAD_H: the shares g / S summed along the row */

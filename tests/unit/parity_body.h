@@ -346,6 +346,8 @@ TEST(harm_stage_steps) {
     h.give_radius = 3;
     h.give_cap = 2.0f;
     h.give_limit = 5.0f;
+    h.take_limit = 4.0f;
+    h.gain = 0.3f;
     ew_harm_args d = h;
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);
@@ -358,7 +360,7 @@ TEST(harm_stage_steps) {
     d.spread = dnan(p.dut, N * 3);
     /* the rejection keeps most pixels: the radiance itself, then a few
      * changed; then the blend and the energy return */
-    for (int step = EW_HARM_DEMOD; step <= EW_HARM_SPREAD_V; step++) {
+    for (int step = EW_HARM_DEMOD; step <= EW_HARM_SCALE; step++) {
         if (step == EW_HARM_REMOD) {
             for (size_t i = 0; i < N * 3; i++) rejected[i] = h.radiance[i] * (i % 17 == 3 ? 0.5f : 1.0f);
             h.rejected = rejected;
