@@ -20,7 +20,11 @@
  * every level, where it measured 0.6-2.6 dB better than the fast rungs for
  * about 3x their time (the rows below). The two differ only in the table's
  * history: high was the first to take kpcn-large down to 1-2 spp.
- * Without albedo, normal and depth every quality is the grid.
+ * Without albedo, normal and depth every quality is the grid. The choice
+ * reads the level, not the frame's content: even an oracle picking between
+ * kpcn-large and the fast rung per frame would gain at most 0.09 dB on the
+ * held-out scenes, per 32x32 tile 0.1-0.3 dB, for a second rung's run
+ * (docs/kpcn.md, "Choosing the rung from the frame itself").
  *
  * Measured on the validation scenes of ../shared/data/cycles-train (the
  * split of models/nbg/README.md; BENCHMARKS.md has the held-out figures):
