@@ -176,7 +176,7 @@ typedef enum ewio_pixel_type {
     EWIO_FLOAT = 2
 } ewio_pixel_type;
 
-/* Write atomically: to a temporary file ".<name>.tmp-XXXXXXXX.<ext>" in the
+/* Write atomically: to a temporary file ".<name>.tmp-XXXXXX.<ext>" in the
  * destination directory, which is read back whole to check it, then renamed
  * over `path` (a symlink at `path` is replaced, not followed). On failure
  * nothing at `path` is touched and the temporary is removed. An existing
@@ -219,7 +219,7 @@ int ewio_write_text(const char *path, const char *text, size_t len, char *err, s
  * Async-signal-safe: for a SIGINT/SIGTERM handler, which then ends the
  * process (the CLI exits 128 + the signal number). A process killed
  * outright (SIGKILL, power loss) leaves its temporary behind: a hidden
- * ".<name>.tmp-XXXXXXXX.<ext>" beside the output, safe to delete when no
+ * ".<name>.tmp-XXXXXX.<ext>" beside the output, safe to delete when no
  * edgewise run writes there. */
 void ewio_remove_temporaries(void);
 

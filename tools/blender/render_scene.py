@@ -53,7 +53,7 @@ FAMILIES = {
     "motionblur": ("f", "motion blur on, no Vector pass"),
     "anim": ("g", "4-frame camera/object animation, motion blur off, Vector pass on"),
     "hdri": ("h", "world lighting: bundled HDRIs or a Nishita sky"),
-    # stability families (issue 9): not in the shared dataset or make_dataset.sh's default
+    # stability families, scenes where denoisers fail: not in the shared dataset or make_dataset.sh's default
     "volume": ("i", "room filled with fog and a smoke blob, lit by a spot (volume scattering)"),
     "texture": ("j", "high-frequency procedural textures and bump at sub-pixel scale (moire)"),
     "thin": ("k", "thin geometry: a wire fence, loose wires and grass blades"),
@@ -955,7 +955,7 @@ def build_hdri(rng, ctx):
 
 
 # --------------------------------------------------------------------------
-# stability families (issue 9): scenes where denoisers fail.  Added after the
+# stability families: scenes where denoisers fail.  Added after the
 # dataset families; nothing above is changed, so those still reproduce the shared
 # dataset exactly.
 

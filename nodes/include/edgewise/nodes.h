@@ -156,7 +156,7 @@ EW_NODES_API ew_result ew_graph_check_side_file(ew_graph *g, const char *path);
 EW_NODES_API ew_result ew_graph_run(ew_graph *g);
 
 /* Remove the temporaries of the image writes this library is doing now
- * (".<name>.tmp-XXXXXXXX.<ext>" beside an output). Async-signal-safe: for
+ * (".<name>.tmp-XXXXXX.<ext>" beside an output). Async-signal-safe: for
  * a SIGINT/SIGTERM handler that then ends the process. */
 EW_NODES_API void ew_nodes_remove_temporaries(void);
 
