@@ -67,6 +67,9 @@ static const ew_param_desc params[] = {
      "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default) and high (kpcn-large "
      "at every sample count: 0.6-2.6 dB better than fast on the held-out scenes for about 3x the time; the two "
      "choose the same today); kpcn needs albedo, normal and depth"},
+    {"max_memory_mb", EW_PARAM_INT, 0.0f, 0.0f, 1048576.0f,
+     "memory the method auto picks may allocate, in MiB (that method's max_memory_mb: a frame above it runs in "
+     "tiles, with the same output); 0: the method's own default (kpcn 1024, nbg 256; the grids do not tile)"},
 };
 
 static const char *const quality_names[] = {"fast", "balanced", "high", NULL};
@@ -163,6 +166,17 @@ static void release(ew_op *op) {
     op->state = NULL;
 }
 
+/* The rung's memory budget: auto's own when set, else the rung's default
+ * (put back, since a reused inner op keeps what the last frame set). A
+ * rung without the parameter ignores it. */
+static void forward_budget(const ew_op *op, ew_op *inner) {
+    const float mb = ew_op_param(op, "max_memory_mb");
+    for (int i = 0; i < ew_op_type_num_params(inner->type); i++) {
+        const ew_param_desc *p = ew_op_type_param(inner->type, i);
+        if (!strcmp(p->name, "max_memory_mb")) ew_op_param_put(inner, p->name, mb > 0.0f ? mb : p->default_value);
+    }
+}
+
 /* Make s->inner an op of method `name` with the frame's images: the last
  * commit's when it is that method (a graph commits every frame, and the op
  * keeps its buffers when the size is the same; its parameters are set again
@@ -174,7 +188,10 @@ static ew_result bind(ew_op *op, state *s, const char *name) {
         s->inner = NULL;
         r = ew_op_create_kind(op->dev, "denoiser", name, &s->inner);
     }
-    if (r == EW_OK) ew_harm_forward(op, s->inner); /* the method runs the do-no-harm stage */
+    if (r == EW_OK) {
+        ew_harm_forward(op, s->inner); /* the method runs the do-no-harm stage */
+        forward_budget(op, s->inner);
+    }
     for (int i = 0; r == EW_OK && i < op->type->num_images; i++)
         r = ew_op_set_image(s->inner, images[i].name, ew_op_image(op, images[i].name));
     return r;
@@ -204,6 +221,7 @@ static uint64_t rung_memory(const ew_op *op, const char *name, const char *param
         ew_op_set_param(in, "color_weight", g->color_weight, 0);
     }
     ew_harm_forward(op, in); /* the stage runs in the rung, with auto's settings */
+    forward_budget(op, in);
     uint64_t bytes = 0;
     if (ew_op_memory(in, w, h, &bytes) != EW_OK) bytes = 0;
     ew_op_destroy(in);

@@ -66,8 +66,8 @@ static ew_result run(ew_device *dev, const char *method, frame *f, int features,
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "normal", &n);
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "depth", &z);
     if (r == EW_OK && samples >= 0) r = ew_denoiser_set_int(d, "samples", samples);
-    for (; r == EW_OK && ps && ps->name; ps++) /* "model" and "quality" are the integer parameters */
-        r = strcmp(ps->name, "model") && strcmp(ps->name, "quality")
+    for (; r == EW_OK && ps && ps->name; ps++) /* "model", "quality" and "max_memory_mb" are the integer ones */
+        r = strcmp(ps->name, "model") && strcmp(ps->name, "quality") && strcmp(ps->name, "max_memory_mb")
                 ? ew_denoiser_set_float(d, ps->name, ps->value)
                 : ew_denoiser_set_int(d, ps->name, (int32_t)ps->value);
     if (r == EW_OK) r = ew_denoiser_commit(d);
@@ -163,6 +163,32 @@ TEST(noise_estimate_when_the_count_is_unknown) {
     CHECK_STR_CONTAINS(what, "finest");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 0, NULL, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "kpcn kpcn-large (noise estimate");
+    ew_device_destroy(dev);
+}
+
+/* auto's max_memory_mb is its rung's: a smaller budget gives a smaller
+ * estimate at 4K and the same pixels (the rung tiles), and 0 puts the
+ * rung's own default back on a reused op */
+TEST(memory_budget_reaches_the_rung) {
+    ew_device *dev = make_device();
+    static frame f;
+    make_frame(&f, 0.5f, 5);
+    ew_denoiser *d = NULL;
+    CHECK_EQ_INT(ew_denoiser_create(dev, "auto", &d), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_set_int(d, "samples", 4), EW_OK);
+    uint64_t own = 0, small = 0, back = 0;
+    CHECK_EQ_INT(ew_op_memory(d, 3840, 2160, &own), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_set_int(d, "max_memory_mb", 256), EW_OK);
+    CHECK_EQ_INT(ew_op_memory(d, 3840, 2160, &small), EW_OK);
+    CHECK_EQ_INT(ew_denoiser_set_int(d, "max_memory_mb", 0), EW_OK);
+    CHECK_EQ_INT(ew_op_memory(d, 3840, 2160, &back), EW_OK);
+    CHECK(small < own);
+    CHECK(back == own);
+    ew_denoiser_destroy(d);
+
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, NULL, f.out, NULL, 0), EW_OK);
+    CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, (const param[]){{"max_memory_mb", 1}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
+    CHECK(same(f.out, f.out2));
     ew_device_destroy(dev);
 }
 
