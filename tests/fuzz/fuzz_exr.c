@@ -19,6 +19,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static char path[64];
 
+/* the one temporary every input is written to goes when the process ends */
+static void remove_temporary(void) { unlink(path); }
+
 static int prepare(void) {
     if (path[0]) return 1;
     /* small limits: a fuzzed header may declare anything */
@@ -28,6 +31,7 @@ static int prepare(void) {
     int fd = mkstemps(path, 4);
     if (fd < 0) return 0;
     close(fd);
+    atexit(remove_temporary);
     return 1;
 }
 
