@@ -42,6 +42,10 @@ typedef struct cli_op_command {
     const char *outro;  /* help: notes after the options, or NULL */
 } cli_op_command;
 int cli_op_run(const cli_op_command *cmd, int argc, char **argv);
+/* One line of a command's help for parameter k of a method, from its
+ * descriptor: "--name N|F|NAME", the range or the choices, the default, the
+ * hint. kind NULL: any kind. */
+void cli_print_param_help(const char *kind, const char *method, int32_t k);
 
 /* Print "edgewise: <msg>" on stderr; returns EW_EXIT_FAIL. */
 int cli_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));

@@ -131,25 +131,27 @@ static const char *const *cli_default_passes(const char *image) {
 
 /* ---- help, generated ---- */
 
-static void print_param(const char *method, int32_t k, const ew_param_info *info) {
+void cli_print_param_help(const char *kind, const char *method, int32_t k) {
+    ew_param_info info;
+    if (ew_method_param(kind, method, k, &info) != EW_OK) return;
     char opt[64], arg[16];
-    to_option(info->name, "", opt, sizeof opt);
-    int32_t nc = ew_method_param_num_choices(NULL, method, k);
-    const char *data = ew_method_param_data(NULL, method, k);
-    snprintf(arg, sizeof arg, "%s", nc > 0 ? (data ? "NAME|FILE" : "NAME") : info->type == EW_PARAM_FLOAT ? "F" : "N");
+    to_option(info.name, "", opt, sizeof opt);
+    int32_t nc = ew_method_param_num_choices(kind, method, k);
+    const char *data = ew_method_param_data(kind, method, k);
+    snprintf(arg, sizeof arg, "%s", nc > 0 ? (data ? "NAME|FILE" : "NAME") : info.type == EW_PARAM_FLOAT ? "F" : "N");
     char head[96];
     snprintf(head, sizeof head, "  --%s %s", opt, arg);
     printf("%-28s", head);
     if (nc > 0) {
-        for (int32_t c = 0; c < nc; c++) printf("%s%s", c ? ", " : "", ew_method_param_choice(NULL, method, k, c));
+        for (int32_t c = 0; c < nc; c++) printf("%s%s", c ? ", " : "", ew_method_param_choice(kind, method, k, c));
         if (data) printf(", or a file");
-        printf(" (default %s): ", ew_method_param_choice(NULL, method, k, (int32_t)info->default_value));
-    } else if (info->type == EW_PARAM_FLOAT) {
-        printf("%g..%g (default %g): ", (double)info->min_value, (double)info->max_value, (double)info->default_value);
+        printf(" (default %s): ", ew_method_param_choice(kind, method, k, (int32_t)info.default_value));
+    } else if (info.type == EW_PARAM_FLOAT) {
+        printf("%g..%g (default %g): ", (double)info.min_value, (double)info.max_value, (double)info.default_value);
     } else {
-        printf("%d..%d (default %d): ", (int)info->min_value, (int)info->max_value, (int)info->default_value);
+        printf("%d..%d (default %d): ", (int)info.min_value, (int)info.max_value, (int)info.default_value);
     }
-    printf("%s\n", info->hint ? info->hint : "");
+    printf("%s\n", info.hint ? info.hint : "");
 }
 
 static void print_help(const cli_op_command *c) {
@@ -206,9 +208,7 @@ static void print_help(const cli_op_command *c) {
             }
             printf("\n");
         }
-        ew_param_info info;
-        for (int32_t k = 0; k < np; k++)
-            if (ew_method_param(NULL, method, k, &info) == EW_OK) print_param(method, k, &info);
+        for (int32_t k = 0; k < np; k++) cli_print_param_help(NULL, method, k);
     }
     if (c->outro) printf("\n%s", c->outro);
 }

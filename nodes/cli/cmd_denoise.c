@@ -150,26 +150,7 @@ static void print_help(void) {
         for (int k = 0; k < NUM_PRESETS; k++)
             if (!strcmp(presets[k].method, m) && presets[k].summary)
                 printf("--method %s: %s\n", presets[k].name, presets[k].summary);
-        for (int32_t k = 0; k < np; k++) {
-            ew_param_info p;
-            ew_method_param("denoiser", m, k, &p);
-            char opt[64], head[96];
-            snprintf(opt, sizeof opt, "%s", p.name);
-            for (char *c = opt; *c; c++)
-                if (*c == '_') *c = '-';
-            int32_t nc = ew_method_param_num_choices("denoiser", m, k);
-            const char *data = ew_method_param_data("denoiser", m, k);
-            snprintf(head, sizeof head, "  --%s %s", opt, nc > 0 ? (data ? "NAME|FILE" : "NAME") : "VALUE");
-            printf("%-24s", head);
-            if (nc > 0) {
-                for (int32_t c = 0; c < nc; c++) printf("%s%s", c ? ", " : "", ew_method_param_choice("denoiser", m, k, c));
-                printf("%s (default %s): ", data ? ", or a file" : "",
-                       ew_method_param_choice("denoiser", m, k, (int32_t)p.default_value));
-            } else {
-                printf("%g..%g (default %g): ", (double)p.min_value, (double)p.max_value, (double)p.default_value);
-            }
-            printf("%s\n", p.hint ? p.hint : "");
-        }
+        for (int32_t k = 0; k < np; k++) cli_print_param_help("denoiser", m, k);
     }
     fputs(outro, stdout);
 }
