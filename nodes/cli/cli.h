@@ -42,6 +42,9 @@ typedef struct cli_op_command {
     const char *outro;  /* help: notes after the options, or NULL */
 } cli_op_command;
 int cli_op_run(const cli_op_command *cmd, int argc, char **argv);
+/* A library name as a command-line option, without the dashes:
+ * "sigma_range" + "" -> "sigma-range", "normal" + "-pass" -> "normal-pass". */
+void cli_option_name(const char *name, const char *suffix, char *out, size_t len);
 /* One line of a command's help for parameter k of a method, from its
  * descriptor: "--name N|F|NAME", the range or the choices, the default, the
  * hint. kind NULL: any kind. */

@@ -59,7 +59,7 @@ static const char *method_at(const cli_op_command *c, int32_t i) {
     return ew_method_get(c->kind, i, &m, NULL, NULL, NULL) == EW_OK ? m : NULL;
 }
 
-static void to_option(const char *name, const char *suffix, char *out, size_t len) {
+void cli_option_name(const char *name, const char *suffix, char *out, size_t len) {
     snprintf(out, len, "%s%s", name, suffix);
     for (char *c = out; *c; c++)
         if (*c == '_') *c = '-';
@@ -76,7 +76,7 @@ static void add_gen(parser *p, opt_kind kind, const char *name) {
     gen_opt *g = &p->gen[p->num_gen++];
     g->kind = kind;
     snprintf(g->name, sizeof g->name, "%s", name);
-    to_option(name, kind == OPT_IMAGE_PASS ? "-pass" : "", g->option, sizeof g->option);
+    cli_option_name(name, kind == OPT_IMAGE_PASS ? "-pass" : "", g->option, sizeof g->option);
 }
 
 /* The fixed options, then one per parameter and per image (other than the
@@ -135,7 +135,7 @@ void cli_print_param_help(const char *kind, const char *method, int32_t k) {
     ew_param_info info;
     if (ew_method_param(kind, method, k, &info) != EW_OK) return;
     char opt[64], arg[16];
-    to_option(info.name, "", opt, sizeof opt);
+    cli_option_name(info.name, "", opt, sizeof opt);
     int32_t nc = ew_method_param_num_choices(kind, method, k);
     const char *data = ew_method_param_data(kind, method, k);
     snprintf(arg, sizeof arg, "%s", nc > 0 ? (data ? "NAME|FILE" : "NAME") : info.type == EW_PARAM_FLOAT ? "F" : "N");
@@ -196,7 +196,7 @@ static void print_help(const cli_op_command *c) {
                 continue;
             ew_method_image_flags(NULL, method, k, &fl);
             char opt[64], head[96];
-            to_option(im.name, "-pass", opt, sizeof opt);
+            cli_option_name(im.name, "-pass", opt, sizeof opt);
             snprintf(head, sizeof head, "  --%s NAME", opt);
             const char *const *defaults = cli_default_passes(im.name);
             printf("%-28s%s%s", head, fl & EW_IMAGE_OUTPUT ? "(an output, into pass NAME) " : im.required ? "(required) " : "",
@@ -556,7 +556,7 @@ static int execute(const parser *p) {
                     if (kk > 0 && (size_t)kk < sizeof looked - used) used += (size_t)kk;
                 }
                 char opt[64];
-                to_option(im->name, "-pass", opt, sizeof opt);
+                cli_option_name(im->name, "-pass", opt, sizeof opt);
                 cli_fail("layer '%s' of '%s' has no %s pass%s%s%s: name one with --%s", layer[0] ? layer : "(image)",
                          in_path, im->name, used ? " (looked for " : "", looked, used ? ")" : "", opt);
                 goto done;

@@ -112,9 +112,7 @@ static void build_options(param_options *po) {
             for (int q = 0; q < po->n; q++) dup |= !strcmp(po->param[q], p.name);
             if (dup) continue;
             po->param[po->n] = p.name;
-            snprintf(po->option[po->n], sizeof po->option[0], "%s", p.name);
-            for (char *c = po->option[po->n]; *c; c++)
-                if (*c == '_') *c = '-';
+            cli_option_name(p.name, "", po->option[po->n], sizeof po->option[0]);
             po->n++;
         }
     }
@@ -259,10 +257,9 @@ static int parse(int argc, char **argv, options *o) {
     }
     /* the values, checked against the method's own descriptor */
     for (int i = 0; i < o->num_set; i++) {
-        char opt[64];
-        snprintf(opt, sizeof opt, "--%s", o->set_name[i]);
-        for (char *ch = opt; *ch; ch++)
-            if (*ch == '_') *ch = '-';
+        char name[60], opt[64];
+        cli_option_name(o->set_name[i], "", name, sizeof name);
+        snprintf(opt, sizeof opt, "--%s", name);
         int32_t k = param_index(lm, o->set_name[i]);
         if (k < 0) {
             fprintf(stderr, "edgewise: denoiser '%s' has no parameter %s (see 'edgewise denoise --help')\n", lm, opt);
