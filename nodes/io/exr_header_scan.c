@@ -91,16 +91,22 @@ typedef struct {
     char name[kNameMax];
 } bad_channel;
 
-/* Counts the entries of a channel list value of `size` bytes; the first bad
- * entry goes to *bad. */
-static long long count_channels(FILE *f, long long size, bad_channel *bad) {
-    long long n = 0, left = size;
+/* Counts the entries of a channel list; the first bad entry goes to *bad and
+ * the bytes the list takes to *used. OpenEXR reads entries up to the empty
+ * name whatever the attribute's size says, so the list is read the same way
+ * (bounded by the rest of the file, `avail`) and its length compared with
+ * the declared size by the caller: where they differ, OpenEXR goes on
+ * reading the rest of the header out of step with its attributes. */
+static long long count_channels(FILE *f, long long avail, bad_channel *bad, long long *used) {
+    long long n = 0, left = avail;
     char name[kNameMax];
     unsigned char e[16];
-    while (left > 0) {
+    *used = -1;
+    for (;;) {
         const int len = get_name(f, name, &left);
-        if (len <= 0) break; /* the list's end (or a malformed entry) */
-        if (left < 16 || !get_bytes(f, e, 16)) break;
+        if (len < 0) return n; /* malformed or cut off: *used stays -1 */
+        if (len == 0) break;   /* the list's end */
+        if (left < 16 || !get_bytes(f, e, 16)) return n;
         left -= 16;
         const long long type = le32(e), xs = le32(e + 8), ys = le32(e + 12);
         if (!bad->found && (type < 0 || type > 2 || xs < 1 || ys < 1)) {
@@ -110,7 +116,27 @@ static long long count_channels(FILE *f, long long size, bad_channel *bad) {
         }
         n++;
     }
-    return left > 0 && fseeko(f, (off_t)left, SEEK_CUR) != 0 ? -1 : n;
+    *used = avail - left;
+    return n;
+}
+
+/* The bytes OpenEXR reads for a value of a fixed-size type whatever size the
+ * attribute declares (Imf TypedAttribute<T>::readValueFrom); 0 for a type of
+ * variable size (string, vectors, chlist, preview, opaque). */
+static long long fixed_size(const char *type) {
+    static const struct {
+        const char *name;
+        int size;
+    } types[] = {
+        {"box2i", 16},  {"box2f", 16},    {"compression", 1}, {"chromaticities", 32}, {"deepImageState", 1},
+        {"double", 8},  {"envmap", 1},    {"float", 4},       {"int", 4},             {"keycode", 28},
+        {"lineOrder", 1}, {"m33f", 36},   {"m33d", 72},       {"m44f", 64},           {"m44d", 128},
+        {"rational", 8}, {"tiledesc", 9}, {"timecode", 8},    {"v2i", 8},             {"v2f", 8},
+        {"v2d", 16},    {"v3i", 12},      {"v3f", 12},        {"v3d", 24},
+    };
+    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
+        if (!strcmp(type, types[i].name)) return types[i].size;
+    return 0;
 }
 
 int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen) {
@@ -140,6 +166,12 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                               "left (a damaged or truncated file)",
                               name, size, left);
             attrs++;
+            const long long fixed = fixed_size(type);
+            if (fixed && size != fixed)
+                return refuse(why, whylen,
+                              "the header's attribute '%s' of type %s declares %lld bytes, but that type "
+                              "has %lld (a damaged file)",
+                              name, type, size, fixed);
             long long used = 0;
             if (!strcmp(name, "dataWindow") && !strcmp(type, "box2i") && size == 16) {
                 if (!get_bytes(f, b, 16)) return 0;
@@ -166,11 +198,28 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                 used = size < (long long)sizeof t - 1 ? size : (long long)sizeof t - 1;
                 if (!get_bytes(f, (unsigned char *)t, (size_t)used)) return 0;
                 p.tiled = !strcmp(t, "tiledimage") || !strcmp(t, "deeptile");
+            } else if (!strcmp(type, "preview")) {
+                /* OpenEXR allocates width x height RGBA pixels before reading them */
+                if (size < 8 || !get_bytes(f, b, 8))
+                    return refuse(why, whylen, "the header's preview image '%s' is cut off (a damaged file)", name);
+                const unsigned long long pw = le32u(b), ph = le32u(b + 4);
+                if (pw * ph * 4 != (unsigned long long)size - 8)
+                    return refuse(why, whylen,
+                                  "the header's preview image declares %llu x %llu pixels in %lld bytes "
+                                  "(a damaged file)",
+                                  pw, ph, size);
+                used = 8;
             } else if (!strcmp(name, "channels") && !strcmp(type, "chlist")) {
                 bad_channel bad;
                 memset(&bad, 0, sizeof bad);
-                const long long n = count_channels(f, size, &bad);
-                if (n < 0) return 0;
+                long long list = 0;
+                const long long n = count_channels(f, left, &bad, &list);
+                if (list < 0) return 0; /* malformed: OpenEXR says so */
+                if (list != size)
+                    return refuse(why, whylen,
+                                  "the header's channel list declares %lld bytes, but its entries take %lld "
+                                  "(a damaged file)",
+                                  size, list);
                 if (bad.found == 1)
                     return refuse(why, whylen,
                                   "the header's channel '%s' has pixel type %lld (EXR knows 0 uint, 1 half, 2 float)",

@@ -910,6 +910,43 @@ TEST(bad_header_sizes_beyond_the_file) {
     CHECK(ewio_read(p, &f, err, sizeof err) != 0);
     CHECK_STR_CONTAINS(err, "data window is empty (0 x 4 pixels)");
 
+    /* A channel list shorter than its entries: OpenEXR reads entries up to the
+     * empty name, then the rest of the header out of step; here the
+     * "comments" string's text becomes the next size it reads. */
+    snprintf(p, sizeof p, "%s/short_chlist.exr", dir);
+    fp = fopen(p, "wb");
+    CHECK(fp != NULL);
+    put_u32(fp, 20000630u);
+    put_u32(fp, 2u);
+    put_attr(fp, "channels", "chlist", 10);
+    fwrite("R", 1, 2, fp);
+    put_u32(fp, 1);
+    put_u32(fp, 0);
+    put_u32(fp, 1);
+    put_u32(fp, 1);
+    fputc(0, fp);
+    put_attr(fp, "comments", "string", 4);
+    fwrite("abcd", 1, 4, fp);
+    fputc(0, fp);
+    CHECK(fclose(fp) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK(f == NULL);
+    CHECK_STR_CONTAINS(err, "channel list declares 10 bytes, but its entries take 19");
+
+    /* a fixed-size type with another size: OpenEXR reads its 16 bytes and
+     * takes the declared rest as the next attribute */
+    snprintf(p, sizeof p, "%s/long_box.exr", dir);
+    fp = fopen(p, "wb");
+    CHECK(fp != NULL);
+    put_u32(fp, 20000630u);
+    put_u32(fp, 2u);
+    put_attr(fp, "dataWindow", "box2i", 20);
+    for (int k = 0; k < 5; k++) put_u32(fp, 3);
+    fputc(0, fp);
+    CHECK(fclose(fp) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "'dataWindow' of type box2i declares 20 bytes, but that type has 16");
+
     /* a pixel type EXR does not have: OpenImageIO aborts the process on it */
     snprintf(p, sizeof p, "%s/type3.exr", dir);
     CHECK(write_exr_header_typed(p, 4, 4, 3) == 0);
