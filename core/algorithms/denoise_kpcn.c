@@ -404,7 +404,13 @@ static ew_result execute(ew_op *op) {
         if (r != EW_OK) return r;
     }
     if (!net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
-    return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+    r = ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+    /* the frame's buffers and the regions' are written again before they
+     * are read at the next execute (the parameters before them stay; the
+     * planes' zero padding comes back as zeros): the do-no-harm stage's
+     * statistics need not sit on top of them */
+    ew_dev_release_pages(dev, b->out, (char *)s->dmem.mem + s->dmem.bytes);
+    return r;
 }
 
 static const char *describe(const ew_op *op) {

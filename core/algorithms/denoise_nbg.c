@@ -378,6 +378,10 @@ static ew_result execute(ew_op *op) {
         ew_tile_at(&s->tiling, i, &t);
         r = run_tile(op, &t, (double)i / ntiles, 1.0 / ntiles);
     }
+    /* the frame's inputs and the regions' buffers are written again before
+     * they are read at the next execute (the parameters before them stay):
+     * the do-no-harm stage's statistics need not sit on top of them */
+    ew_dev_release_pages(dev, (void *)s->fcolor, (char *)s->dmem.mem + s->dmem.bytes);
     return r;
 }
 

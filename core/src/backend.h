@@ -151,6 +151,12 @@ void ew_cpu_device_release(ew_device *dev);
  * and device memory. */
 void *ew_dev_alloc(ew_device *dev, size_t bytes);
 void ew_dev_free(ew_device *dev, void *ptr);
+/* With ew_device_desc.release_scratch on host memory: the whole pages in
+ * [from, to) of a block from ew_dev_alloc go back to the system; they read
+ * as zeros when touched again (as a freshly mapped block does), so only
+ * buffers every later reader writes first may be given. Otherwise (the
+ * default, or device memory) nothing happens. */
+void ew_dev_release_pages(ew_device *dev, void *from, void *to);
 /* A device block an op keeps from one commit to the next: a graph commits
  * its ops again every frame with the same images, and a new block would be
  * mapped and faulted in again. */

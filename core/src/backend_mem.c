@@ -6,7 +6,15 @@
  * packed into a host staging buffer and uploaded, or, for device-pointer
  * views, packed on the GPU).
  */
+#if defined(__linux__) && !defined(_DEFAULT_SOURCE)
+#define _DEFAULT_SOURCE /* madvise */
+#endif
+#include <stdint.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
 
 #include "kernels/view.h"
 #include "src/backend.h"
@@ -17,6 +25,25 @@ void *ew_dev_alloc(ew_device *dev, size_t bytes) { return dev->backend->mem_allo
 
 void ew_dev_free(ew_device *dev, void *ptr) {
     if (ptr) dev->backend->mem_free(dev, ptr);
+}
+
+void ew_dev_release_pages(ew_device *dev, void *from, void *to) {
+#if defined(__linux__)
+    if (!dev->release_scratch || dev->device_memory || !from || !to) return;
+    const long ps = sysconf(_SC_PAGESIZE);
+    if (ps <= 0) return;
+    /* whole pages inside the range only: a page it shares with live data
+     * (the block's parameters, the allocator's header) keeps its contents */
+    const uintptr_t a = ((uintptr_t)from + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps;
+    const uintptr_t b = (uintptr_t)to / (uintptr_t)ps * (uintptr_t)ps;
+    /* MADV_DONTNEED on private anonymous memory: the pages are dropped at
+     * once and come back zero-filled on the next touch */
+    if (b > a) (void)madvise((void *)a, (size_t)(b - a), MADV_DONTNEED);
+#else
+    (void)dev;
+    (void)from;
+    (void)to;
+#endif
 }
 
 ew_dev_kept ew_dev_kept_take(ew_dev_kept *k) {

@@ -132,6 +132,7 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
     if (!dev) return EW_ERR_OUT_OF_MEMORY;
     dev->type = EW_DEVICE_CPU;
     dev->num_threads = threads;
+    dev->release_scratch = d.release_scratch != 0;
     dev->backend = &ew_cpu_backend;
     dev->pool = ew_pool_create(threads);
     if (!dev->pool || ew__device_init_common(dev) != 0) {

@@ -382,6 +382,9 @@ ew_result ew_harm_execute(ew_op *op) {
         r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
         if (r != EW_OK) return r;
     }
+    /* the radiance and the rejected radiance are dead while the method
+     * runs (its output and the residual statistics overwrite them after it) */
+    ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     r = op->type->execute(op);
     op->images[ci] = saved;
     if (r != EW_OK) return r;

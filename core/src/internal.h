@@ -54,6 +54,7 @@ struct ew_device {
     int device_memory;  /* 1: backend buffers are not host-addressable (CUDA) */
     int device_images;  /* 1: ew_image data pointers are device pointers (ew_device_desc) */
     void *backend_ctx;  /* backend-private state (CUDA: ordinal, stream, first error) */
+    int release_scratch; /* ew_device_desc.release_scratch (ew_dev_release_pages) */
 };
 
 /* Record a formatted message as the device's last error and return `r`. */

@@ -58,7 +58,12 @@ int cli_parse_float(const char *opt, const char *s, float lo, float hi, float *o
 /* Read the colour of a file's layer (or first layer with colour when layer
  * is NULL) into a new buffer of w*h*3 floats. */
 float *cli_read_color(const ewio_file *f, const char *layer, char *err, size_t errlen);
-ew_device *cli_device(int threads);
+/* once: the command runs its op once and exits (filter, dof, denoise): the
+ * device hands back the pages of scratch a phase of an execute is done with
+ * (ew_device_desc.release_scratch), for a lower peak; not with --timings=N,
+ * whose warm executes time the op with its scratch resident, as a graph
+ * keeps it */
+ew_device *cli_device(int threads, int once);
 /* Fail early (one line, returns EW_EXIT_FAIL) when `path` cannot be
  * written: its directory is missing or not writable, or it is a directory. */
 int cli_check_writable(const char *path);

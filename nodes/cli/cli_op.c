@@ -512,7 +512,7 @@ static int execute(const parser *p) {
     if ((color_flags & EW_IMAGE_INPLACE) && !reference) out = pix;
     else if (!(out = (float *)malloc(n * (size_t)C * sizeof(float)))) { cli_fail("out of memory"); goto done; }
 
-    if (!(dev = cli_device(threads))) goto done;
+    if (!(dev = cli_device(threads, 1))) goto done;
     if (ew_op_create(dev, method, &op) != EW_OK) { cli_fail("%s", ew_device_last_error(dev)); goto done; }
     ew_image vin = ew_image_packed(pix, w, h, C), vout = ew_image_packed(out, w, h, C);
     ew_result r = ew_op_set_image(op, "color", &vin);

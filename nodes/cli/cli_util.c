@@ -69,10 +69,11 @@ float *cli_read_color(const ewio_file *f, const char *layer, char *err, size_t e
     return buf;
 }
 
-ew_device *cli_device(int threads) {
+ew_device *cli_device(int threads, int once) {
     ewio_set_threads(threads); /* the files' compression on the same threads */
     ew_device_desc desc = EW_DEVICE_DESC_INIT;
     desc.num_threads = threads;
+    desc.release_scratch = once && cli_timing.warm_runs == 0;
     ew_device *dev = NULL;
     ew_result r = ew_device_create(&desc, &dev);
     if (r != EW_OK) cli_fail("cannot create the device: %s", ew_result_string(r));

@@ -547,7 +547,7 @@ int cmd_bench(int argc, char **argv) {
     closedir(d);
     qsort(names, (size_t)n_names, sizeof names[0], cmp_str);
     if (temporal) {
-        ew_device *tdev = cli_device(threads);
+        ew_device *tdev = cli_device(threads, 0);
         int rc = tdev ? bench_temporal(tdev, data, names, n_names, spp_given ? spp_list : "1,4", methods, repeat, outdir)
                       : EW_EXIT_FAIL;
         ew_device_destroy(tdev);
@@ -559,7 +559,7 @@ int cmd_bench(int argc, char **argv) {
     FILE *csv = fopen(path, "w");
     if (!csv) return cli_fail("cannot write '%s': %s", path, strerror(errno));
     fprintf(csv, "scene,frame,spp,method,psnr,ssim,relmse,smape,ms,width,height,threads,lum_ratio,peak\n");
-    ew_device *dev = cli_device(threads);
+    ew_device *dev = cli_device(threads, 0);
     if (!dev) { fclose(csv); return EW_EXIT_FAIL; }
     int rows = 0, failures = 0;
     for (int s = 0; s < n_names; s++) {

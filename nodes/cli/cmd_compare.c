@@ -24,7 +24,7 @@ int cmd_compare(int argc, char **argv) {
     if (ewio_read(argv[2], &b, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
     if (!(pa = cli_read_color(a, NULL, err, sizeof err))) { cli_fail("'%s': %s", argv[1], err); goto done; }
     if (!(pb = cli_read_color(b, NULL, err, sizeof err))) { cli_fail("'%s': %s", argv[2], err); goto done; }
-    ew_device *dev = cli_device(1);
+    ew_device *dev = cli_device(1, 0);
     if (!dev) goto done;
     ew_image va = ew_image_packed(pa, ewio_width(a), ewio_height(a), 3);
     ew_image vb = ew_image_packed(pb, ewio_width(b), ewio_height(b), 3);

@@ -591,7 +591,7 @@ int cmd_denoise(int argc, char **argv) {
     memset(&j, 0, sizeof j);
     j.o = &o;
     int rc = EW_EXIT_FAIL;
-    if (!(j.dev = cli_device(o.threads)) || check_memory(&o, j.dev) != 0) {
+    if (!(j.dev = cli_device(o.threads, 1)) || check_memory(&o, j.dev) != 0) {
         cli_view_free(&o.view);
         ew_device_destroy(j.dev);
         return EW_EXIT_FAIL;

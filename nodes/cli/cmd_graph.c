@@ -236,7 +236,7 @@ int cmd_graph(int argc, char **argv) {
     if (wants_dask(argc, argv)) return run_on_dask(argc, argv);
     options o;
     if (!parse(argc, argv, &o)) return EW_EXIT_USAGE;
-    ew_device *dev = cli_device(o.threads);
+    ew_device *dev = cli_device(o.threads, 0);
     if (!dev) return EW_EXIT_FAIL;
     ew_graph *g = NULL;
     int rc = EW_EXIT_FAIL;

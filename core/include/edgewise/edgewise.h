@@ -90,9 +90,18 @@ typedef struct ew_device_desc {
                               queues work on the stream (it never synchronises the
                               device; see each method for the small reads back it
                               needs). Requires type EW_DEVICE_CUDA. */
+    int32_t release_scratch; /* 1: within an execute, ops hand the pages of host
+                              scratch a phase no longer needs back to the system
+                              (the do-no-harm stage's statistics while the method
+                              runs, a denoiser's buffers once it has run), so the
+                              phases' buffers are not resident together: a lower
+                              peak for a process that runs once, paid for with
+                              page faults at every execute. 0 (default): kept
+                              resident (a graph over many frames). Outputs are
+                              the same. The CPU's memory only. */
 } ew_device_desc;
 
-#define EW_DEVICE_DESC_INIT {sizeof(ew_device_desc), EW_DEVICE_DEFAULT, 0, 0, NULL, 0}
+#define EW_DEVICE_DESC_INIT {sizeof(ew_device_desc), EW_DEVICE_DEFAULT, 0, 0, NULL, 0, 0}
 
 /* EW_DEVICE_CUDA on a machine without a usable GPU, driver or CUDA module
  * returns EW_ERR_BACKEND_UNAVAILABLE. EW_DEVICE_DEFAULT gives a CPU device. */
