@@ -190,7 +190,17 @@ static ew_result execute(ew_op *op) {
     if (!ew_op_report(op, 0.6)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     ew_bgrid_slice(dev, &s->grid_params, s->grid, b->guide, b->sliced);
     dev->backend->denoise_finish(dev, b);
-    return ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+    /* every buffer is written again before it is read at the next execute
+     * (the grid comes back as zeros, as a fresh block): with the device's
+     * release_scratch, all but the output go before it is copied out, and
+     * it after, so neither sits under the do-no-harm stage's statistics nor
+     * the caller's output view (untouched until now when fresh) under them */
+    const size_t n3 = (size_t)b->width * (size_t)b->height * 3;
+    ew_dev_release_pages(dev, (void *)b->color, b->out);
+    ew_dev_release_pages(dev, b->out + n3, (char *)s->dmem.mem + s->dmem.bytes);
+    r = ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+    ew_dev_release_pages(dev, b->out, b->out + n3);
+    return r;
 }
 
 const ew_op_type ew_denoise_bgrid = {

@@ -404,12 +404,16 @@ static ew_result execute(ew_op *op) {
         if (r != EW_OK) return r;
     }
     if (!net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
-    r = ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
     /* the frame's buffers and the regions' are written again before they
      * are read at the next execute (the parameters before them stay; the
      * planes' zero padding comes back as zeros): the do-no-harm stage's
-     * statistics need not sit on top of them */
-    ew_dev_release_pages(dev, b->out, (char *)s->dmem.mem + s->dmem.bytes);
+     * statistics need not sit on top of them. All but the output go before
+     * it is copied out, so the caller's output view (untouched until now
+     * when it is fresh memory) is not resident under them either. */
+    const size_t n3 = (size_t)w * (size_t)h * 3;
+    ew_dev_release_pages(dev, b->out + n3, (char *)s->dmem.mem + s->dmem.bytes);
+    r = ew_dev_get_view(dev, b->out, 3, ew_op_image(op, "output"), s->stage);
+    ew_dev_release_pages(dev, b->out, b->out + n3);
     return r;
 }
 

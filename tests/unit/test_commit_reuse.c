@@ -172,3 +172,4 @@ TEST(nbg_tiled_release_scratch_keeps_output) { release_scratch_keeps_output("nbg
 TEST(kpcn_release_scratch_keeps_output) { release_scratch_keeps_output("kpcn", 0); }
 TEST(kpcn_tiled_release_scratch_keeps_output) { release_scratch_keeps_output("kpcn", 16); }
 TEST(auto_release_scratch_keeps_output) { release_scratch_keeps_output("auto", 0); }
+TEST(bgrid_release_scratch_keeps_output) { release_scratch_keeps_output("bgrid", 0); }
