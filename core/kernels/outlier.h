@@ -35,6 +35,19 @@
  *     colour of its similar finite neighbours, else of all finite
  *     neighbours, else 0; without it, it is left as it is (later stages
  *     treat it as missing). k <= 0 only repairs;
+ *   - emitter_albedo (robust only; 0: off): b->color is radiance, colour
+ *     over ew_albedo_factor(albedo). A pixel whose albedo is above
+ *     emitter_albedo in some channel (no surface reflects that much: an
+ *     emitter's samples wrote it) while no neighbour of its 3x3 has an
+ *     albedo above 1 saw an emitter that no neighbour saw: one or two
+ *     samples hit a light smaller than the pixel. Its albedo is then as
+ *     noisy as its colour (the hits' share of the pixel), so it names no
+ *     surface and demodulating by it divides the firefly out of the
+ *     radiance (and the method multiplies it back in). Such a pixel is
+ *     judged in colour against all its finite neighbours (their colour:
+ *     radiance times their albedo factor; no feature similarity); an
+ *     emitter larger than a pixel has neighbours that see it too and is
+ *     judged as before;
  *   - a feature pass that is NULL, or non-finite at the pixel, is not used;
  *   - removed (optional): what the clamp took from each pixel's RGB (0
  *     where it took nothing, or rebuilt a non-finite pixel), so that a
@@ -46,6 +59,7 @@
 #define EW_KERNELS_OUTLIER_H
 
 #include "kernels/color.h"
+#include "kernels/denoise_px.h" /* ew_albedo_factor */
 
 #define EW_OUTLIER_MIN_SIMILAR 3
 /* The robust statistics sort the window in a per-thread array: radius 3
@@ -65,6 +79,7 @@ typedef struct ew_outlier_params {
     int robust;        /* 1: median and MAD; 0: mean and standard deviation */
     int shift;         /* mean statistics of differences to the first similar neighbour */
     int repair;        /* rebuild non-finite pixels from their neighbours */
+    float emitter_albedo; /* robust, color demodulated: an isolated emitter hit is judged in colour (above) */
 } ew_outlier_params;
 
 typedef struct ew_outlier_buffers {
@@ -91,6 +106,7 @@ EW_HD ew_outlier_params ew_outlier_plain_params(int width, int height, int radiu
     p.robust = 0;
     p.shift = 0;
     p.repair = 0;
+    p.emitter_albedo = 0.0f;
     return p;
 }
 
@@ -171,6 +187,51 @@ EW_HD void ew_outlier_mean_clamp(const ew_outlier_params *p, const float *c0, fl
     ew_outlier_bound_apply(p, c0, lum, shift + mean_d, spread, o, removed);
 }
 
+/* Is pixel j (finite albedo) an emitter hit that no 3x3 neighbour shares
+ * (emitter_albedo, above)? */
+EW_HD int ew_outlier_lone_emitter(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
+    const float *a0 = b->albedo + ((long)y * p->width + x) * 3;
+    if (!(ew_maxf(ew_maxf(a0[0], a0[1]), a0[2]) > p->emitter_albedo)) return 0;
+    for (int yy = ew_maxi(y - 1, 0); yy <= ew_mini(y + 1, p->height - 1); yy++)
+        for (int xx = ew_maxi(x - 1, 0); xx <= ew_mini(x + 1, p->width - 1); xx++) {
+            const float *a1 = b->albedo + ((long)yy * p->width + xx) * 3;
+            if ((xx != x || yy != y) && ew_maxf(ew_maxf(a1[0], a1[1]), a1[2]) > 1.0f) return 0;
+        }
+    return 1;
+}
+
+/* The luminance of pixel k's colour: its radiance times its albedo factor */
+EW_HD float ew_outlier_colour_lum(const ew_outlier_buffers *b, long k) {
+    const float *c = b->color + k * b->channels, *a = b->albedo + k * 3;
+    float v[3];
+    for (int i = 0; i < 3; i++) v[i] = c[i] * ew_albedo_factor(a[i]);
+    return ew_luminance(v);
+}
+
+/* A lone emitter hit (robust): bound from the median and MAD of all its
+ * finite neighbours' colour luminance; o scaled by bound / its own. */
+EW_HD void ew_outlier_emitter_px(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
+    const long j = (long)y * p->width + x;
+    const int r = ew_mini(p->radius, EW_OUTLIER_ROBUST_RADIUS);
+    float window[EW_OUTLIER_ROBUST_CAP];
+    int n = 0;
+    for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, p->height - 1); yy++)
+        for (int xx = ew_maxi(x - r, 0); xx <= ew_mini(x + r, p->width - 1); xx++) {
+            const long k = (long)yy * p->width + xx;
+            if (k == j || !ew_outlier_finite3(b->color + k * b->channels) || !ew_outlier_finite3(b->albedo + k * 3))
+                continue;
+            const float l = ew_outlier_colour_lum(b, k);
+            if (ew_finitef(l)) window[n++] = l;
+        }
+    const float lum = ew_outlier_colour_lum(b, j);
+    if (n < EW_OUTLIER_MIN_SIMILAR || !(lum > 0.0f) || !ew_finitef(lum)) return;
+    const float centre = ew_outlier_select(window, n, (n - 1) / 2);
+    for (int i = 0; i < n; i++) window[i] = fabsf(window[i] - centre);
+    const float spread = EW_OUTLIER_MAD_SCALE * ew_outlier_select(window, n, (n - 1) / 2);
+    ew_outlier_bound_apply(p, b->color + j * b->channels, lum, centre, spread, b->out + j * b->channels,
+                           b->removed ? b->removed + j * 3 : 0);
+}
+
 EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     const long j = (long)y * p->width + x, cc = b->channels;
     const float *c0 = b->color + j * cc;
@@ -184,6 +245,10 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     const int use_a = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
     const int use_n = b->normal != 0 && ew_outlier_finite3(b->normal + j * 3);
     const int robust = p->robust && finite;
+    if (robust && use_a && p->emitter_albedo > 0.0f && ew_outlier_lone_emitter(x, y, p, b)) {
+        ew_outlier_emitter_px(x, y, p, b);
+        return;
+    }
     const int r = robust ? ew_mini(p->radius, EW_OUTLIER_ROBUST_RADIUS) : p->radius;
     float shift = 0.0f, sum = 0.0f, sum2 = 0.0f, rgb[3] = {0.0f, 0.0f, 0.0f}, any_rgb[3] = {0.0f, 0.0f, 0.0f};
     float window[EW_OUTLIER_ROBUST_CAP];

@@ -15,6 +15,8 @@
  *      sample hundreds of times brighter than everything around it, whose
  *      energy the frame would otherwise over-represent by orders of
  *      magnitude (one such sample at 4 spp lifted a frame's mean to 1.7x).
+ *      A pixel that alone saw a light smaller than itself, whose albedo the
+ *      hit lifted with its colour, is judged in colour (kernels/outlier.h).
  *      A filter used as a denoiser then gets the denoisers' own firefly
  *      clamp too (mean + 3 sigma, kernels/outlier.h), which it lacks: its
  *      colour edge-stopping keeps a bright sample where it is.
@@ -52,6 +54,7 @@
 #define HARM_MEAN_FLOOR 2.0f      /* spread >= this x the frame's mean radiance */
 #define HARM_ALBEDO_TOL 0.1f      /* as the "outlier" filter */
 #define HARM_NORMAL_COS 0.9f
+#define HARM_EMITTER_ALBEDO 16.0f /* an albedo no surface has (1 spp through glass: up to 20, judged too) */
 #define HARM_BLEND_RADIUS 4       /* 9x9 window of residual statistics */
 #define HARM_BLEND_STRENGTH 2.0f  /* C under-counts D (kernels/harm.h) */
 #define HARM_BLEND_Z 1.0f         /* C counts above 1 standard deviation of its own */
@@ -296,6 +299,9 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     p.albedo_tol = HARM_ALBEDO_TOL;
     p.normal_cos = HARM_NORMAL_COS;
     p.sigma_floor = HARM_SIGMA_FLOOR;
+    /* a pixel that alone saw a light smaller than itself: judged in colour
+     * (kernels/outlier.h), its albedo being the hits' own noise */
+    p.emitter_albedo = HARM_EMITTER_ALBEDO;
     const ew_outlier_buffers ob = {s->a, s->alb, s->nrm, s->b, 3, NULL};
     for (int pass = 0; r == EW_OK; pass++) {
         p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
