@@ -14,7 +14,10 @@
  *   W, H  the members of ARGS giving the domain: one work item per (x, y)
  *         with x < a->W, y < a->H, each writing only its own outputs;
  *   VEC   1: the CPU row loop is also built for wider vector units
- *         (src/cpu_clones.h), for kernels that vectorise across pixels.
+ *         (src/cpu_clones.h), for kernels that vectorise across pixels;
+ *         2: the CPU backend has its own row loop, rows_NAME
+ *         (backends/cpu/cpu_kernels.c includes it), giving PX's bits for
+ *         every pixel (the launch-grid parity test compares them exactly).
  * The kernel's header goes in kernels/kernel_list.h.
  *
  * This header holds no types: an op includes only its own kernel's header.
@@ -27,7 +30,7 @@
     X(kpcn_input, ew_kpcn_input_args, ew_kpcn_input_px, width, height, 0)              \
     X(kpcn_pool, ew_kpcn_pool_args, ew_kpcn_pool_px, cw, ch, 0)                        \
     X(kpcn_up, ew_kpcn_up_args, ew_kpcn_up_px, fw, fh, 0)                              \
-    X(kpcn_filter, ew_kpcn_filter_args, ew_kpcn_filter_px, width, height, 0)
+    X(kpcn_filter, ew_kpcn_filter_args, ew_kpcn_filter_px, width, height, 2)
 
 #define EW_KERNEL_ID_(NAME, ARGS, PX, W, H, VEC) EW_K_##NAME,
 enum ew_kernel_id { EW_KERNEL_LIST(EW_KERNEL_ID_) EW_KERNEL_COUNT };

@@ -22,15 +22,22 @@
 #endif
 #define EW_KROWS_ATTR_0
 
-#define EW_KROWS_(NAME, ARGS, PX, W, H, VEC)                                        \
-    static EW_KROWS_ATTR_##VEC void rows_##NAME(void *ctx, int64_t begin, int64_t end, int tid) { \
+#define EW_KROWS_LOOP_(NAME, ARGS, PX, W, ATTR)                                     \
+    static ATTR void rows_##NAME(void *ctx, int64_t begin, int64_t end, int tid) {  \
         (void)tid;                                                                  \
         const ARGS *a = (const ARGS *)ctx;                                          \
         for (int64_t y = begin; y < end; y++)                                       \
             for (int x = 0; x < a->W; x++) PX(x, (int)y, a);                        \
     }
+#define EW_KROWS_0(NAME, ARGS, PX, W) EW_KROWS_LOOP_(NAME, ARGS, PX, W, EW_KROWS_ATTR_0)
+#define EW_KROWS_1(NAME, ARGS, PX, W) EW_KROWS_LOOP_(NAME, ARGS, PX, W, EW_KROWS_ATTR_1)
+#define EW_KROWS_2(NAME, ARGS, PX, W) /* rows_NAME: its own row loop, included below */
+#define EW_KROWS_(NAME, ARGS, PX, W, H, VEC) EW_KROWS_##VEC(NAME, ARGS, PX, W)
 EW_KERNEL_LIST(EW_KROWS_)
 #undef EW_KROWS_
+
+/* the kernels of VEC 2 */
+#include "cpu_kpcn_filter.h"
 
 ew_result ew_cpu_run(ew_device *dev, int id, const void *args, size_t args_size) {
     switch (id) {
