@@ -223,6 +223,7 @@ void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h,
             s += 2 * n;
         }
     }
+    p->levels_end = s;
     ew_pyr_params prm;
     if (uniform) {
         for (int l = 0; l < levels; l++) {
@@ -339,6 +340,14 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
             a.band = p->band;
             a.band_stride = p->band_stride;
         }
+        /* Upsampling level l reads levels l and l + 1 but not level l + 1's
+         * down and attribute planes, nor any coarser level: with
+         * release_scratch their pages go back before level l's planes are
+         * written (level 1's upsampled planes, written here, are the run's
+         * largest new pages), and the next run's downsampling writes them
+         * before reading them. The table after the levels stays. */
+        ew_dev_release_pages(dev, p->down[l + 1], p->attr2[l + 1]);
+        if (l + 2 <= p->levels) ew_dev_release_pages(dev, p->down[l + 2], p->levels_end);
         be->pyr_up(dev, &a);
     }
     if (io->drain && !inside) io->drain(io->drain_user, 0, p->height, 0);

@@ -78,6 +78,7 @@ typedef struct ew_pyr_plan {
     float *down[EW_PYR_MAX_LEVELS + 1], *attr[EW_PYR_MAX_LEVELS + 1], *up[EW_PYR_MAX_LEVELS + 1];
     float *attr2[EW_PYR_MAX_LEVELS + 1];
     float *coc[EW_PYR_MAX_LEVELS + 1]; /* DOF: content CoC of Up(l), 1 <= l < levels */
+    float *levels_end;                 /* the end of the coarse levels' planes (the table follows) */
     float *out;                        /* the result: EW_BF_CH planes of width x height, or in bands: */
     int band;                          /* rows of a band of the result (0: out is a whole frame) ... */
     long band_stride;                  /* ... one band a thread, this many floats apart, planes band x width */

@@ -173,3 +173,71 @@ TEST(kpcn_release_scratch_keeps_output) { release_scratch_keeps_output("kpcn", 0
 TEST(kpcn_tiled_release_scratch_keeps_output) { release_scratch_keeps_output("kpcn", 16); }
 TEST(auto_release_scratch_keeps_output) { release_scratch_keeps_output("auto", 0); }
 TEST(bgrid_release_scratch_keeps_output) { release_scratch_keeps_output("bgrid", 0); }
+
+/* The pyramid's filters with release_scratch hand back the coarse levels'
+ * pages that the upsampling of a finer level no longer reads: every execute
+ * gives the output of a device that keeps them. Large enough for the
+ * coarse levels to span whole pages; model gi with a roughness image keeps
+ * its weight table after the levels; dof has the content CoC planes. */
+static void pyramid_release_scratch_keeps_output(const char *method, int model) {
+    ew_device *dev[2] = {NULL, NULL};
+    for (int k = 0; k < 2; k++) {
+        ew_device_desc desc = EW_DEVICE_DESC_INIT;
+        desc.num_threads = 2;
+        desc.release_scratch = k;
+        CHECK(ew_device_create(&desc, &dev[k]) == EW_OK);
+    }
+    const int w = 640, h = 360, n = w * h;
+    const size_t b3 = sizeof(float) * 3 * (size_t)n;
+    float *color = malloc(b3), *normal = malloc(b3), *depth = malloc(sizeof(float) * (size_t)n);
+    float *rough = malloc(sizeof(float) * (size_t)n), *ref = malloc(b3), *out = malloc(b3);
+    CHECK(color && normal && depth && rough && ref && out);
+    for (int i = 0; i < 3 * n; i++) {
+        color[i] = pattern(i, 0) * (i / 3 % 997 == 5 ? 40.0f : 1.0f);
+        normal[i] = i % 3 == 2 ? 1.0f : i % 3 == 0 ? 0.3f * pattern(i / 3 / w, 2) : 0.0f;
+    }
+    for (int i = 0; i < n; i++) {
+        depth[i] = 2.0f + (float)(i % 53) / 5.0f + (float)(i / w % 40);
+        rough[i] = pattern(i, 3);
+    }
+    ew_image c = ew_image_packed(color, w, h, 3), nm = ew_image_packed(normal, w, h, 3);
+    ew_image d = ew_image_packed(depth, w, h, 1), r = ew_image_packed(rough, w, h, 1);
+    for (int k = 0; k < 2; k++) {
+        ew_op *op = NULL;
+        CHECK(ew_op_create(dev[k], method, &op) == EW_OK);
+        ew_image o = ew_image_packed(k ? out : ref, w, h, 3);
+        CHECK(ew_op_set_image(op, "color", &c) == EW_OK);
+        CHECK(ew_op_set_image(op, "depth", &d) == EW_OK);
+        CHECK(ew_op_set_image(op, "output", &o) == EW_OK);
+        if (model >= 0) {
+            CHECK(ew_op_set_int(op, "model", model) == EW_OK);
+            CHECK(ew_op_set_int(op, "radius", 24) == EW_OK);
+            if (model == 1) {
+                CHECK(ew_op_set_image(op, "normal", &nm) == EW_OK);
+                CHECK(ew_op_set_image(op, "roughness", &r) == EW_OK);
+            }
+        } else {
+            CHECK(ew_op_set_float(op, "fstop", 1.4f) == EW_OK);
+            CHECK(ew_op_set_float(op, "focus_distance", 6.0f) == EW_OK);
+        }
+        CHECK(ew_op_commit(op) == EW_OK);
+        for (int run = 0; run < (k ? 3 : 1); run++) {
+            if (k) memset(out, 0, b3);
+            CHECK(ew_op_execute(op) == EW_OK);
+            if (k) CHECK(memcmp(out, ref, b3) == 0);
+        }
+        ew_op_destroy(op);
+    }
+    ew_device_destroy(dev[0]);
+    ew_device_destroy(dev[1]);
+    free(color);
+    free(normal);
+    free(depth);
+    free(rough);
+    free(ref);
+    free(out);
+}
+
+TEST(pyramid_release_scratch_keeps_output) { pyramid_release_scratch_keeps_output("pyramid", 0); }
+TEST(pyramid_gi_release_scratch_keeps_output) { pyramid_release_scratch_keeps_output("pyramid", 1); }
+TEST(dof_release_scratch_keeps_output) { pyramid_release_scratch_keeps_output("dof", -1); }
