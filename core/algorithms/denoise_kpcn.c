@@ -290,9 +290,25 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     ew_result r = layout_region(dev, s, rw, rh);
     if (r != EW_OK) return r;
     const long at = (long)tile->ry * W + tile->rx; /* the region's first pixel in the frame */
-    ew_kpcn_input_args ia = {rw, rh, radiance + at * 3, b->albedo + at * 3, b->normal + at * 3, b->depth + at,
-                             b->depth_scale, ew_gn_plane_row(&s->sb[0], 0, 0), s->sb[0].rs, s->sb[0].ps, net->noise,
-                             noise, W};
+    /* zeroed first, then member by member: the padding after depth_scale
+     * would otherwise carry stale stack bytes to a device that copies the
+     * struct as bytes (and to the launch-grid check, which reads every word
+     * of it as a possible pointer) */
+    ew_kpcn_input_args ia;
+    memset(&ia, 0, sizeof ia);
+    ia.width = rw;
+    ia.height = rh;
+    ia.radiance = radiance + at * 3;
+    ia.albedo = b->albedo + at * 3;
+    ia.normal = b->normal + at * 3;
+    ia.depth = b->depth + at;
+    ia.depth_scale = b->depth_scale;
+    ia.dst = ew_gn_plane_row(&s->sb[0], 0, 0);
+    ia.rs = s->sb[0].rs;
+    ia.ps = s->sb[0].ps;
+    ia.noise_plane = net->noise;
+    ia.noise = noise;
+    ia.src_rs = W;
     (void)EW_RUN(dev, kpcn_input, &ia);
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the network (algorithms/kpcn.h's layer list) */

@@ -24,6 +24,7 @@
 
 #include "kernels/conv.h"
 #include "kernels/denoise_px.h"
+#include "kernels/fastmath.h"
 #include "kernels/outlier.h"
 
 #define EW_KPCN_INPUTS 10     /* network input planes of the per-pixel features */
@@ -111,7 +112,9 @@ EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
  * Coarse (x, y) is the mean of the fine pixels (2x + i, 2y + j), i, j in
  * {0, 1}, that exist: a fine size w gives a coarse size (w + 1) / 2. */
 typedef struct ew_kpcn_pool_args {
-    int fw, fh, cw, ch, nplanes;
+    int fw, fh, cw, ch;
+    long nplanes; /* a long, so that the struct has no padding: a device copies it as bytes, and the
+                   * launch-grid check reads every word of it as a possible pointer */
     ew_kpcn_tensor src, dst; /* fine, coarse */
 } ew_kpcn_pool_args;
 
@@ -155,7 +158,9 @@ EW_HD void ew_kpcn_up_taps(int x, int cw, int *i0, int *i1, float *w0, float *w1
 }
 
 typedef struct ew_kpcn_up_args {
-    int fw, fh, cw, ch, nplanes;
+    int fw, fh, cw, ch;
+    long nplanes; /* a long, so that the struct has no padding: a device copies it as bytes, and the
+                   * launch-grid check reads every word of it as a possible pointer */
     ew_kpcn_tensor src, dst; /* coarse, fine */
 } ew_kpcn_up_args;
 
@@ -217,13 +222,16 @@ typedef struct ew_kpcn_filter_args {
     ew_kpcn_tensor albedo;    /* 3 channels of raw albedo at full resolution, or data NULL: no remodulation */
 } ew_kpcn_filter_args;
 
-/* softmax of the 25 logits from plane first at (x, y) into w; w sums to 1 */
+/* softmax of the 25 logits from plane first at (x, y) into w; w sums to 1.
+ * The exponential is ew_fexp (kernels/fastmath.h), not libm's expf: the CPU
+ * row loop then computes it for a span of pixels in vector registers, and
+ * every backend, the trainer included, gets the same bits. */
 EW_HD void ew_kpcn_softmax_at(int x, int y, const ew_kpcn_tensor *logits, int first, float *w) {
     float mx = *ew_kpcn_at(logits, first, y, x);
     for (int k = 1; k < EW_KPCN_TAPS; k++) mx = ew_maxf(mx, *ew_kpcn_at(logits, first + k, y, x));
     float s = 0.0f;
     for (int k = 0; k < EW_KPCN_TAPS; k++) {
-        w[k] = expf(*ew_kpcn_at(logits, first + k, y, x) - mx);
+        w[k] = ew_fexp(*ew_kpcn_at(logits, first + k, y, x) - mx);
         s += w[k];
     }
     const float inv = 1.0f / s;

@@ -388,7 +388,7 @@ TEST(outlier_guided_with_alpha_and_holes) {
     for (size_t i = 0; i < N; i += 13) color[i * 4 + 1] = 800.0f;
     for (size_t i = 0; i < N * 3; i++)
         if (isfinite(albedo[i])) albedo[i] = albedo[i] < 0.5f ? 0.2f : 0.8f;
-    const ew_outlier_params op = {W, H, 2, 3.0f, 0.1f, 0.5f, 0.1f, 0.0f, 0, 1, 1};
+    const ew_outlier_params op = {W, H, 2, 3.0f, 0.1f, 0.5f, 0.1f, 0.0f, 0, 1, 1, 0.0f};
     ew_outlier_buffers h = {color, albedo, normal, hnan(N * 4), 4, NULL}, d = h;
     d.color = dup_to(p.dut, color, N * 4);
     d.albedo = dup_to(p.dut, albedo, N * 3);

@@ -9,7 +9,7 @@
  * over the logit planes, the exponentials, the sum, the weights, then each
  * tap's product for the whole span — every step a loop over contiguous
  * floats. Each pixel still sees the same IEEE operations in the same order
- * as ew_kpcn_filter_px (the same maximum, expf, sum over taps 0..24, one
+ * as ew_kpcn_filter_px (the same maximum, exponential, sum over taps 0..24, one
  * reciprocal, products accumulated tap by tap), so the bits are the same:
  * the launch-grid parity test compares them exactly. Pixels within two of
  * the left or right border (clamped taps) and tensors whose logits are not
@@ -37,7 +37,7 @@ static inline void kpcn_softmax_span(const ew_kpcn_tensor *t, int first, int y, 
         for (int i = 0; i < n; i++) w[k][i] = l[i] - mx[i];
     }
     for (int k = 0; k < EW_KPCN_TAPS; k++)
-        for (int i = 0; i < n; i++) w[k][i] = expf(w[k][i]);
+        for (int i = 0; i < n; i++) w[k][i] = ew_fexp(w[k][i]);
     for (int i = 0; i < n; i++) s[i] = 0.0f;
     for (int k = 0; k < EW_KPCN_TAPS; k++)
         for (int i = 0; i < n; i++) s[i] += w[k][i];
