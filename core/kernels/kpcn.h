@@ -284,21 +284,25 @@ EW_HD void ew_kpcn_remod_backward_px(int x, int y, const ew_kpcn_filter_args *a,
     for (int k = 0; k < EW_KPCN_TAPS; k++) *ew_kpcn_at(dlogits, EW_KPCN_HEAD + k, y, x) = v[k] * (dv[k] - dot);
 }
 
+/* f = (1 - a) f + a up(coarse)(x, y), a = sigmoid(logit 25): the filtered
+ * radiance f at (x, y) blended with the coarser scale's result */
+EW_HD void ew_kpcn_blend_coarse_px(int x, int y, const ew_kpcn_filter_args *a, float *f) {
+    const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y, x));
+    int x0, x1, y0, y1;
+    float wx0, wx1, wy0, wy1;
+    ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
+    ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+    for (int c = 0; c < 3; c++) {
+        const float u = ew_kpcn_bilerp(&a->coarse, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
+        f[c] = (1.0f - al) * f[c] + al * u;
+    }
+}
+
 EW_HD void ew_kpcn_filter_px(int x, int y, const ew_kpcn_filter_args *a) {
     float w[EW_KPCN_TAPS], f[3];
     ew_kpcn_softmax_px(x, y, a, w);
     ew_kpcn_filtered_px(x, y, a, w, f);
-    if (a->coarse.data) {
-        const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y, x));
-        int x0, x1, y0, y1;
-        float wx0, wx1, wy0, wy1;
-        ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
-        ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
-        for (int c = 0; c < 3; c++) {
-            const float u = ew_kpcn_bilerp(&a->coarse, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
-            f[c] = (1.0f - al) * f[c] + al * u;
-        }
-    }
+    if (a->coarse.data) ew_kpcn_blend_coarse_px(x, y, a, f);
     if (a->albedo.data) {
         float v[EW_KPCN_TAPS], m[3];
         ew_kpcn_remod_albedo_px(x, y, a, v, m);

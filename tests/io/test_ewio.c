@@ -809,13 +809,22 @@ static void put_attr(FILE *fp, const char *name, const char *type, uint32_t size
     put_u32(fp, size);
 }
 
+/* A new EXR file at path with its magic number and version 2 (single
+ * part, scanline, short names) written; NULL when it cannot be made. */
+static FILE *exr_start(const char *path) {
+    FILE *fp = fopen(path, "wb");
+    if (fp) {
+        put_u32(fp, 20000630u);
+        put_u32(fp, 2u);
+    }
+    return fp;
+}
+
 /* A scanline EXR header claiming w x h pixels, one half channel "R", no
  * compression, followed by a line offset table of zeros and no pixel data. */
 static int write_exr_header_typed(const char *path, int w, int h, uint32_t pixel_type) {
-    FILE *fp = fopen(path, "wb");
+    FILE *fp = exr_start(path);
     if (!fp) return 1;
-    put_u32(fp, 20000630u); /* magic */
-    put_u32(fp, 2u);        /* version 2, scanline, short names */
     put_attr(fp, "channels", "chlist", 18 + 1);
     fwrite("R", 1, 2, fp);
     put_u32(fp, pixel_type); /* 1: HALF */
@@ -879,10 +888,8 @@ TEST(bad_header_sizes_beyond_the_file) {
     char dir[4096], p[4200], err[512];
     CHECK(make_tmpdir(dir, sizeof dir));
     snprintf(p, sizeof p, "%s/long_string.exr", dir);
-    FILE *fp = fopen(p, "wb");
+    FILE *fp = exr_start(p);
     CHECK(fp != NULL);
-    put_u32(fp, 20000630u);
-    put_u32(fp, 2u);
     put_attr(fp, "comments", "string", 1952540018u);
     fwrite("only a few bytes follow", 1, 23, fp);
     CHECK(fclose(fp) == 0);
@@ -914,10 +921,8 @@ TEST(bad_header_sizes_beyond_the_file) {
      * empty name, then the rest of the header out of step; here the
      * "comments" string's text becomes the next size it reads. */
     snprintf(p, sizeof p, "%s/short_chlist.exr", dir);
-    fp = fopen(p, "wb");
+    fp = exr_start(p);
     CHECK(fp != NULL);
-    put_u32(fp, 20000630u);
-    put_u32(fp, 2u);
     put_attr(fp, "channels", "chlist", 10);
     fwrite("R", 1, 2, fp);
     put_u32(fp, 1);
@@ -936,10 +941,8 @@ TEST(bad_header_sizes_beyond_the_file) {
     /* a fixed-size type with another size: OpenEXR reads its 16 bytes and
      * takes the declared rest as the next attribute */
     snprintf(p, sizeof p, "%s/long_box.exr", dir);
-    fp = fopen(p, "wb");
+    fp = exr_start(p);
     CHECK(fp != NULL);
-    put_u32(fp, 20000630u);
-    put_u32(fp, 2u);
     put_attr(fp, "dataWindow", "box2i", 20);
     for (int k = 0; k < 5; k++) put_u32(fp, 3);
     fputc(0, fp);

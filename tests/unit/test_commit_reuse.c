@@ -110,6 +110,32 @@ TEST(nbg_commit_again_allocates_nothing) { commit_again_allocates_nothing("nbg")
 TEST(kpcn_commit_again_allocates_nothing) { commit_again_allocates_nothing("kpcn"); }
 TEST(auto_commit_again_allocates_nothing) { commit_again_allocates_nothing("auto"); }
 
+/* dev[0] keeps its scratch, dev[1] hands it back between phases; 0 when
+ * either cannot be made */
+static int make_release_pair(ew_device *dev[2]) {
+    for (int k = 0; k < 2; k++) {
+        ew_device_desc desc = EW_DEVICE_DESC_INIT;
+        desc.num_threads = 2;
+        desc.release_scratch = k;
+        dev[k] = NULL;
+        if (ew_device_create(&desc, &dev[k]) != EW_OK) return 0;
+    }
+    return 1;
+}
+
+/* Commits op and runs it: once into ref on the device that keeps its
+ * scratch (k 0), three times into out on the one that releases it (k 1);
+ * 0 when a call fails or a run differs from ref in any bit. Destroys op. */
+static int run_against_reference(ew_op *op, int k, float *out, const float *ref, size_t bytes) {
+    int ok = ew_op_commit(op) == EW_OK;
+    for (int run = 0; ok && run < (k ? 3 : 1); run++) {
+        if (k) memset(out, 0, bytes);
+        ok = ew_op_execute(op) == EW_OK && (!k || memcmp(out, ref, bytes) == 0);
+    }
+    ew_op_destroy(op);
+    return ok;
+}
+
 /* A device with release_scratch hands the pages of the do-no-harm stage's
  * statistics back while the method runs, and the method's buffers once it
  * has run (they come back as zeros): every execute, the first and the ones
@@ -118,13 +144,8 @@ TEST(auto_commit_again_allocates_nothing) { commit_again_allocates_nothing("auto
  * methods' clamps take light that must come back) and, for nbg at a 1 MiB
  * budget, several tiles. */
 static void release_scratch_keeps_output(const char *method, int max_memory_mb) {
-    ew_device *dev[2] = {NULL, NULL};
-    for (int k = 0; k < 2; k++) {
-        ew_device_desc desc = EW_DEVICE_DESC_INIT;
-        desc.num_threads = 2;
-        desc.release_scratch = k;
-        CHECK(ew_device_create(&desc, &dev[k]) == EW_OK);
-    }
+    ew_device *dev[2];
+    CHECK(make_release_pair(dev));
     CHECK(!dev[0]->release_scratch && dev[1]->release_scratch);
     const int w = 300, h = 170, n = w * h;
     const size_t b3 = sizeof(float) * 3 * (size_t)n;
@@ -149,13 +170,7 @@ static void release_scratch_keeps_output(const char *method, int max_memory_mb) 
         CHECK(ew_op_set_image(op, "depth", &d) == EW_OK);
         CHECK(ew_op_set_image(op, "output", &o) == EW_OK);
         if (max_memory_mb) CHECK(ew_op_set_int(op, "max_memory_mb", max_memory_mb) == EW_OK);
-        CHECK(ew_op_commit(op) == EW_OK);
-        for (int run = 0; run < (k ? 3 : 1); run++) {
-            if (k) memset(out, 0, b3);
-            CHECK(ew_op_execute(op) == EW_OK);
-            if (k) CHECK(memcmp(out, ref, b3) == 0);
-        }
-        ew_op_destroy(op);
+        CHECK(run_against_reference(op, k, out, ref, b3));
     }
     ew_device_destroy(dev[0]);
     ew_device_destroy(dev[1]);
@@ -180,13 +195,8 @@ TEST(bgrid_release_scratch_keeps_output) { release_scratch_keeps_output("bgrid",
  * coarse levels to span whole pages; model gi with a roughness image keeps
  * its weight table after the levels; dof has the content CoC planes. */
 static void pyramid_release_scratch_keeps_output(const char *method, int model) {
-    ew_device *dev[2] = {NULL, NULL};
-    for (int k = 0; k < 2; k++) {
-        ew_device_desc desc = EW_DEVICE_DESC_INIT;
-        desc.num_threads = 2;
-        desc.release_scratch = k;
-        CHECK(ew_device_create(&desc, &dev[k]) == EW_OK);
-    }
+    ew_device *dev[2];
+    CHECK(make_release_pair(dev));
     const int w = 640, h = 360, n = w * h;
     const size_t b3 = sizeof(float) * 3 * (size_t)n;
     float *color = malloc(b3), *normal = malloc(b3), *depth = malloc(sizeof(float) * (size_t)n);
@@ -220,13 +230,7 @@ static void pyramid_release_scratch_keeps_output(const char *method, int model) 
             CHECK(ew_op_set_float(op, "fstop", 1.4f) == EW_OK);
             CHECK(ew_op_set_float(op, "focus_distance", 6.0f) == EW_OK);
         }
-        CHECK(ew_op_commit(op) == EW_OK);
-        for (int run = 0; run < (k ? 3 : 1); run++) {
-            if (k) memset(out, 0, b3);
-            CHECK(ew_op_execute(op) == EW_OK);
-            if (k) CHECK(memcmp(out, ref, b3) == 0);
-        }
-        ew_op_destroy(op);
+        CHECK(run_against_reference(op, k, out, ref, b3));
     }
     ew_device_destroy(dev[0]);
     ew_device_destroy(dev[1]);

@@ -76,22 +76,12 @@ static inline void kpcn_filter_span(const ew_kpcn_filter_args *a, int y, int x0,
     float w[EW_KPCN_TAPS][EW_KPCN_SPAN], f[3][EW_KPCN_SPAN];
     kpcn_softmax_span(&a->logits, 0, y, x0, n, w);
     kpcn_taps_span(&a->radiance, y, a->height, x0, n, w, 0, f);
-    if (a->coarse.data) {
-        int y0, y1;
-        float wy0, wy1;
-        ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+    if (a->coarse.data)
         for (int i = 0; i < n; i++) {
-            const int x = x0 + i;
-            const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y, x));
-            int xa, xb;
-            float wx0, wx1;
-            ew_kpcn_up_taps(x, a->cw, &xa, &xb, &wx0, &wx1);
-            for (int c = 0; c < 3; c++) {
-                const float u = ew_kpcn_bilerp(&a->coarse, c, xa, xb, y0, y1, wx0, wx1, wy0, wy1);
-                f[c][i] = (1.0f - al) * f[c][i] + al * u;
-            }
+            float v[3] = {f[0][i], f[1][i], f[2][i]};
+            ew_kpcn_blend_coarse_px(x0 + i, y, a, v);
+            for (int c = 0; c < 3; c++) f[c][i] = v[c];
         }
-    }
     if (a->albedo.data) {
         float m[3][EW_KPCN_SPAN];
         kpcn_softmax_span(&a->logits, EW_KPCN_HEAD, y, x0, n, w);
