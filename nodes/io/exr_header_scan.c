@@ -209,7 +209,9 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                                   "(a damaged file)",
                                   pw, ph, size);
                 used = 8;
-            } else if (!strcmp(name, "channels") && !strcmp(type, "chlist")) {
+            } else if (!strcmp(type, "chlist")) {
+                /* by its type, whatever its name: OpenEXR reads every chlist
+                 * attribute up to its empty entry name */
                 bad_channel bad;
                 memset(&bad, 0, sizeof bad);
                 long long list = 0;
@@ -217,9 +219,9 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                 if (list < 0) return 0; /* malformed: OpenEXR says so */
                 if (list != size)
                     return refuse(why, whylen,
-                                  "the header's channel list declares %lld bytes, but its entries take %lld "
-                                  "(a damaged file)",
-                                  size, list);
+                                  "the header's channel list '%s' declares %lld bytes, but its entries take "
+                                  "%lld (a damaged file)",
+                                  name, size, list);
                 if (bad.found == 1)
                     return refuse(why, whylen,
                                   "the header's channel '%s' has pixel type %lld (EXR knows 0 uint, 1 half, 2 float)",
@@ -227,7 +229,7 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                 if (bad.found == 2)
                     return refuse(why, whylen, "the header's channel '%s' has a sampling of %lld (at least 1)",
                                   bad.name, bad.value);
-                p.channels = n;
+                if (!strcmp(name, "channels")) p.channels = n;
                 used = size;
             }
             if (size > used && fseeko(f, (off_t)(size - used), SEEK_CUR) != 0) return 0;

@@ -936,7 +936,26 @@ TEST(bad_header_sizes_beyond_the_file) {
     CHECK(fclose(fp) == 0);
     CHECK(ewio_read(p, &f, err, sizeof err) != 0);
     CHECK(f == NULL);
-    CHECK_STR_CONTAINS(err, "channel list declares 10 bytes, but its entries take 19");
+    CHECK_STR_CONTAINS(err, "channel list 'channels' declares 10 bytes, but its entries take 19");
+
+    /* the same under another name: OpenEXR reads a list by its type */
+    snprintf(p, sizeof p, "%s/short_named_chlist.exr", dir);
+    fp = exr_start(p);
+    CHECK(fp != NULL);
+    put_attr(fp, "2channels", "chlist", 10);
+    fwrite("R", 1, 2, fp);
+    put_u32(fp, 1);
+    put_u32(fp, 0);
+    put_u32(fp, 1);
+    put_u32(fp, 1);
+    fputc(0, fp);
+    put_attr(fp, "comments", "string", 4);
+    fwrite("abcd", 1, 4, fp);
+    fputc(0, fp);
+    CHECK(fclose(fp) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK(f == NULL);
+    CHECK_STR_CONTAINS(err, "channel list '2channels' declares 10 bytes, but its entries take 19");
 
     /* a fixed-size type with another size: OpenEXR reads its 16 bytes and
      * takes the declared rest as the next attribute */
