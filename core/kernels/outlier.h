@@ -112,6 +112,15 @@ EW_HD ew_outlier_params ew_outlier_plain_params(int width, int height, int radiu
 
 EW_HD int ew_outlier_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
 
+/* Do normals of squared lengths l0 (the pixel's, finite) and l1 with dot
+ * product d face alike (within normal_cos)? Two without a surface
+ * (background) are alike. Written without branches so that a row loop
+ * (the CPU backend's) vectorises the same test. */
+EW_HD int ew_outlier_normals_alike(float l0, float l1, float d, float normal_cos) {
+    const int none0 = l0 < 1e-12f, none1 = l1 < 1e-12f, facing = d >= normal_cos * sqrtf(l0 * l1);
+    return ew_finitef(l1) & ((none0 & none1) | (((none0 | none1) ^ 1) & facing));
+}
+
 /* Does neighbour k look like the same surface as pixel j? use_a/use_n:
  * whether pixel j's albedo/normal are usable. */
 EW_HD int ew_outlier_similar(const ew_outlier_params *p, const ew_outlier_buffers *b, long j, long k, int use_a,
@@ -123,12 +132,10 @@ EW_HD int ew_outlier_similar(const ew_outlier_params *p, const ew_outlier_buffer
     }
     if (use_n) {
         const float *n0 = b->normal + j * 3, *n1 = b->normal + k * 3;
-        float l0 = n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2];
-        float l1 = n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2];
-        if (!ew_finitef(l1)) return 0;
-        if (l0 < 1e-12f || l1 < 1e-12f) return l0 < 1e-12f && l1 < 1e-12f; /* no surface (background) */
-        float d = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
-        if (!(d >= p->normal_cos * sqrtf(l0 * l1))) return 0;
+        const float l0 = n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2];
+        const float l1 = n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2];
+        const float d = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
+        return ew_outlier_normals_alike(l0, l1, d, p->normal_cos);
     }
     return 1;
 }
@@ -232,6 +239,14 @@ EW_HD void ew_outlier_emitter_px(int x, int y, const ew_outlier_params *p, const
                            b->removed ? b->removed + j * 3 : 0);
 }
 
+/* Robust rejection keeps a pixel of luminance lum when at most (n - 1) / 2
+ * of its n similar neighbours lie below this (ew_outlier_guided_px says
+ * why). */
+EW_HD float ew_outlier_keep_below(const ew_outlier_params *p, float lum) {
+    const float sf = ew_maxf(p->sigma_floor, 0.0f), af = ew_maxf(p->abs_floor, 0.0f);
+    return ew_minf(lum / (1.0f + p->k * sf), lum - p->k * af) + 1e-4f * lum;
+}
+
 EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const ew_outlier_buffers *b) {
     const long j = (long)y * p->width + x, cc = b->channels;
     const float *c0 = b->color + j * cc;
@@ -294,8 +309,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
          * below t. That count decides those pixels without the two
          * selections. t is raised by 1e-4 lum above the smallest such median
          * so that the rounding of the exact test cannot disagree with it. */
-        const float sf = ew_maxf(p->sigma_floor, 0.0f), af = ew_maxf(p->abs_floor, 0.0f);
-        const float t = ew_minf(lum / (1.0f + p->k * sf), lum - p->k * af) + 1e-4f * lum;
+        const float t = ew_outlier_keep_below(p, lum);
         int below = 0;
         for (int i = 0; i < n; i++) below += window[i] < t;
         if (below <= (n - 1) / 2) return;

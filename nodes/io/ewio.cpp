@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <strings.h>
 #include <limits>
 #include <map>
 #include <memory>
@@ -350,7 +351,16 @@ std::string exr_header_check(const char *path, long long size) {
     const int bad = ewio_exr_header_scan(fp, size, &lay, why, sizeof why);
     fclose(fp);
     if (bad) return why;
-    if (!lay.is_exr || lay.width == 0) return std::string();
+    if (!lay.is_exr) {
+        /* OpenImageIO would try its every other reader on the bytes, some
+         * of which allocate what a stray header declares (hundreds of MB
+         * for a 93-byte file); a file named .exr is an EXR file or refused */
+        const size_t n = std::strlen(path);
+        if (n >= 4 && strcasecmp(path + n - 4, ".exr") == 0)
+            return "not an image file OpenEXR can read: named .exr, but it does not start with EXR's magic number";
+        return std::string();
+    }
+    if (lay.width == 0) return std::string();
     std::string d = check_dims(lay.width, lay.height);
     if (d.empty()) d = check_bytes(lay.width, lay.height, std::max(1LL, lay.channels));
     if (d.empty() && lay.tile_width * lay.tile_height > lay.width * lay.height) {

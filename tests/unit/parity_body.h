@@ -317,6 +317,76 @@ TEST(outlier_clamp) {
     CHECK_NO_MISUSE();
 }
 
+TEST(outlier_robust_surfaces) {
+    /* the rejection the op layer runs before every method: smooth surfaces
+     * (most neighbours similar, so most pixels are kept by the count and a
+     * few judged by their median), normals facing apart and background,
+     * lone emitter hits, fireflies, holes in colour and features, both
+     * window radii, with and without the removed light */
+    OPEN_PAIR(p, 0);
+    float *color = hrand(N * 3, 0.2f, 0.6f, 0), *albedo = hnan(N * 3), *normal = hnan(N * 3);
+    for (size_t i = 0; i < N; i++) {
+        const int x = (int)(i % W), y = (int)(i / W);
+        const float tone = x < W / 2 ? 0.3f : 0.7f;
+        for (int c = 0; c < 3; c++) albedo[i * 3 + c] = tone;
+        /* below the top quarter (no surface), stripes facing apart, dark and bright */
+        const int facing = (x / 3 + y / 2) % 2;
+        normal[i * 3] = y < H / 4 ? 0.0f : (facing ? 0.8f : -0.8f);
+        normal[i * 3 + 1] = 0.0f;
+        normal[i * 3 + 2] = y < H / 4 ? 0.0f : 0.6f;
+        if (y >= H / 4 && facing)
+            for (int c = 0; c < 3; c++) color[i * 3 + c] *= 6.0f;
+        if (i % 11 == 4) for (int c = 0; c < 3; c++) color[i * 3 + c] *= 40.0f; /* fireflies */
+        if (i % 53 == 9) color[i * 3 + 1] = i % 2 ? NAN : INFINITY;
+        if (i % 59 == 3) albedo[i * 3 + 2] = NAN;
+        if (i % 61 == 5) normal[i * 3] = INFINITY;
+        if (i % 97 == 40) { /* a lone emitter hit */
+            for (int c = 0; c < 3; c++) albedo[i * 3 + c] = 50.0f;
+            color[i * 3] = 9.0f;
+        }
+        if (i % 89 == 17) for (int c = 0; c < 3; c++) color[i * 3 + c] = 0.0f;
+    }
+    float *removed = hnan(N * 3), *dremoved = dnan(p.dut, N * 3);
+    ew_outlier_buffers h = {color, albedo, normal, hnan(N * 3), 3, removed}, d = h;
+    d.color = dup_to(p.dut, color, N * 3);
+    d.albedo = dup_to(p.dut, albedo, N * 3);
+    d.normal = dup_to(p.dut, normal, N * 3);
+    d.out = dnan(p.dut, N * 3);
+    d.removed = dremoved;
+    int ok = 1;
+    for (int r = 2; r <= 3; r++) {
+        ew_outlier_params op = ew_outlier_plain_params(W, H, r, 3.0f);
+        op.robust = 1;
+        op.albedo_tol = 0.1f;
+        op.normal_cos = 0.5f;
+        op.sigma_floor = 0.3f;
+        op.abs_floor = 0.01f;
+        op.repair = r == 2;
+        op.emitter_albedo = 16.0f;
+        ew_cpu_backend.outlier_guided(p.cpu, &op, &h);
+        p.dut->backend->outlier_guided(p.dut, &op, &d);
+        int changed = 0;
+        for (size_t i = 0; i < N * 3; i++) changed += h.out[i] != color[i] && isfinite(color[i]);
+        ok = ok && changed > 20; /* the case judges pixels, not only keeps them */
+        ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "rejected");
+        ok = ok && match(back(p.dut, d.removed, N * 3), h.removed, N * 3, "removed light");
+        /* and with the albedo alone, the normal alone */
+        ew_outlier_buffers ha = h, da = d;
+        ha.normal = da.normal = NULL;
+        ew_cpu_backend.outlier_guided(p.cpu, &op, &ha);
+        p.dut->backend->outlier_guided(p.dut, &op, &da);
+        ok = ok && match(back(p.dut, da.out, N * 3), ha.out, N * 3, "rejected by albedo");
+        ha = h, da = d;
+        ha.albedo = da.albedo = NULL;
+        ew_cpu_backend.outlier_guided(p.cpu, &op, &ha);
+        p.dut->backend->outlier_guided(p.dut, &op, &da);
+        ok = ok && match(back(p.dut, da.out, N * 3), ha.out, N * 3, "rejected by normal");
+    }
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
 TEST(harm_stage_steps) {
     /* every step of the do-no-harm stage, with alpha, NaN/Inf and a firefly */
     OPEN_PAIR(p, 0);

@@ -131,11 +131,131 @@ static int outlier_plain_rows(const ew_outlier_params *p, const ew_outlier_buffe
     return 1;
 }
 
+/* One row of the robust rejection's inputs as separate planes: luminance,
+ * whether the colour is finite, albedo and normal channels, the normal's
+ * squared length. */
+typedef struct {
+    float *lum, *a0, *a1, *a2, *n0, *n1, *n2, *len2;
+    int *finite;
+} robust_row;
+
+static void robust_row_fill(const ew_outlier_buffers *b, int w, int y, const robust_row *r) {
+    for (int x = 0; x < w; x++) {
+        const long k = (long)y * w + x;
+        const float *c = b->color + k * b->channels;
+        r->finite[x] = ew_outlier_finite3(c);
+        r->lum[x] = ew_luminance(c);
+        if (b->albedo) {
+            const float *a = b->albedo + k * 3;
+            r->a0[x] = a[0], r->a1[x] = a[1], r->a2[x] = a[2];
+        }
+        if (b->normal) {
+            const float *n = b->normal + k * 3;
+            r->n0[x] = n[0], r->n1[x] = n[1], r->n2[x] = n[2];
+            r->len2[x] = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        }
+    }
+}
+
+/* For the x in [lo, hi): is neighbour x + dx of row r finite and similar to
+ * pixel x of row c (ew_outlier_similar's tests, where c uses them: use_a,
+ * use_n)? n[x] counts those, below[x] those under keep[x]. */
+static EW_MULTIVERSION void robust_count_shifted(const robust_row *c, const robust_row *r, const int *EW_RESTRICT use_a,
+                                                 const int *EW_RESTRICT use_n, const float *EW_RESTRICT keep,
+                                                 int *EW_RESTRICT n, int *EW_RESTRICT below, int lo, int hi, int dx,
+                                                 float tol, float normal_cos) {
+    /* the planes as restrict locals, so that the loop vectorises */
+    const float *EW_RESTRICT ca0 = c->a0, *EW_RESTRICT ca1 = c->a1, *EW_RESTRICT ca2 = c->a2;
+    const float *EW_RESTRICT cn0 = c->n0, *EW_RESTRICT cn1 = c->n1, *EW_RESTRICT cn2 = c->n2;
+    const float *EW_RESTRICT cl = c->len2, *EW_RESTRICT rlum = r->lum + dx, *EW_RESTRICT rl = r->len2 + dx;
+    const float *EW_RESTRICT ra0 = r->a0 + dx, *EW_RESTRICT ra1 = r->a1 + dx, *EW_RESTRICT ra2 = r->a2 + dx;
+    const float *EW_RESTRICT rn0 = r->n0 + dx, *EW_RESTRICT rn1 = r->n1 + dx, *EW_RESTRICT rn2 = r->n2 + dx;
+    const int *EW_RESTRICT rf = r->finite + dx;
+    /* (the planes of a feature the frame lacks are zeros, and use_a / use_n
+     * are 0 for every pixel: the tests run and count for nothing) */
+    for (int x = lo; x < hi; x++) {
+        int s = rf[x];
+        s &= (use_a[x] == 0) |
+             ((fabsf(ca0[x] - ra0[x]) <= tol) & (fabsf(ca1[x] - ra1[x]) <= tol) & (fabsf(ca2[x] - ra2[x]) <= tol));
+        const float d = cn0[x] * rn0[x] + cn1[x] * rn1[x] + cn2[x] * rn2[x];
+        s &= (use_n[x] == 0) | ew_outlier_normals_alike(cl[x], rl[x], d, normal_cos);
+        n[x] += s;
+        below[x] += s & (rlum[x] < keep[x]);
+    }
+}
+
+/* The robust rejection a row at a time. ew_outlier_guided_px keeps most
+ * pixels by a count (at most (n - 1) / 2 of the n similar finite
+ * neighbours below ew_outlier_keep_below), which it takes neighbour by
+ * neighbour with a branch per test; here the count runs for the whole row,
+ * one window offset at a time over contiguous planes of the neighbours'
+ * row. The pixels the count does not keep, and those the per-pixel function
+ * treats apart (non-finite ones it repairs, lone emitter hits), go through
+ * ew_outlier_guided_px itself: the same tests and decisions, the same bits. */
+static int outlier_robust_rows(const ew_outlier_params *p, const ew_outlier_buffers *b, int64_t begin, int64_t end) {
+    const int w = p->width, h = p->height, r = ew_mini(p->radius, EW_OUTLIER_ROBUST_RADIUS), cc = b->channels;
+    float *fbuf = (float *)calloc((size_t)w * 17, sizeof(float));
+    int *ibuf = (int *)malloc((size_t)w * 7 * sizeof(int));
+    if (!fbuf || !ibuf) {
+        free(fbuf);
+        free(ibuf);
+        return 0;
+    }
+    float *f = fbuf;
+    int *in = ibuf;
+    robust_row centre = {f, f + w, f + 2 * w, f + 3 * w, f + 4 * w, f + 5 * w, f + 6 * w, f + 7 * w, in};
+    robust_row nb = {f + 8 * w, f + 9 * w, f + 10 * w, f + 11 * w, f + 12 * w, f + 13 * w, f + 14 * w, f + 15 * w, in + w};
+    float *keep = f + 16 * w;
+    int *use_a = in + 2 * w, *use_n = in + 3 * w, *n = in + 4 * w, *below = in + 5 * w, *judge = in + 6 * w;
+    for (int64_t yl = begin; yl < end; yl++) {
+        const int y = (int)yl;
+        robust_row_fill(b, w, y, &centre);
+        for (int x = 0; x < w; x++) {
+            const long j = (long)y * w + x;
+            const float *c0 = b->color + j * cc;
+            float *o = b->out + j * cc;
+            for (int c = 0; c < cc; c++) o[c] = c0[c];
+            if (b->removed) b->removed[j * 3] = b->removed[j * 3 + 1] = b->removed[j * 3 + 2] = 0.0f;
+            n[x] = below[x] = 0;
+            keep[x] = 0.0f;
+            use_a[x] = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
+            use_n[x] = b->normal != 0 && ew_outlier_finite3(b->normal + j * 3);
+            /* 0: kept as it is; 1: by the count; 2: by the per-pixel function */
+            if (!centre.finite[x]) {
+                judge[x] = p->repair ? 2 : 0;
+            } else if (p->k <= 0.0f || !(centre.lum[x] > 0.0f)) {
+                judge[x] = 0;
+            } else if (use_a[x] && p->emitter_albedo > 0.0f && ew_outlier_lone_emitter(x, y, p, b)) {
+                judge[x] = 2;
+            } else {
+                judge[x] = 1;
+                keep[x] = ew_outlier_keep_below(p, centre.lum[x]);
+            }
+        }
+        for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++) {
+            robust_row_fill(b, w, yy, &nb);
+            for (int dx = -r; dx <= r; dx++) {
+                const int lo = dx < 0 ? -dx : 0, hi = dx > 0 ? w - dx : w;
+                if ((yy != y || dx != 0) && lo < hi)
+                    robust_count_shifted(&centre, &nb, use_a, use_n, keep, n, below, lo, hi, dx, p->albedo_tol,
+                                         p->normal_cos);
+            }
+        }
+        for (int x = 0; x < w; x++)
+            if (judge[x] == 2 || (judge[x] == 1 && n[x] >= EW_OUTLIER_MIN_SIMILAR && below[x] > (n[x] - 1) / 2))
+                ew_outlier_guided_px(x, y, p, b);
+    }
+    free(fbuf);
+    free(ibuf);
+    return 1;
+}
+
 static void outlier_guided_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const outlier_guided_job *j = (const outlier_guided_job *)ctx;
     if (!j->p->robust && !j->p->shift && !j->b->albedo && !j->b->normal && outlier_plain_rows(j->p, j->b, begin, end))
         return;
+    if (j->p->robust && outlier_robust_rows(j->p, j->b, begin, end)) return;
     for (int64_t y = begin; y < end; y++)
         for (int x = 0; x < j->p->width; x++) ew_outlier_guided_px(x, (int)y, j->p, j->b);
 }
