@@ -10,8 +10,9 @@
 #include "src/backend.h"
 #include "src/cpu_clones.h"
 
-/* The packers write element k of pixel j at dst[k * ks + j * js]:
- * interleaved (ks 1, js = floats a pixel) or planes (ks = plane size, js 1).
+/* The packers write element k of pixel j at dst[k * ks + (j - jsub) * js]:
+ * interleaved (ks 1, js = floats a pixel) or planes (ks = plane size, js 1);
+ * jsub: the first pixel of dst (a band of rows), 0 for a whole frame.
  * Rows are walked with their own pointer (views may have any strides). Each
  * does the rows [y0, y1), so that ew_bf_io can run them in bands of rows on
  * the device's threads (rows are independent): every filter's execute packs
@@ -47,18 +48,18 @@ static EW_MULTIVERSION long pack_image_fast(const float *EW_RESTRICT src, const 
     return missing;
 }
 
-static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t js, int y0, int y1) {
+static long pack_image(const ew_image *img, int C, float *dst, size_t ks, size_t js, size_t jsub, int y0, int y1) {
     if (js == 1 && (C == 3 || C == 4) && ew__image_packed_as(img, C)) {
         const size_t w = (size_t)img->width;
         const float *src = (const float *)img->data + (size_t)y0 * w * (size_t)C;
         const long count = (long)((size_t)(y1 - y0) * w);
-        return C == 3 ? pack_image_fast(src, 3, dst, ks, (size_t)y0 * w, count)
-                      : pack_image_fast(src, 4, dst, ks, (size_t)y0 * w, count);
+        return C == 3 ? pack_image_fast(src, 3, dst, ks, (size_t)y0 * w - jsub, count)
+                      : pack_image_fast(src, 4, dst, ks, (size_t)y0 * w - jsub, count);
     }
     const int n = C < EW_BF_COLOR ? C : EW_BF_COLOR;
     const int64_t ps = ew__pixel_stride(img);
     long missing = 0;
-    size_t j = (size_t)y0 * (size_t)img->width;
+    size_t j = (size_t)y0 * (size_t)img->width - jsub;
     for (int y = y0; y < y1; y++) {
         const char *row = (const char *)row_of(img, y);
         for (int x = 0; x < img->width; x++, j++) {
@@ -150,21 +151,22 @@ static EW_MULTIVERSION long pack_channels_fast(const float *EW_RESTRICT src, con
     return bad;
 }
 
-static long pack_channels(const ew_image *view, int stride, float *attr, size_t ks, size_t js, int y0, int y1) {
+static long pack_channels(const ew_image *view, int stride, float *attr, size_t ks, size_t js, size_t jsub, int y0,
+                          int y1) {
     const int n = view->channels < stride ? view->channels : stride;
     if (js == 1 && n == view->channels && (n == 1 || n == 3 || n == 4) && (stride == 1 || stride == 4) &&
         ew__image_packed_as(view, n)) {
         const size_t w = (size_t)view->width, j0 = (size_t)y0 * w;
         const float *src = (const float *)view->data + j0 * (size_t)n;
         const long count = (long)((size_t)(y1 - y0) * w);
-        if (stride == 1) return pack_channels_fast(src, 1, 1, attr, ks, j0, count);
-        return n == 1   ? pack_channels_fast(src, 1, 4, attr, ks, j0, count)
-               : n == 3 ? pack_channels_fast(src, 3, 4, attr, ks, j0, count)
-                        : pack_channels_fast(src, 4, 4, attr, ks, j0, count);
+        if (stride == 1) return pack_channels_fast(src, 1, 1, attr, ks, j0 - jsub, count);
+        return n == 1   ? pack_channels_fast(src, 1, 4, attr, ks, j0 - jsub, count)
+               : n == 3 ? pack_channels_fast(src, 3, 4, attr, ks, j0 - jsub, count)
+                        : pack_channels_fast(src, 4, 4, attr, ks, j0 - jsub, count);
     }
     const int64_t ps = ew__pixel_stride(view);
     long bad = 0;
-    size_t j = (size_t)y0 * (size_t)view->width;
+    size_t j = (size_t)y0 * (size_t)view->width - jsub;
     for (int y = y0; y < y1; y++) {
         const char *row = (const char *)row_of(view, y);
         for (int x = 0; x < view->width; x++, j++) {
@@ -176,10 +178,10 @@ static long pack_channels(const ew_image *view, int stride, float *attr, size_t 
 }
 
 static long pack_gi(const ew_image *normal, const ew_image *depth, const ew_image *roughness, float *attr, size_t ks,
-                    size_t js, int y0, int y1) {
+                    size_t js, size_t jsub, int y0, int y1) {
     const ew_image *any = normal ? normal : depth ? depth : roughness;
     long bad = 0;
-    size_t j = (size_t)y0 * (size_t)any->width;
+    size_t j = (size_t)y0 * (size_t)any->width - jsub;
     for (int y = y0; y < y1; y++)
         for (int x = 0; x < any->width; x++, j++) {
             float a[5];
@@ -203,7 +205,7 @@ static long pack_gi(const ew_image *normal, const ew_image *depth, const ew_imag
 
 /* ---- the packers over bands of rows on the device's threads ---- */
 #define EW_IO_MAX_THREADS 256
-enum { IO_IMAGE, IO_UNPACK, IO_CHANNELS, IO_GI };
+enum { IO_IMAGE, IO_UNPACK, IO_CHANNELS, IO_GI, IO_PLANES };
 
 typedef struct {
     ew_bf_io_job j;
@@ -212,14 +214,15 @@ typedef struct {
 
 static long job_rows(const ew_bf_io_job *j, int y0, int y1, int tid) {
     switch (j->what) {
-    case IO_IMAGE: return pack_image(j->v, j->C, j->dst, j->ks, j->js, y0, y1);
+    case IO_IMAGE: return pack_image(j->v, j->C, j->dst, j->ks, j->js, 0, y0, y1);
     case IO_UNPACK:
         if (j->band) /* rows [y0, y1) lie in one band: thread tid's buffer */
             return unpack_image(j->src + (size_t)tid * j->band_stride, j->ks, 1,
                                 (size_t)(y0 - y0 % j->band) * (size_t)j->v->width, j->C, j->v, j->v2, y0, y1);
         return unpack_image(j->src, j->ks, j->js, 0, j->C, j->v, j->v2, y0, y1);
-    case IO_CHANNELS: return pack_channels(j->v, j->C, j->dst, j->ks, j->js, y0, y1);
-    default: return pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, y0, y1);
+    case IO_CHANNELS: return pack_channels(j->v, j->C, j->dst, j->ks, j->js, 0, y0, y1);
+    case IO_GI: return pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, 0, y0, y1);
+    default: return 0; /* IO_PLANES: ew_bf_io_fill only */
     }
 }
 
@@ -348,6 +351,35 @@ void ew_bf_io_unpack_band(ew_bf_io_set *s, const float *src, int band, long band
 void ew_bf_io_rows(void *set, int y0, int y1, int tid) {
     const ew_bf_io_set *s = (const ew_bf_io_set *)set;
     for (int k = 0; k < s->n; k++) (void)job_rows(&s->job[k], y0, y1, tid);
+}
+
+void ew_bf_io_copy_planes(ew_bf_io_set *s, const float *src, int k, const ew_image *any) {
+    if (s->n >= EW_BF_IO_JOBS || !any) return;
+    s->job[s->n++] = (ew_bf_io_job){.what = IO_PLANES, .C = k, .v = any, .src = src,
+                                    .ks = (size_t)any->width * (size_t)any->height, .js = 1};
+}
+
+void ew_bf_io_fill(void *set, int y0, int y1, int tid, float *planes, long ps, long row0) {
+    (void)tid;
+    const ew_bf_io_set *s = (const ew_bf_io_set *)set;
+    const size_t ks = (size_t)ps;
+    for (int k = 0; k < s->n; k++) {
+        const ew_bf_io_job *j = &s->job[k];
+        const ew_image *any = j->v ? j->v : j->v2 ? j->v2 : j->v3; /* GI: any of its views */
+        const size_t w = (size_t)any->width, jsub = (size_t)row0 * w;
+        float *attr = planes + EW_BF_CH * ks;
+        switch (j->what) {
+        case IO_IMAGE: (void)pack_image(j->v, j->C, planes, ks, 1, jsub, y0, y1); break;
+        case IO_CHANNELS: (void)pack_channels(j->v, j->C, attr, ks, 1, jsub, y0, y1); break;
+        case IO_GI: (void)pack_gi(j->v, j->v2, j->v3, attr, ks, 1, jsub, y0, y1); break;
+        case IO_PLANES:
+            for (int c = 0; c < j->C; c++)
+                memcpy(attr + (size_t)c * ks + (size_t)y0 * w - jsub, j->src + (size_t)c * j->ks + (size_t)y0 * w,
+                       sizeof(float) * w * (size_t)(y1 - y0));
+            break;
+        default: break; /* unpacking: a drain's job */
+        }
+    }
 }
 
 static void set_rows(void *set, int64_t begin, int64_t end, int tid) { ew_bf_io_rows(set, (int)begin, (int)end, tid); }

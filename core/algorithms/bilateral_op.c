@@ -189,7 +189,7 @@ ew_result ew_bf_op_execute(ew_op *op) {
         ew_bf_io_set drain = {0};
         ew_bf_io_unpack_band(&drain, s->plan.out, s->plan.band, s->plan.band_stride, m->channels,
                              ew_op_image(op, "output"), color);
-        const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+        const ew_pyr_io io = {ew_bf_io_fill, &fill, ew_bf_io_rows, &drain};
         if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         return EW_OK;
     }

@@ -144,14 +144,18 @@ static ew_result execute(ew_op *op) {
     const float *depth = s->depth;
     if (ew__image_packed_as(dv, 1)) depth = (const float *)dv->data;
     else ew_bf_pack_channels(dev, dv, 1, s->depth, NULL);
-    /* the pyramid's (D, C) straight into its planes */
-    ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, planes ? s->plan.attr[0] : s->attr, planes);
+    /* the pyramid's (D, C) straight into its planes, or, when it holds its
+     * input in bands, into planes of ours that its passes copy rows from */
+    const int in_bands = planes && s->plan.in;
+    float *dc = planes && !in_bands ? s->plan.attr[0] : s->attr;
+    ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, dc, planes);
     switch (s->method) {
     case 0: {
         ew_bf_io_set fill = {0}, drain = {0};
         ew_bf_io_pack_image(&fill, color, s->C, s->plan.down[0], 1);
+        if (in_bands) ew_bf_io_copy_planes(&fill, dc, 2, color);
         ew_bf_io_unpack_band(&drain, s->plan.out, s->plan.band, s->plan.band_stride, s->C, output, color);
-        const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+        const ew_pyr_io io = {ew_bf_io_fill, &fill, ew_bf_io_rows, &drain};
         if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;
     }

@@ -164,9 +164,22 @@ size_t ew_pyr_scratch_floats(const ew_bf_model *m, int w, int h, int levels, int
     return ew_pyr_scratch_floats_banded(m, w, h, levels, uniform, 0);
 }
 
+/* Rows of a thread's input band: the band and the rows either side. */
+#define IN_ROWS (EW_PYR_BAND + 2)
+
+/* Floats of level 0's input: planes of a whole frame, or (with bands and
+ * coarser levels) the threads' bands and the rows either side of the
+ * bands' boundaries. */
+static size_t in_floats(const ew_bf_model *m, int w, int h, int levels, int band_threads) {
+    const size_t planes = (size_t)(EW_BF_CH + m->attrs);
+    if (!band_threads || levels == 0) return (size_t)w * (size_t)h * planes;
+    const size_t boundaries = (size_t)((h - 1) / EW_PYR_BAND);
+    return ((size_t)band_threads * IN_ROWS + boundaries * 2) * (size_t)w * planes;
+}
+
 size_t ew_pyr_scratch_floats_banded(const ew_bf_model *m, int w, int h, int levels, int uniform, int band_threads) {
     /* level 0: in, attributes, out */
-    size_t n = (size_t)w * (size_t)h * (size_t)(EW_BF_CH + m->attrs) + out_floats(w, h, band_threads);
+    size_t n = in_floats(m, w, h, levels, band_threads) + out_floats(w, h, band_threads);
     for (int l = 1; l <= levels; l++) {
         w = (w + 1) / 2;
         h = (h + 1) / 2;
@@ -196,10 +209,19 @@ void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h,
     p->h[0] = h;
     float *s = scratch;
     const size_t n0 = (size_t)w * (size_t)h;
-    p->down[0] = s;
-    s += n0 * EW_BF_CH;
-    p->attr[0] = s;
-    s += n0 * (size_t)m->attrs;
+    if (band_threads && levels > 0) {
+        const long planes = EW_BF_CH + m->attrs;
+        p->in = s;
+        p->in_ps = (long)IN_ROWS * w;
+        p->in_stride = planes * p->in_ps;
+        p->in_edge = s + (size_t)band_threads * (size_t)p->in_stride;
+        s += in_floats(m, w, h, levels, band_threads);
+    } else {
+        p->down[0] = s;
+        s += n0 * EW_BF_CH;
+        p->attr[0] = s;
+        s += n0 * (size_t)m->attrs;
+    }
     p->out = s;
     s += out_floats(w, h, band_threads);
     if (band_threads) {
@@ -269,7 +291,8 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
     /* the backend runs the hooks by rows inside the passes, or they run on
      * all rows here */
     const int inside = be->pyr_row_hooks && p->levels > 0;
-    if (io->fill && !inside) io->fill(io->fill_user, 0, p->height, 0);
+    if (p->in && (!inside || !io->fill)) return 0; /* input in bands: only the passes can fill it */
+    if (io->fill && !inside) io->fill(io->fill_user, 0, p->height, 0, p->down[0], (long)p->width * p->height, 0);
     if (p->levels == 0) {
         if (!p->band) {
             memcpy(p->out, p->down[0], n0 * sizeof(float));
@@ -303,9 +326,12 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
         a.cdown2 = l + 1 == p->levels ? p->up[l + 1] : NULL; /* Up(L) = Down(L) */
         a.d2_unit = (float)(1u << (2 * l));
         a.major_attr = p->major_attr;
-        if (l == 0 && inside) {
+        if (l == 0 && inside && io->fill) {
             a.fill = io->fill;
             a.fill_user = io->fill_user;
+            a.fbuf = p->in ? p->in : p->down[0];
+            a.fbuf_stride = p->in ? p->in_stride : 0;
+            a.fps = p->in ? p->in_ps : 0;
         }
         be->pyr_down(dev, &a);
     }
@@ -339,6 +365,21 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
         if (l == 0) {
             a.band = p->band;
             a.band_stride = p->band_stride;
+        }
+        if (l == 0 && p->in) {
+            /* Each band packs its own rows again from the caller's views, which
+             * the drain may be overwriting (an output in place of the colour):
+             * the rows either side of every boundary are saved first, before
+             * any row is drained. */
+            const long planes = EW_BF_CH + m->attrs, es = 2L * p->width * planes;
+            for (int b = p->band, k = 0; b < p->height; b += p->band, k++)
+                io->fill(io->fill_user, b - 1, b + 1, 0, p->in_edge + (size_t)k * (size_t)es, 2L * p->width, b - 1);
+            a.fill = io->fill;
+            a.fill_user = io->fill_user;
+            a.fbuf = p->in;
+            a.fbuf_stride = p->in_stride;
+            a.fps = p->in_ps;
+            a.fedge = p->in_edge;
         }
         /* Upsampling level l reads levels l and l + 1 but not level l + 1's
          * down and attribute planes, nor any coarser level: with

@@ -82,6 +82,14 @@ typedef struct ew_pyr_plan {
     float *out;                        /* the result: EW_BF_CH planes of width x height, or in bands: */
     int band;                          /* rows of a band of the result (0: out is a whole frame) ... */
     long band_stride;                  /* ... one band a thread, this many floats apart, planes band x width */
+    /* With bands and coarser levels, level 0's input in bands too (down[0]
+     * and attr[0] are then NULL; the io's fill packs it, ew_pyr_run_planes):
+     * one buffer a thread, in_stride floats apart, of EW_BF_CH + attrs
+     * planes in_ps floats apart (band + 2 rows), and the rows either side of
+     * every band boundary (kernels/pyramid.h, ew_pyr_up_args.fedge). */
+    float *in;
+    long in_stride, in_ps;
+    float *in_edge;
 } ew_pyr_plan;
 
 /* Squared distance (full-resolution pixels) substituted for the coarse
@@ -100,8 +108,12 @@ void ew_pyr_plan_init(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int le
 /* The result in bands instead of a whole frame, for ew_pyr_run_planes with
  * a drain on a device whose backend drains row by row (pyr_row_hooks): each
  * thread writes the rows of a band into a buffer of its own and drains them
- * from there (ew_bf_io_unpack_band), so level 0 holds its input planes but
- * not 4 floats a pixel of result. ew_pyr_band_threads: the threads to give
+ * from there (ew_bf_io_unpack_band), so level 0 does not hold 4 floats a
+ * pixel of result. With coarser levels its input is held in bands too
+ * (ew_pyr_plan.in): the first pass packs each coarse row's two fine rows
+ * into a thread's buffer and the last pass packs each band's rows again
+ * from the caller's views, so level 0 holds no frame of its own at all;
+ * such a plan needs the io's fill. ew_pyr_band_threads: the threads to give
  * bands to on dev at width x height, 0 when a whole frame is the better
  * choice (no row hooks, or bands as large as the frame). The _banded
  * functions take it (0: as ew_pyr_scratch_floats / ew_pyr_plan_init). */
@@ -111,11 +123,13 @@ size_t ew_pyr_scratch_floats_banded(const ew_bf_model *m, int w, int h, int leve
 void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h, int levels, int uniform,
                              const ew_pyr_table *table, float analytic_gamma, float *scratch, int band_threads);
 
-/* Filling level 0's input planes (p->down[0], p->attr[0]) and handing on
- * the result (p->out) by rows, inside the first and the last pass (the
- * fill and drain of kernels/pyramid.h); either may be NULL. */
+/* Filling level 0's input planes and handing on the result (p->out) by
+ * rows, inside the first and the last pass (the fill and drain of
+ * kernels/pyramid.h); either may be NULL. fill writes the values' EW_BF_CH
+ * planes and the attributes' after them, where it is told: p->down[0] (with
+ * p->attr[0] after it) or, with the input in bands, a thread's buffer. */
 typedef struct ew_pyr_io {
-    void (*fill)(void *user, int y0, int y1, int tid);
+    ew_pyr_fill_fn fill;
     void *fill_user;
     void (*drain)(void *user, int y0, int y1, int tid);
     void *drain_user;

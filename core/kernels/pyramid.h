@@ -113,6 +113,9 @@ EW_HD float ew_pyr_select(int c, float a, float b) {
     return ew_bits_to_float((ew_float_to_bits(a) & mask) | (ew_float_to_bits(b) & ~mask));
 }
 
+/* Host code filling the fine planes of rows [y0, y1) (see the args). */
+typedef void (*ew_pyr_fill_fn)(void *user, int y0, int y1, int tid, float *planes, long ps, long row0);
+
 typedef struct ew_pyr_down_args {
     const ew_bf_model *m;
     int w, h;                  /* fine level size */
@@ -125,10 +128,25 @@ typedef struct ew_pyr_down_args {
     float *cdown2;             /* the coarse values duplicated, written when not NULL (the coarsest level) */
     /* host code the pass runs on fine rows [y0, y1) just before it reads them
      * (NULL: none): the CPU backend packs each coarse row's two fine rows so,
-     * while they are in cache; see ew_backend.pyr_row_hooks */
-    void (*fill)(void *user, int y0, int y1, int tid);
+     * while they are in cache; see ew_backend.pyr_row_hooks. It writes the
+     * values' EW_BF_CH planes then the attributes', ps floats apart, row y at
+     * row y - row0 of planes. */
+    ew_pyr_fill_fn fill;
     void *fill_user;
+    /* The fine planes held in part (the CPU's level 0 in bands): fine row y
+     * at row y - fy0 of planes fps floats apart (fps 0: the whole level, w h
+     * floats apart, fy0 0). */
+    long fps, fy0;
+    /* Where fill writes (CPU): fbuf_stride 0: the whole level at fbuf (the
+     * values' planes with the attributes' after them); else one buffer a
+     * thread, fbuf_stride floats apart, each pass over a coarse row filling
+     * its two fine rows into the thread's buffer (planes fps apart). */
+    float *fbuf;
+    long fbuf_stride;
 } ew_pyr_down_args;
+
+/* Fine planes fps floats apart: the whole level's w h when fps is 0. */
+EW_HD long ew_pyr_down_fps(const ew_pyr_down_args *a) { return a->fps ? a->fps : (long)a->w * a->h; }
 
 /* Store one coarse pixel's values v and attributes at; dup2: write the
  * duplicated attributes (bit 0) and values (bit 1) too. */
@@ -156,7 +174,7 @@ EW_HD int ew_pyr_down_dup2(const ew_pyr_down_args *a) { return (a->cattr2 ? 1 : 
 EW_HD void ew_pyr_down_px_k(int x, int y, const ew_pyr_down_args *a, const int kind) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind);
-    const long n = (long)a->w * a->h;
+    const long n = ew_pyr_down_fps(a);
     long idx[4] = {0, 0, 0, 0};
     int cxy[4][2] = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
     int cnt = 0;
@@ -164,7 +182,7 @@ EW_HD void ew_pyr_down_px_k(int x, int y, const ew_pyr_down_args *a, const int k
         for (int cx = 0; cx < 2; cx++) {
             int fx = 2 * x + cx, fy = 2 * y + cy;
             if (fx >= a->w || fy >= a->h) continue;
-            idx[cnt] = (long)fy * a->w + fx;
+            idx[cnt] = ((long)fy - a->fy0) * a->w + fx;
             cxy[cnt][0] = cx;
             cxy[cnt][1] = cy;
             cnt++;
@@ -218,7 +236,7 @@ EW_HD void ew_pyr_down_in_k(int x, int y, const ew_pyr_down_args *a, const int k
                             const int dup2, const int rough) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind);
-    const long n = (long)a->w * a->h, i0 = (long)(2 * y) * a->w + 2 * x;
+    const long n = ew_pyr_down_fps(a), i0 = ((long)(2 * y) - a->fy0) * a->w + 2 * x;
     long idx[4];
     idx[0] = i0;
     idx[1] = i0 + 1;
@@ -319,7 +337,27 @@ typedef struct ew_pyr_up_args {
      * sets up, up_y0 and up_ps for each band it runs */
     int band;
     long band_stride;
+    /* Down(l) and its attributes held in part (the CPU's level 0 in bands):
+     * row y at row y - dy0 of planes dps floats apart (dps 0: the whole
+     * level, w h floats apart, dy0 0). */
+    long dps, dy0;
+    /* CPU, with band: level 0's input in bands too. Before a band's rows are
+     * computed, fill packs them into the thread's buffer (fbuf, fbuf_stride
+     * floats apart: the values' then the attributes' planes, fps floats
+     * apart, of band + 2 rows), and the rows either side, which other bands
+     * own and may already have overwritten (an output in place of the
+     * colour), are copied from fedge: for each boundary k * band (k >= 1)
+     * the rows k * band - 1 and k * band, saved before the pass, as planes
+     * of 2 rows, one boundary after another. */
+    ew_pyr_fill_fn fill;
+    void *fill_user;
+    float *fbuf;
+    long fbuf_stride, fps;
+    const float *fedge;
 } ew_pyr_up_args;
+
+/* Down(l) planes dps floats apart: the whole level's w h when dps is 0. */
+EW_HD long ew_pyr_up_dps(const ew_pyr_up_args *a) { return a->dps ? a->dps : (long)a->w * a->h; }
 
 /* log2 of the domain sigma at a centre with attributes ap, for the table
  * (ew_flog2(ew_bf_sigma), written without a square root or branch). */
@@ -392,7 +430,7 @@ EW_HD void ew_pyr_weights(int x, int y, const ew_pyr_up_args *a, const int kind,
 EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind, ew_pyr_terms *t) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind);
-    const long n = (long)a->w * a->h, j = (long)y * a->w + x;
+    const long n = ew_pyr_up_dps(a), j = ((long)y - a->dy0) * a->w + x;
     const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch;
     float ap[EW_BF_MAX_ATTR];
     for (int k = 0; k < EW_BF_MAX_ATTR; k++) ap[k] = k < A ? a->attr[k * n + j] : 0.0f;
@@ -416,7 +454,7 @@ EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind
     for (int k = 0; k < 9; k++) {
         const int ix = k % 3 - 1, iy = k / 3 - 1, qx = x + ix, qy = y + iy;
         const int in = qx >= 0 && qx < a->w && qy >= 0 && qy < a->h;
-        const long i = in ? (long)qy * a->w + qx : j;
+        const long i = in ? ((long)qy - a->dy0) * a->w + qx : j;
         float aq[EW_BF_MAX_ATTR];
         for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->attr[kk * n + i] : 0.0f;
         t->in[9 + k] = in;
@@ -534,7 +572,7 @@ typedef struct ew_pyr_fine_rows {
  * (x + dx, y + dy) (dy >= 0): one of the forward values above. */
 EW_HD float ew_pyr_fine_fwd_k(int x, int y, int dx, int dy, const ew_pyr_up_args *a, const int kind) {
     const int A = ew_bf_attrs(kind);
-    const long n = (long)a->w * a->h, j = (long)y * a->w + x, i = j + (long)dy * a->w + dx;
+    const long n = ew_pyr_up_dps(a), j = ((long)y - a->dy0) * a->w + x, i = j + (long)dy * a->w + dx;
     float ap[EW_BF_MAX_ATTR], aq[EW_BF_MAX_ATTR];
     EW_PYR_UNROLL
     for (int k = 0; k < EW_BF_MAX_ATTR; k++) {
@@ -577,7 +615,7 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
                           const int dup, const ew_pyr_fine_rows *fr, const ew_pyr_coarse_rows *cr) {
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform, vec = ew_pyr_up_in_vec(kind, uniform);
-    const long n = (long)a->w * a->h, j = (long)y * a->w + x;
+    const long n = ew_pyr_up_dps(a), j = ((long)y - a->dy0) * a->w + x;
     const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch, cj = (long)(y >> 1) * cw2 + x;
     float ap[EW_BF_MAX_ATTR];
     EW_PYR_UNROLL

@@ -175,6 +175,12 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
         pd.major_attr = kind == EW_RANGE_GI;
         pd.cattr2 = scratch + 5888; /* duplicated coarse planes for the upsampling (kernels/pyramid.h) */
         pd.cdown2 = scratch + 6144;
+        pd.fill = 0;
+        pd.fill_user = 0;
+        pd.fps = 0; /* the fine level whole */
+        pd.fy0 = 0;
+        pd.fbuf = 0;
+        pd.fbuf_stride = 0;
         {
             const ew_launch l2 = ew_kl_pyr_down(&pd);
             EW_PROBE_FOR_THREADS(l2, t, ew_kb_pyr_down(&t, &pd, &m))
@@ -209,6 +215,14 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
         pu.up_ps = 0;
         pu.band = 0;
         pu.band_stride = 0;
+        pu.dps = 0; /* Down(0) whole */
+        pu.dy0 = 0;
+        pu.fill = 0;
+        pu.fill_user = 0;
+        pu.fbuf = 0;
+        pu.fbuf_stride = 0;
+        pu.fps = 0;
+        pu.fedge = 0;
         {
             const ew_launch l2 = ew_kl_pyr_up(&pu);
             EW_PROBE_FOR_THREADS(l2, t, ew_kb_pyr_up(&t, &pu, &m, &row))

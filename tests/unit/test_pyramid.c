@@ -500,7 +500,7 @@ TEST(packing_inside_the_passes_equals_packing_around_them) {
                 ew_bf_io_set fill = {0}, drain = {0};
                 ew_bf_io_pack_image(&fill, &v, C, p2.down[0], 1);
                 ew_bf_io_unpack_image(&drain, p2.out, C, &o2v, &v, 1);
-                const ew_pyr_io io = {ew_bf_io_rows, &fill, ew_bf_io_rows, &drain};
+                const ew_pyr_io io = {ew_bf_io_fill, &fill, ew_bf_io_rows, &drain};
                 CHECK(ew_pyr_run_planes(dev, &p2, &io, NULL, NULL));
                 if (memcmp(o1, o2, sizeof(float) * n * C) != 0) {
                     fprintf(stderr, "  %dx%d kind %d threads %d: differs\n", w, h, m.kind, threads);

@@ -20,6 +20,8 @@
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("no-trapping-math")
 #endif
+#include <string.h>
+
 #include "kernels/dof.h"
 #include "kernels/pyramid.h"
 #include "src/backend.h"
@@ -172,12 +174,26 @@ EW_DOWN_IN_NOT_MAJOR(none, EW_RANGE_NONE)
     }
 
 static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int64_t end, const int kind, int tid) {
-    const ew_pyr_down_args *ap = j;
-    const int xin = ap->w / 2; /* coarse pixels with both children in x */
-    const int major = ap->major_attr != 0, dup2 = ew_pyr_down_dup2(ap), rough = ap->m->use_roughness != 0;
+    const int xin = j->w / 2; /* coarse pixels with both children in x */
+    const int major = j->major_attr != 0, dup2 = ew_pyr_down_dup2(j), rough = j->m->use_roughness != 0;
+    ew_pyr_down_args rowargs;
     for (int64_t y = begin; y < end; y++) {
         const int yi = (int)y;
-        if (ap->fill) ap->fill(ap->fill_user, 2 * yi, 2 * yi + 2 < ap->h ? 2 * yi + 2 : ap->h, tid);
+        const ew_pyr_down_args *ap = j;
+        if (j->fill) {
+            const int f0 = 2 * yi, f1 = 2 * yi + 2 < j->h ? 2 * yi + 2 : j->h;
+            if (j->fbuf_stride) { /* the two fine rows into this thread's buffer, read from there */
+                float *buf = j->fbuf + (long)tid * j->fbuf_stride;
+                j->fill(j->fill_user, f0, f1, tid, buf, j->fps, f0);
+                rowargs = *j;
+                rowargs.down = buf;
+                rowargs.attr = buf + EW_BF_CH * j->fps;
+                rowargs.fy0 = f0;
+                ap = &rowargs;
+            } else {
+                j->fill(j->fill_user, f0, f1, tid, j->fbuf, (long)j->w * j->h, 0);
+            }
+        }
         if (2 * y + 1 < ap->h) {
 #define EW_IN(S, F) down_in_##S##_##F(ap, yi, xin)
 #define EW_ANY(S) down_any_##S(ap, yi, xin, major, dup2, rough)
@@ -376,7 +392,7 @@ static void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int x1, co
     const int kind = EW_RANGE_DOF;
     ew_pyr_up_args a = *ap;
     ew_pyr_wrow rr;
-    const long n = (long)a.w * a.h, row0 = (long)y * a.w;
+    const long n = ew_pyr_up_dps(&a), row0 = ((long)y - a.dy0) * a.w;
     const float *D = a.attr + row0; /* attribute plane 0: D */
     const int py = ((int)y & 1) * 2, yi = (int)y;
     int xs = x0, pend = x0; /* [pend, xs): waiting for the table */
@@ -451,6 +467,32 @@ static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t 
     if (sym) up_spans_sym_color(a, begin, end, g1, dup, tid);
 }
 
+/* Level 0's input for the band of rows from b0 (ew_pyr_up_args.fill): the
+ * band's own rows packed into the thread's buffer from row 1 (nothing has
+ * overwritten them: this thread drains them after it computes them), the
+ * rows either side from the copies saved before the pass; t reads them
+ * there. */
+static void band_input(const ew_pyr_up_args *j, int b0, int tid, ew_pyr_up_args *t) {
+    const int w = j->w, b1 = b0 + j->band < j->h ? b0 + j->band : j->h;
+    const int planes = EW_BF_CH + ew_bf_attrs(j->m->kind);
+    const long ps = j->fps, es = 2L * w; /* an edge block's plane stride */
+    float *buf = j->fbuf + (long)tid * j->fbuf_stride;
+    j->fill(j->fill_user, b0, b1, tid, buf + w, ps, b0);
+    if (b0 > 0) { /* row b0 - 1: row 0 of boundary b0's block */
+        const float *e = j->fedge + (long)(b0 / j->band - 1) * planes * es;
+        for (int p = 0; p < planes; p++) memcpy(buf + p * ps, e + p * es, sizeof(float) * (size_t)w);
+    }
+    if (b1 < j->h) { /* row b1: row 1 of boundary b1's block */
+        const float *e = j->fedge + (long)(b1 / j->band - 1) * planes * es;
+        for (int p = 0; p < planes; p++)
+            memcpy(buf + p * ps + (long)(b1 - b0 + 1) * w, e + p * es + w, sizeof(float) * (size_t)w);
+    }
+    t->down = buf;
+    t->attr = buf + EW_BF_CH * ps;
+    t->dps = ps;
+    t->dy0 = b0 - 1;
+}
+
 /* Up(0) in bands (a->band rows, one buffer a thread): each band's rows are
  * written and drained by one thread, into its own buffer, so the result
  * never needs a whole frame of planes. The rows are split on the bands'
@@ -468,6 +510,7 @@ static inline void up_rows_banded(const ew_pyr_up_args *j, int64_t begin, int64_
         t.up = j->up + (long)tid * j->band_stride;
         t.up_y0 = (int)b0;
         t.up_ps = (long)j->band * j->w;
+        if (j->fbuf_stride) band_input(j, (int)b0, tid, &t);
         up_rows_body(&t, b, e, kind, tid);
         b = e;
     }
