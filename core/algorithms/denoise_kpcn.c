@@ -240,9 +240,18 @@ static ew_kpcn_tensor flat_t(float *p, int w, int h) {
     return t;
 }
 
-static void conv(ew_device *dev, const state *s, int l) {
+/* Layer l on the region of `tile`: Winograd where the backend has it, its
+ * tiles anchored at the frame's origin (the region's at this scale is
+ * tile->rx / 2^scale, exact: regions start on multiples of 2^(S-1)), so
+ * inside a region they are the whole frame's tiles; the tiled output is
+ * the untiled one to rounding (docs/kpcn.md, "tiles"). */
+static void conv(ew_device *dev, const state *s, int l, const ew_tile *tile) {
     ew_conv_args a;
     ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
+    const int k = s->net.layers[l].scale;
+    a.winograd = 1;
+    a.grid_x = tile->rx >> k;
+    a.grid_y = tile->ry >> k;
     dev->backend->conv5(dev, &a);
 }
 
@@ -313,21 +322,21 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the network (algorithms/kpcn.h's layer list) */
     const int S = net->scales;
-    conv(dev, s, net->enc[0]);
+    conv(dev, s, net->enc[0], tile);
     for (int k = 1; k < S - 1; k++) {
         pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
-        conv(dev, s, net->enc[k]);
+        conv(dev, s, net->enc[k], tile);
     }
     pool(dev, &s->sb[S - 2], net->h[S - 2], &s->sb[S - 1], net->in[S - 1], C);
-    conv(dev, s, net->enc_a);
-    conv(dev, s, net->enc_b);
-    conv(dev, s, net->lhead[S - 1]);
+    conv(dev, s, net->enc_a, tile);
+    conv(dev, s, net->enc_b, tile);
+    conv(dev, s, net->lhead[S - 1], tile);
     for (int k = S - 2; k >= 0; k--) {
         if (k == 0 && !ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         up(dev, &s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->sb[k], net->u[k], C);
-        conv(dev, s, net->dec[k]);
+        conv(dev, s, net->dec[k], tile);
         if (k == 0 && !ew_op_report(op, p0 + 0.6 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-        conv(dev, s, net->lhead[k]);
+        conv(dev, s, net->lhead[k], tile);
     }
     if (!ew_op_report(op, p0 + 0.85 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the radiance pyramid, then the filters coarse to fine */

@@ -64,6 +64,16 @@ typedef struct ew_conv_args {
     const float *bias;   /* [cout], NULL for none */
     int act;             /* EW_ACT_* applied to the sum */
     int accumulate;      /* 1: add the sum to what `out` holds (no bias, no activation) */
+    /* 1: the CPU backend may compute the sums with Winograd's F(4x4, 5x5)
+     * (backends/cpu/cpu_conv.h): fewer multiplies, equal to the sums above
+     * up to rounding, not to the bit; 0: always these sums (callers whose
+     * bits must not depend on how the work is cut, e.g. NBG's bands). Its
+     * 4x4 output tiles are anchored at (-grid_x, -grid_y) mod 4: a region
+     * of a larger image passes its origin there, so it is tiled as the
+     * whole image is (the same bits where a tile's 8x8 inputs are the
+     * same). Other backends ignore them. */
+    int winograd, grid_x, grid_y;
+    int reserved; /* 0; keeps the struct free of padding (docs/backends.md) */
 } ew_conv_args;
 
 /* One output value (x, r, co). */

@@ -133,6 +133,9 @@ ew_result ew_device_create(const ew_device_desc *desc, ew_device **out) {
     dev->type = EW_DEVICE_CPU;
     dev->num_threads = threads;
     dev->release_scratch = d.release_scratch != 0;
+    /* read once here, so a running device never changes its arithmetic */
+    const char *conv = getenv("EW_CPU_CONV");
+    dev->conv_direct = conv && strcmp(conv, "direct") == 0;
     dev->backend = &ew_cpu_backend;
     dev->pool = ew_pool_create(threads);
     if (!dev->pool || ew__device_init_common(dev) != 0) {

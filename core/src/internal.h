@@ -55,6 +55,10 @@ struct ew_device {
     int device_images;  /* 1: ew_image data pointers are device pointers (ew_device_desc) */
     void *backend_ctx;  /* backend-private state (CUDA: ordinal, stream, first error) */
     int release_scratch; /* ew_device_desc.release_scratch (ew_dev_release_pages) */
+    /* 1: the CPU's 5x5 convolutions always run direct, never Winograd
+     * (environment EW_CPU_CONV=direct when the device is created;
+     * backends/cpu/cpu_conv.h, docs/backends.md) */
+    int conv_direct;
 };
 
 /* Record a formatted message as the device's last error and return `r`. */

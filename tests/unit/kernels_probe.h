@@ -317,6 +317,10 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     ca.bias = 0;
     ca.act = EW_ACT_SIGMOID;
     ca.accumulate = 0;
+    ca.winograd = 0;
+    ca.grid_x = 0;
+    ca.grid_y = 0;
+    ca.reserved = 0;
     {
         const ew_launch l = ew_kl_conv5(&ca);
         EW_PROBE_FOR_THREADS(l, t, ew_kb_conv5(&t, &ca))

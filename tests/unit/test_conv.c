@@ -188,7 +188,8 @@ TEST(accumulate_adds) {
     a.act = EW_ACT_NONE;
     a.bias = NULL;
     ew_device *dev = make_device(2);
-    dev->backend->conv5(dev, &a);
+    /* both sums direct (accumulate always is): Winograd's rounding differs */
+    ew_cpu_conv5_path(dev, &a, EW_CONV_CPU_DIRECT, 2);
     float first = ew_gn_plane_row(&c.out, 13, 3)[17];
     a.accumulate = 1;
     dev->backend->conv5(dev, &a);
@@ -246,7 +247,7 @@ static int backward_matches_fd(int w, int h, int cin, int cout, int act, unsigne
     float *dimem = malloc(ew_gn_planes_floats(w, h, cin) * sizeof(float));
     ew_gn_planes din;
     ew_gn_planes_init(&din, dimem, w, h, cin);
-    ew_conv_args b = {w, h, cout, cin, g.data, g.rs, g.ps, din.data, din.rs, din.ps, flip, NULL, EW_ACT_NONE, 1};
+    ew_conv_args b = {w, h, cout, cin, g.data, g.rs, g.ps, din.data, din.rs, din.ps, flip, NULL, EW_ACT_NONE, 1, 0, 0, 0, 0};
     ew_conv_cpu_rows(&b, fwt, 0, h);
 
     /* the per-element formulas agree with the fast ones */
@@ -331,4 +332,164 @@ TEST(sigmoid_is_stable) {
     CHECK(ew_sigmoidf(-1000.0f) == 0.0f);
     CHECK(ew_sigmoidf(1000.0f) == 1.0f);
     CHECK_NEAR(ew_sigmoidf(0.0f), 0.5, 1e-7);
+}
+
+/* ---- Winograd F(4x4, 5x5) ------------------------------------------------
+ * The backend's Winograd path against its direct path on random weights and
+ * inputs: region sizes that are not multiples of the 4x4 output tiles or of
+ * the 16- and 32-tile items, the channel counts of the kpcn models (10/11
+ * inputs, 24 and 48 hidden, 25/26/51 logits), every activation, both
+ * instruction sets. A wrong transform coefficient gives errors of the order
+ * of the output itself; rounding stays near 1e-5 of its magnitude. With
+ * `band`, the region is a band of a taller buffer (NBG computes bands): the
+ * rows next to it are data the taps read, not padding. Nothing outside the
+ * region may be written. */
+static int wino_matches_at(int w, int h, int cin, int cout, int act, int band, int gx, int gy, unsigned seed) {
+    conv_case c;
+    const int off = band ? 3 : 0, H = h + 2 * off;
+    case_init(&c, w, H, cin, cout, act, seed);
+    const size_t nf = ew_gn_planes_floats(w, H, cout);
+    float *direct = malloc(nf * sizeof(float));
+    ew_device *dev = make_device(2);
+    int ok = dev != NULL;
+    for (int level = 1; level <= 2 && ok; level++) {
+        for (int pass = 0; pass < 2; pass++) {
+            ew_gn_planes_init(&c.out, c.outmem, w, H, cout);
+            ew_conv_args a = case_args(&c);
+            a.rows = h;
+            a.in += off * a.in_rs;
+            a.out += off * a.out_rs;
+            a.grid_x = gx;
+            a.grid_y = gy;
+            const int want = pass == 0 ? EW_CONV_CPU_DIRECT : EW_CONV_CPU_WINOGRAD;
+            const int got = ew_cpu_conv5_path(dev, &a, want, level);
+            if (got != want && ew_conv_cpu_simd_level() >= level) {
+                fprintf(stderr, "  %dx%d %d->%d level %d: path %d ran, not %d\n", w, h, cin, cout, level, got, want);
+                ok = 0;
+            }
+            if (pass == 0) memcpy(direct, c.outmem, nf * sizeof(float));
+        }
+        double worst = 0, sq = 0;
+        long n = 0, outside = 0;
+        for (int co = 0; co < cout; co++)
+            for (int y = -2; y < H + 2; y++)
+                for (int x = -2; x < w + 26; x++) {
+                    const float *pw = ew_gn_plane_row(&c.out, co, y) + x;
+                    const float *pd = direct + (pw - c.outmem);
+                    const int inside = y >= off && y < off + h && x >= 0 && x < w;
+                    if (!inside) {
+                        outside += *pw != 0.0f || *pd != 0.0f;
+                        continue;
+                    }
+                    worst = fmax(worst, fabs((double)*pw - *pd));
+                    sq += (double)*pd * *pd;
+                    n++;
+                }
+        const double rms = sqrt(sq / (double)(n > 0 ? n : 1));
+        if (level == 2)
+            fprintf(stderr, "  %dx%d %d->%d: worst |winograd - direct| = %.2e of the output's rms\n", w, h, cin, cout,
+                    worst / rms);
+        if (outside || !(worst <= 1e-4 * rms)) {
+            fprintf(stderr, "  %dx%d %d->%d act %d band %d level %d: worst |winograd - direct| %.3g = %.2e of the rms %.3g, %ld values written outside\n",
+                    w, h, cin, cout, act, band, level, worst, worst / rms, rms, outside);
+            ok = 0;
+        }
+    }
+    ew_device_destroy(dev);
+    free(direct);
+    case_free(&c);
+    return ok;
+}
+
+static int wino_matches(int w, int h, int cin, int cout, int act, int band, unsigned seed) {
+    return wino_matches_at(w, h, cin, cout, act, band, 0, 0, seed);
+}
+
+TEST(winograd_matches_direct) {
+    CHECK(wino_matches(37, 11, 10, 24, EW_ACT_LEAKY, 0, 41));
+    CHECK(wino_matches(131, 13, 11, 24, EW_ACT_LEAKY, 0, 42));
+    CHECK(wino_matches(70, 9, 48, 24, EW_ACT_LEAKY, 0, 43));
+    CHECK(wino_matches(129, 7, 24, 51, EW_ACT_NONE, 0, 44));
+    CHECK(wino_matches(3, 5, 24, 26, EW_ACT_NONE, 0, 45));
+    CHECK(wino_matches(1, 1, 24, 25, EW_ACT_NONE, 0, 46));
+    CHECK(wino_matches(67, 6, 20, 5, EW_ACT_SIGMOID, 0, 47));
+    CHECK(wino_matches(45, 10, 24, 24, EW_ACT_LEAKY, 1, 48));
+    CHECK(wino_matches(200, 4, 48, 24, EW_ACT_LEAKY, 1, 49));
+}
+
+/* A region whose tiles are anchored off its origin (a kpcn tile's region at
+ * a coarse scale): partial tiles on the left and top too. */
+TEST(winograd_matches_direct_off_grid) {
+    CHECK(wino_matches_at(37, 11, 10, 24, EW_ACT_LEAKY, 0, 1, 2, 51));
+    CHECK(wino_matches_at(70, 9, 48, 24, EW_ACT_LEAKY, 1, 3, 3, 52));
+    CHECK(wino_matches_at(129, 7, 24, 51, EW_ACT_NONE, 0, 6, 5, 53));
+    CHECK(wino_matches_at(2, 3, 24, 25, EW_ACT_SIGMOID, 0, 3, 1, 54));
+}
+
+/* A region of a larger image, passed with its origin, is tiled as the
+ * image is: where a tile's inputs are the same, so are its bits. */
+TEST(winograd_region_of_an_image_gives_its_bits) {
+    const int W = 83, H = 29, cin = 24, cout = 24, rx = 10, ry = 6, rw = 41, rh = 17;
+    conv_case c;
+    case_init(&c, W, H, cin, cout, EW_ACT_LEAKY, 61);
+    ew_device *dev = make_device(2);
+    CHECK(dev != NULL);
+    for (int level = 1; level <= ew_conv_cpu_simd_level(); level++) {
+        ew_gn_planes_init(&c.out, c.outmem, W, H, cout);
+        ew_conv_args a = case_args(&c);
+        CHECK_EQ_INT(ew_cpu_conv5_path(dev, &a, EW_CONV_CPU_WINOGRAD, level), EW_CONV_CPU_WINOGRAD);
+        float *whole = malloc(sizeof(float) * cout * rw * rh);
+        for (int co = 0; co < cout; co++)
+            for (int y = 0; y < rh; y++)
+                memcpy(whole + ((long)co * rh + y) * rw, ew_gn_plane_row(&c.out, co, ry + y) + rx, sizeof(float) * rw);
+        /* the region as a buffer of its own: its inputs, zero padding around */
+        conv_case r;
+        case_init(&r, rw, rh, cin, cout, EW_ACT_LEAKY, 62);
+        memcpy(r.wgt, c.wgt, sizeof(float) * cin * cout * 25);
+        memcpy(r.bias, c.bias, sizeof(float) * cout);
+        for (int ci = 0; ci < cin; ci++)
+            for (int y = 0; y < rh; y++)
+                memcpy(ew_gn_plane_row(&r.in, ci, y), ew_gn_plane_row(&c.in, ci, ry + y) + rx, sizeof(float) * rw);
+        ew_conv_args b = case_args(&r);
+        b.grid_x = rx;
+        b.grid_y = ry;
+        CHECK_EQ_INT(ew_cpu_conv5_path(dev, &b, EW_CONV_CPU_WINOGRAD, level), EW_CONV_CPU_WINOGRAD);
+        /* the pixels of the tiles whose 8x8 inputs lie inside the region
+         * (a tile's every output depends on all 64 of them through
+         * rounding, not only on its 5x5 taps: near the region's edge its
+         * zero padding replaces the image's neighbours) */
+        long differ = 0, compared = 0;
+        for (int co = 0; co < cout; co++)
+            for (int y = 0; y < rh; y++)
+                for (int x = 0; x < rw; x++) {
+                    const int tx = x - (x + rx) % 4, ty = y - (y + ry) % 4;
+                    if (tx - 2 < 0 || tx + 5 >= rw || ty - 2 < 0 || ty + 5 >= rh) continue;
+                    compared++;
+                    differ += memcmp(&whole[((long)co * rh + y) * rw + x], ew_gn_plane_row(&r.out, co, y) + x, sizeof(float)) != 0;
+                }
+        if (differ || !compared) fprintf(stderr, "  level %d: %ld values differ\n", level, differ);
+        CHECK(differ == 0);
+        free(whole);
+        case_free(&r);
+    }
+    ew_device_destroy(dev);
+    case_free(&c);
+}
+
+/* The automatic choice: Winograd where the caller allows it, from
+ * EW_CONV_CPU_WINO_MIN_PAIRS channel pairs, direct in accumulate mode. */
+TEST(winograd_where_it_pays) {
+    ew_conv_args a;
+    memset(&a, 0, sizeof a);
+    a.cin = 24;
+    a.cout = 24;
+    CHECK(!ew_conv_cpu_wino_pays(&a)); /* the caller did not allow it */
+    a.winograd = 1;
+    CHECK(ew_conv_cpu_wino_pays(&a));
+    a.accumulate = 1;
+    CHECK(!ew_conv_cpu_wino_pays(&a));
+    a.accumulate = 0;
+    a.cin = 1;
+    a.cout = EW_CONV_CPU_WINO_MIN_PAIRS - 1;
+    CHECK(!ew_conv_cpu_wino_pays(&a));
 }

@@ -804,25 +804,37 @@ static int bench(int w, int h, int threads) {
             mem[k] = calloc(ew_gn_planes_floats(sw[k], sh[k], net.nplanes[k]) + 16, sizeof(float));
             ew_gn_planes_layout(&sb[k], mem[k], sw[k], sh[k], net.nplanes[k]);
         }
-        double conv_best = 1e30;
+        /* the direct path and the op's own choice (Winograd where it pays),
+         * passes interleaved so both see the same load */
+        double conv_best = 1e30, auto_best = 1e30;
+        int wino_layers = 0;
         for (int rep = 0; rep < 3; rep++) {
             /* The peak is sampled next to every timed pass and the best kept:
              * on a shared machine one early sample can catch a busy moment
              * the best conv pass missed (a share above 100 % was printed). */
             peak = fmax(peak, ew_conv_cpu_fma_gflops(dev, &peak_s));
-            const double t0 = now_s();
-            for (int l = 0; l < net.nlayers; l++) {
-                ew_conv_args ca;
-                ew_kpcn_layer_args(&net, l, p, sb, &ca);
-                ew_cpu_conv5(dev, &ca);
+            for (int path = EW_CONV_CPU_DIRECT; path >= EW_CONV_CPU_AUTO; path--) {
+                const double t0 = now_s();
+                wino_layers = 0;
+                for (int l = 0; l < net.nlayers; l++) {
+                    ew_conv_args ca;
+                    ew_kpcn_layer_args(&net, l, p, sb, &ca);
+                    ca.winograd = 1; /* as the op allows it */
+                    wino_layers += ew_cpu_conv5_path(dev, &ca, path, 2) == EW_CONV_CPU_WINOGRAD;
+                }
+                const double dt = now_s() - t0;
+                if (path == EW_CONV_CPU_DIRECT) conv_best = fmin(conv_best, dt);
+                else auto_best = fmin(auto_best, dt);
             }
-            conv_best = fmin(conv_best, now_s() - t0);
         }
         const double flops = 2.0 * ew_kpcn_macs_per_pixel(&net) * (double)n;
-        printf("  %-10s (%s): %7.1f ms a frame; convolutions %7.1f ms = %.1f GFLOP/s = %.0f %% of the FMA peak "
-               "(%.1f GFLOP/s, best sample so far); device memory at 3840x2160: %.0f MiB\n",
+        printf("  %-10s (%s): %7.1f ms a frame; convolutions direct %7.1f ms = %.1f GFLOP/s = %.0f %% of the FMA peak "
+               "(%.1f GFLOP/s, best sample so far); as the op runs them (Winograd in %d of %d layers) %7.1f ms = "
+               "%.2fx faster, %.1f GFLOP/s of direct-convolution work = %.0f %% of the peak; device memory at "
+               "3840x2160: %.0f MiB\n",
                ew_kpcn_model_name(m), net.arch, best * 1e3, conv_best * 1e3, flops / conv_best * 1e-9,
-               100.0 * flops / conv_best * 1e-9 / peak, peak,
+               100.0 * flops / conv_best * 1e-9 / peak, peak, wino_layers, net.nlayers, auto_best * 1e3,
+               conv_best / auto_best, flops / auto_best * 1e-9, 100.0 * flops / auto_best * 1e-9 / peak,
                (double)(ew_kpcn_device_floats(&net, 3840, 2160) + 23.0 * 3840 * 2160 + net.nparams) * 4.0 / 1048576.0);
         for (int k = 0; k < net.scales; k++) free(mem[k]);
         free(p);

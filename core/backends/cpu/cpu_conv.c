@@ -63,6 +63,30 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_XB4 3
 #define EW_XB5 2
 #include "backends/cpu/cpu_conv_block.h"
+#define EW_VADD(a, b) _mm256_add_ps((a), (b))
+#define EW_VSUB(a, b) _mm256_sub_ps((a), (b))
+#define EW_VMUL(a, b) _mm256_mul_ps((a), (b))
+#define EW_VMAX(a, b) _mm256_max_ps((a), (b))
+#define EW_VTRANS4(a, b, c, d)                                                                                       \
+    do {                                                                                                             \
+        const __m256 t0_ = _mm256_unpacklo_ps((a), (b)), t1_ = _mm256_unpackhi_ps((a), (b));                         \
+        const __m256 t2_ = _mm256_unpacklo_ps((c), (d)), t3_ = _mm256_unpackhi_ps((c), (d));                         \
+        (a) = _mm256_shuffle_ps(t0_, t2_, 0x44);                                                                     \
+        (b) = _mm256_shuffle_ps(t0_, t2_, 0xEE);                                                                     \
+        (c) = _mm256_shuffle_ps(t1_, t3_, 0x44);                                                                     \
+        (d) = _mm256_shuffle_ps(t1_, t3_, 0xEE);                                                                     \
+    } while (0)
+/* 16 registers: 4 channels x 3 vectors of 8 tiles accumulate */
+#define EW_WXB 3
+#define EW_WCB 4
+#include "backends/cpu/cpu_conv_wino.h"
+#undef EW_VADD
+#undef EW_VSUB
+#undef EW_VMUL
+#undef EW_VMAX
+#undef EW_VTRANS4
+#undef EW_WXB
+#undef EW_WCB
 #undef EW_V
 #undef EW_VLOAD
 #undef EW_VSTORE
@@ -93,6 +117,30 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_XB5 4
 #define EW_NO_DWEIGHT 1
 #include "backends/cpu/cpu_conv_block.h"
+#define EW_VADD(a, b) _mm512_add_ps((a), (b))
+#define EW_VSUB(a, b) _mm512_sub_ps((a), (b))
+#define EW_VMUL(a, b) _mm512_mul_ps((a), (b))
+#define EW_VMAX(a, b) _mm512_max_ps((a), (b))
+#define EW_VTRANS4(a, b, c, d)                                                                                       \
+    do {                                                                                                             \
+        const __m512 t0_ = _mm512_unpacklo_ps((a), (b)), t1_ = _mm512_unpackhi_ps((a), (b));                         \
+        const __m512 t2_ = _mm512_unpacklo_ps((c), (d)), t3_ = _mm512_unpackhi_ps((c), (d));                         \
+        (a) = _mm512_shuffle_ps(t0_, t2_, 0x44);                                                                     \
+        (b) = _mm512_shuffle_ps(t0_, t2_, 0xEE);                                                                     \
+        (c) = _mm512_shuffle_ps(t1_, t3_, 0x44);                                                                     \
+        (d) = _mm512_shuffle_ps(t1_, t3_, 0xEE);                                                                     \
+    } while (0)
+/* 32 registers: 8 channels x 2 vectors of 16 tiles accumulate */
+#define EW_WXB 2
+#define EW_WCB 8
+#include "backends/cpu/cpu_conv_wino.h"
+#undef EW_VADD
+#undef EW_VSUB
+#undef EW_VMUL
+#undef EW_VMAX
+#undef EW_VTRANS4
+#undef EW_WXB
+#undef EW_WCB
 #undef EW_V
 #undef EW_VLOAD
 #undef EW_VSTORE
@@ -247,7 +295,7 @@ static void conv_job_rows(void *ctx, int64_t begin, int64_t end, int tid) {
             for (int x = 0; x < j->a->width; x++) ew_conv5_px(x, (int)r, co, j->a);
 }
 
-void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a) {
+static void conv5_direct(ew_device *dev, const ew_conv_args *a) {
     float stack_wt[EW_CONV_CPU_STACK_CHANNEL_PAIRS * 25];
     const int pairs = a->cin * a->cout;
     float *wt = pairs <= EW_CONV_CPU_STACK_CHANNEL_PAIRS ? stack_wt : (float *)malloc(sizeof(float) * 25 * (size_t)pairs);
@@ -256,3 +304,107 @@ void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a) {
     ew_pool_run(dev->pool, a->rows, 1, conv_job_rows, &j);
     if (wt != stack_wt) free(wt);
 }
+
+/* ---- Winograd F(4x4, 5x5) (cpu_conv_wino.h) ---------------------------- */
+/* G of tools/winograd_f4x5.py: the kernel's transform, applied in double
+ * once per call. */
+static const double wino_g[8][5] = {
+    {1.0, 0.0, 0.0, 0.0, 0.0},
+    {-2.0 / 9.0, -2.0 / 9.0, -2.0 / 9.0, -2.0 / 9.0, -2.0 / 9.0},
+    {-2.0 / 9.0, 2.0 / 9.0, -2.0 / 9.0, 2.0 / 9.0, -2.0 / 9.0},
+    {1.0 / 180.0, 1.0 / 90.0, 1.0 / 45.0, 2.0 / 45.0, 4.0 / 45.0},
+    {1.0 / 180.0, -1.0 / 90.0, 1.0 / 45.0, -2.0 / 45.0, 4.0 / 45.0},
+    {64.0 / 45.0, 32.0 / 45.0, 16.0 / 45.0, 8.0 / 45.0, 4.0 / 45.0},
+    {64.0 / 45.0, -32.0 / 45.0, 16.0 / 45.0, -8.0 / 45.0, 4.0 / 45.0},
+    {0.0, 0.0, 0.0, 0.0, 1.0},
+};
+
+void ew_conv_cpu_wino_weights(int cin, int cout, const float *w, float *u) {
+    for (int co = 0; co < cout; co++)
+        for (int ci = 0; ci < cin; ci++) {
+            const float *g = w + ((long)co * cin + ci) * 25;
+            double t[8][5];
+            for (int i = 0; i < 8; i++)
+                for (int kx = 0; kx < 5; kx++) {
+                    double s = 0.0;
+                    for (int ky = 0; ky < 5; ky++) s += wino_g[i][ky] * (double)g[ky * 5 + kx];
+                    t[i][kx] = s;
+                }
+            for (int i = 0; i < 8; i++)
+                for (int j = 0; j < 8; j++) {
+                    double s = 0.0;
+                    for (int kx = 0; kx < 5; kx++) s += t[i][kx] * wino_g[j][kx];
+                    u[((long)(i * 8 + j) * cin + ci) * cout + co] = (float)s;
+                }
+        }
+}
+
+#ifdef EW_HAVE_AVX2_PATH
+/* tiles per item and output channels per block of the products (the
+ * EW_WXB * EW_VW and EW_WCB of each instruction set in cpu_conv_wino.h) */
+static int wino_tiles(int level) { return level == 2 ? 32 : 24; }
+static int wino_cb(int level) { return level == 2 ? 8 : 4; }
+
+static size_t wino_scratch_floats(int level, int cin) {
+    const int nt = wino_tiles(level), vw = level == 2 ? 16 : 8;
+    return ((size_t)64 * cin * nt + (size_t)64 * wino_cb(level) * nt + 9 * (size_t)(4 * vw + 4) + 15) / 16 * 16;
+}
+
+typedef struct {
+    const ew_conv_args *a;
+    const float *u;
+    float *scratch;
+    size_t per_thread;
+    int level, items_x, px, py;
+} wino_job;
+
+static void wino_job_items(void *ctx, int64_t begin, int64_t end, int tid) {
+    const wino_job *j = (const wino_job *)ctx;
+    float *scratch = j->scratch + (size_t)tid * j->per_thread;
+    for (int64_t i = begin; i < end; i++) {
+        const int ty = (int)(i / j->items_x), tx0 = (int)(i % j->items_x) * wino_tiles(j->level);
+        if (j->level == 2) wino_item_avx512(j->a, j->u, ty, tx0, j->px, j->py, scratch);
+        else wino_item_avx2(j->a, j->u, ty, tx0, j->px, j->py, scratch);
+    }
+}
+#endif
+
+/* Winograd on dev's threads; 0 when this build or processor has no
+ * AVX2 + FMA, or memory is short (the caller then runs the direct path). */
+static int conv5_wino(ew_device *dev, const ew_conv_args *a, int level) {
+#ifdef EW_HAVE_AVX2_PATH
+    if (level > ew_conv_cpu_simd_level()) level = ew_conv_cpu_simd_level();
+    if (level < 1 || a->accumulate || a->width <= 0 || a->rows <= 0) return 0;
+    const int threads = ew_pool_threads(dev->pool) > 0 ? ew_pool_threads(dev->pool) : 1;
+    const size_t per = wino_scratch_floats(level, a->cin), nu = (size_t)64 * a->cin * a->cout;
+    float *mem = (float *)calloc(nu + per * (size_t)threads + 16, sizeof(float));
+    if (!mem) return 0;
+    ew_conv_cpu_wino_weights(a->cin, a->cout, a->weight, mem);
+    float *scratch = mem + (nu + 15) / 16 * 16;
+    /* the tiles start at x = -px, r = -py: (grid_x, grid_y) mod 4 */
+    const int px = ((a->grid_x % 4) + 4) % 4, py = ((a->grid_y % 4) + 4) % 4;
+    const int nt = wino_tiles(level), tiles_x = (a->width + px + 3) / 4, tiles_y = (a->rows + py + 3) / 4;
+    wino_job j = {a, mem, scratch, per, level, (tiles_x + nt - 1) / nt, px, py};
+    ew_pool_run(dev->pool, (int64_t)tiles_y * j.items_x, 1, wino_job_items, &j);
+    free(mem);
+    return 1;
+#else
+    (void)dev;
+    (void)a;
+    (void)level;
+    return 0;
+#endif
+}
+
+int ew_conv_cpu_wino_pays(const ew_conv_args *a) {
+    return a->winograd && !a->accumulate && a->cin * a->cout >= EW_CONV_CPU_WINO_MIN_PAIRS;
+}
+
+int ew_cpu_conv5_path(ew_device *dev, const ew_conv_args *a, int path, int level) {
+    if (path == EW_CONV_CPU_AUTO) path = !dev->conv_direct && ew_conv_cpu_wino_pays(a) ? EW_CONV_CPU_WINOGRAD : EW_CONV_CPU_DIRECT;
+    if (path == EW_CONV_CPU_WINOGRAD && conv5_wino(dev, a, level)) return EW_CONV_CPU_WINOGRAD;
+    conv5_direct(dev, a);
+    return EW_CONV_CPU_DIRECT;
+}
+
+void ew_cpu_conv5(ew_device *dev, const ew_conv_args *a) { (void)ew_cpu_conv5_path(dev, a, EW_CONV_CPU_AUTO, 2); }

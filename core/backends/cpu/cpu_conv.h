@@ -42,4 +42,28 @@ void ew_conv_cpu_rows_level(const ew_conv_args *a, const float *wt, int r0, int 
  * took. */
 double ew_conv_cpu_fma_gflops(ew_device *dev, double *seconds);
 
+/* ---- Winograd F(4x4, 5x5) --------------------------------------------
+ * The backend entry's fast path for inference (cpu_conv_wino.h): 64
+ * products per 4x4 output tile and channel pair instead of 400, equal to
+ * the direct convolution up to rounding (about 1e-5 of the output's
+ * magnitude; tests/unit/test_conv.c), not to the bit. The trainer calls
+ * ew_conv_cpu_rows, which stays direct: its gradients are checked against
+ * the bits of the forward pass. AVX2 + FMA or AVX-512 only. */
+#define EW_CONV_CPU_AUTO 0     /* Winograd where ew_conv_cpu_wino_pays, unless the device forces direct */
+#define EW_CONV_CPU_DIRECT 1
+#define EW_CONV_CPU_WINOGRAD 2 /* falls back to direct without AVX2 + FMA or with accumulate */
+/* The automatic choice takes Winograd where the caller allows it
+ * (a->winograd), not in accumulate mode, and from this many channel pairs
+ * cin * cout (its transforms cost per input and per output channel, the
+ * products per pair): measured with train_kpcn --bench. */
+#define EW_CONV_CPU_WINO_MIN_PAIRS 64
+int ew_conv_cpu_wino_pays(const ew_conv_args *a);
+/* The backend's conv5 by path (EW_CONV_CPU_*) with the instruction set
+ * capped at level (ew_conv_cpu_simd_level's numbers); returns the path
+ * that ran. ew_cpu_conv5 is (dev, a, EW_CONV_CPU_AUTO, 2). */
+int ew_cpu_conv5_path(ew_device *dev, const ew_conv_args *a, int path, int level);
+/* The transformed kernels U = G g G^T the Winograd products read:
+ * [64][cin][cout] floats from the [cout][cin][5][5] weights. */
+void ew_conv_cpu_wino_weights(int cin, int cout, const float *w, float *u);
+
 #endif
