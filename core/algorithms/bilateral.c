@@ -205,7 +205,7 @@ static long pack_gi(const ew_image *normal, const ew_image *depth, const ew_imag
 
 /* ---- the packers over bands of rows on the device's threads ---- */
 #define EW_IO_MAX_THREADS 256
-enum { IO_IMAGE, IO_UNPACK, IO_CHANNELS, IO_GI, IO_PLANES };
+enum { IO_IMAGE, IO_UNPACK, IO_CHANNELS, IO_GI };
 
 typedef struct {
     ew_bf_io_job j;
@@ -221,8 +221,7 @@ static long job_rows(const ew_bf_io_job *j, int y0, int y1, int tid) {
                                 (size_t)(y0 - y0 % j->band) * (size_t)j->v->width, j->C, j->v, j->v2, y0, y1);
         return unpack_image(j->src, j->ks, j->js, 0, j->C, j->v, j->v2, y0, y1);
     case IO_CHANNELS: return pack_channels(j->v, j->C, j->dst, j->ks, j->js, 0, y0, y1);
-    case IO_GI: return pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, 0, y0, y1);
-    default: return 0; /* IO_PLANES: ew_bf_io_fill only */
+    default: return pack_gi(j->v, j->v2, j->v3, j->dst, j->ks, j->js, 0, y0, y1);
     }
 }
 
@@ -353,12 +352,6 @@ void ew_bf_io_rows(void *set, int y0, int y1, int tid) {
     for (int k = 0; k < s->n; k++) (void)job_rows(&s->job[k], y0, y1, tid);
 }
 
-void ew_bf_io_copy_planes(ew_bf_io_set *s, const float *src, int k, const ew_image *any) {
-    if (s->n >= EW_BF_IO_JOBS || !any) return;
-    s->job[s->n++] = (ew_bf_io_job){.what = IO_PLANES, .C = k, .v = any, .src = src,
-                                    .ks = (size_t)any->width * (size_t)any->height, .js = 1};
-}
-
 void ew_bf_io_fill(void *set, int y0, int y1, int tid, float *planes, long ps, long row0) {
     (void)tid;
     const ew_bf_io_set *s = (const ew_bf_io_set *)set;
@@ -372,11 +365,6 @@ void ew_bf_io_fill(void *set, int y0, int y1, int tid, float *planes, long ps, l
         case IO_IMAGE: (void)pack_image(j->v, j->C, planes, ks, 1, jsub, y0, y1); break;
         case IO_CHANNELS: (void)pack_channels(j->v, j->C, attr, ks, 1, jsub, y0, y1); break;
         case IO_GI: (void)pack_gi(j->v, j->v2, j->v3, attr, ks, 1, jsub, y0, y1); break;
-        case IO_PLANES:
-            for (int c = 0; c < j->C; c++)
-                memcpy(attr + (size_t)c * ks + (size_t)y0 * w - jsub, j->src + (size_t)c * j->ks + (size_t)y0 * w,
-                       sizeof(float) * w * (size_t)(y1 - y0));
-            break;
         default: break; /* unpacking: a drain's job */
         }
     }

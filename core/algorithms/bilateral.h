@@ -80,9 +80,6 @@ void ew_bf_io_unpack_band(ew_bf_io_set *s, const float *src, int band, long band
 /* Run every job of the set (an ew_bf_io_set *) on rows [y0, y1) (tid: the
  * thread running it, for a banded unpack). */
 void ew_bf_io_rows(void *set, int y0, int y1, int tid);
-/* A job for ew_bf_io_fill only: k planes of a whole frame of any's size at
- * src (attributes computed beforehand, as DoF's) copied row by row. */
-void ew_bf_io_copy_planes(ew_bf_io_set *s, const float *src, int k, const ew_image *any);
 /* The pyramid's fill (ew_pyr_fill_fn): the set's packing jobs on rows
  * [y0, y1) into planes ps floats apart, pixel (x, y) at (y - row0) * width
  * + x of each: the image's EW_BF_CH planes first, the attributes' after them

@@ -10,17 +10,30 @@ size_t ew_dof_scratch_floats(int w, int h) {
     return n /* coc */ + 2 * t + n * 2 /* attr */;
 }
 
+void ew_dof_args_init(ew_dof_args *a, const ew_dof_camera *cam, const float *depth, float *coc, float *tiles,
+                      float *attr, int planes) {
+    a->cam = *cam;
+    a->tw = tiles_of(cam->width);
+    a->th = tiles_of(cam->height);
+    a->depth = depth;
+    a->coc = coc;
+    a->tiles = tiles;
+    a->tiles2 = tiles + (size_t)a->tw * (size_t)a->th;
+    a->attr = attr;
+    a->planes = planes;
+}
+
 void ew_dof_compute_attributes(ew_device *dev, const ew_dof_camera *cam, const float *depth, float *coc,
                                float *tiles, float *attr, int planes) {
     ew_dof_args a;
-    a.cam = *cam;
-    a.tw = tiles_of(cam->width);
-    a.th = tiles_of(cam->height);
-    a.depth = depth;
-    a.coc = coc;
-    a.tiles = tiles;
-    a.tiles2 = tiles + (size_t)a.tw * (size_t)a.th;
-    a.attr = attr;
-    a.planes = planes;
+    ew_dof_args_init(&a, cam, depth, coc, tiles, attr, planes);
     dev->backend->dof_attributes(dev, &a);
+}
+
+void ew_dof_attr_rows(const ew_dof_args *a, int y0, int y1, float *planes, long ps, long row0) {
+    const int w = a->cam.width;
+    for (int y = y0; y < y1; y++) {
+        float *d = planes + (long)(y - row0) * w, *c = d + ps;
+        for (int x = 0; x < w; x++) ew_dof_attr_of(x, y, a, &d[x], &c[x]);
+    }
 }

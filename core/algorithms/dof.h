@@ -20,5 +20,13 @@ size_t ew_dof_scratch_floats(int w, int h);
  * CoC in pixels (negative in front of the focus plane). */
 void ew_dof_compute_attributes(ew_device *dev, const ew_dof_camera *cam, const float *depth, float *coc,
                                float *tiles, float *attr, int planes);
+/* The same with attr NULL computes the CoC and the tiles only; then
+ * ew_dof_attr_rows gives (D, C) of rows [y0, y1) from them, as planes: D at
+ * planes, C ps floats after it, pixel (x, y) at (y - row0) * width + x (the
+ * pyramid's fill, so that DoF holds no frame of attributes). args: what
+ * ew_dof_args_init makes of the same values. */
+void ew_dof_args_init(ew_dof_args *a, const ew_dof_camera *cam, const float *depth, float *coc, float *tiles,
+                      float *attr, int planes);
+void ew_dof_attr_rows(const ew_dof_args *a, int y0, int y1, float *planes, long ps, long row0);
 
 #endif

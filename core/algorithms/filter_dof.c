@@ -130,6 +130,19 @@ static ew_result commit(ew_op *op) {
 
 static int report(void *user, double f) { return ew_op_report((ew_op *)user, f); }
 
+/* The pyramid's fill when it holds its input in bands: the colour packed,
+ * (D, C) computed row by row from the CoC and the tiles. */
+typedef struct {
+    ew_bf_io_set set;
+    ew_dof_args args;
+} dof_fill;
+
+static void fill_rows(void *user, int y0, int y1, int tid, float *planes, long ps, long row0) {
+    dof_fill *f = (dof_fill *)user;
+    ew_bf_io_fill(&f->set, y0, y1, tid, planes, ps, row0);
+    ew_dof_attr_rows(&f->args, y0, y1, planes + EW_BF_CH * ps, ps, row0);
+}
+
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -145,17 +158,20 @@ static ew_result execute(ew_op *op) {
     if (ew__image_packed_as(dv, 1)) depth = (const float *)dv->data;
     else ew_bf_pack_channels(dev, dv, 1, s->depth, NULL);
     /* the pyramid's (D, C) straight into its planes, or, when it holds its
-     * input in bands, into planes of ours that its passes copy rows from */
+     * input in bands, row by row as its passes fill them (no frame of them) */
     const int in_bands = planes && s->plan.in;
-    float *dc = planes && !in_bands ? s->plan.attr[0] : s->attr;
-    ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, dc, planes);
+    dof_fill fill;
+    memset(&fill, 0, sizeof fill);
+    ew_dof_args_init(&fill.args, &s->cam, depth, s->coc, s->tiles, in_bands ? NULL : planes ? s->plan.attr[0] : s->attr,
+                     planes);
+    ew_dof_compute_attributes(dev, &s->cam, depth, s->coc, s->tiles, fill.args.attr, planes);
     switch (s->method) {
     case 0: {
-        ew_bf_io_set fill = {0}, drain = {0};
-        ew_bf_io_pack_image(&fill, color, s->C, s->plan.down[0], 1);
-        if (in_bands) ew_bf_io_copy_planes(&fill, dc, 2, color);
+        ew_bf_io_set drain = {0};
+        ew_bf_io_pack_image(&fill.set, color, s->C, s->plan.down[0], 1);
         ew_bf_io_unpack_band(&drain, s->plan.out, s->plan.band, s->plan.band_stride, s->C, output, color);
-        const ew_pyr_io io = {ew_bf_io_fill, &fill, ew_bf_io_rows, &drain};
+        const ew_pyr_io io = {in_bands ? fill_rows : ew_bf_io_fill, in_bands ? (void *)&fill : (void *)&fill.set,
+                              ew_bf_io_rows, &drain};
         if (!ew_pyr_run_planes(dev, &s->plan, &io, report, op)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         break;
     }

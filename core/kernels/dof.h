@@ -68,7 +68,7 @@ typedef struct ew_dof_args {
     const float *depth;    /* width*height, metres */
     float *coc;            /* width*height signed CoC, written */
     float *tiles, *tiles2; /* tw*th: near-field reach per tile, scratch */
-    float *attr;           /* width*height*2: (D, C), written */
+    float *attr;           /* width*height*2: (D, C), written (NULL: steps 1-4 only, ew_dof_attr_rows does step 5) */
     int planes;            /* 0: (D, C) per pixel; 1: a D plane then a C plane (what the pyramid reads) */
 } ew_dof_args;
 
@@ -105,14 +105,24 @@ EW_HD void ew_dof_scatter_px(int tx, int ty, int axis, const ew_dof_args *a) {
     out[(long)ty * a->tw + tx] = m;
 }
 
+/* Step 5's numbers for pixel (x, y): D and C (what step 5 stores, and
+ * what a pass that wants them row by row computes, ew_dof_attr_rows). */
+EW_HD void ew_dof_attr_of(int x, int y, const ew_dof_args *a, float *d, float *c) {
+    const long j = (long)y * a->cam.width + x;
+    const float cc = fabsf(a->coc[j]) * a->cam.scale;
+    const float near = a->tiles[(long)(y / EW_DOF_TILE) * a->tw + x / EW_DOF_TILE];
+    *d = ew_maxf(cc, near);
+    *c = cc;
+}
+
 /* Step 5: the attributes (D, C) of pixel (x, y); planes is a->planes (a
  * separate argument, so that a loop specialised on it has unit strides). */
 EW_HD void ew_dof_attr_px_k(int x, int y, const ew_dof_args *a, const int planes) {
     const long j = (long)y * a->cam.width + x;
-    const float c = fabsf(a->coc[j]) * a->cam.scale;
-    const float near = a->tiles[(long)(y / EW_DOF_TILE) * a->tw + x / EW_DOF_TILE];
     const long n = (long)a->cam.width * a->cam.height, ks = planes ? n : 1, js = planes ? 1 : 2;
-    a->attr[j * js] = ew_maxf(c, near);
+    float d, c;
+    ew_dof_attr_of(x, y, a, &d, &c);
+    a->attr[j * js] = d;
     a->attr[ks + j * js] = c;
 }
 

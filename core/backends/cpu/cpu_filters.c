@@ -555,7 +555,7 @@ static EW_ROW_FN void dof_rows(void *ctx, int64_t begin, int64_t end, int tid) {
 }
 
 void ew_cpu_dof_attributes(ew_device *dev, const ew_dof_args *a) {
-    for (int step = 0; step < 5; step++) {
+    for (int step = 0; step < (a->attr ? 5 : 4); step++) { /* no attr: step 5 is the caller's (ew_dof_attr_rows) */
         dof_job j = {a, step};
         int64_t rows = step == 0 || step == 4 ? a->cam.height : a->th;
         ew_pool_run(dev->pool, rows, 0, dof_rows, &j);

@@ -219,7 +219,9 @@ void cu_pyr_up(ew_device *dev, const ew_pyr_up_args *a) {
     EW_LAUNCH(dev, ew_kl_pyr_up(a), k_pyr_up, *a, *a->m, row);
 }
 void cu_dof_attributes(ew_device *dev, const ew_dof_args *a) {
-    for (int step = 0; step < EW_DOF_STEPS; step++) EW_LAUNCH(dev, ew_kl_dof(a, step), k_dof, *a, step);
+    /* no attr: the caller computes (D, C) itself (ew_dof_attr_rows) */
+    for (int step = 0; step < (a->attr ? EW_DOF_STEPS : EW_DOF_STEPS - 1); step++)
+        EW_LAUNCH(dev, ew_kl_dof(a, step), k_dof, *a, step);
 }
 void cu_conv5(ew_device *dev, const ew_conv_args *a) { EW_LAUNCH(dev, ew_kl_conv5(a), k_conv5, *a); }
 void cu_gn_input(ew_device *dev, const ew_gn_input_args *a) { EW_LAUNCH(dev, ew_kl_gn_input(a), k_gn_input, *a); }
