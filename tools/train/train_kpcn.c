@@ -28,7 +28,9 @@
  * --checkpoint-minutes; --resume continues from it.
  */
 #include <dirent.h>
+#include <getopt.h>
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -46,6 +48,7 @@
 #include "src/backend.h"
 #include "src/internal.h"
 #include "src/weights.h"
+#include "train_common.h"
 
 #define MAX_SCENES 1024
 #define MAX_DIRS 8
@@ -122,6 +125,8 @@ static const char usage[] =
     "                        and family index k (seed = base + 16 i + k) have (i + k) %% K == 0\n"
     "  --checkpoint PATH     default MODEL.ckpt; --checkpoint-minutes M (default 3)\n"
     "  --resume              continue from the checkpoint if it exists\n"
+    "  --stop-after N        checkpoint and stop at step N (the schedule stays --steps'; a --resume run then\n"
+    "                        ends with the weights an uninterrupted run writes)\n"
     "  --time-limit MIN      checkpoint and stop after MIN minutes; the learning rate then follows the clock when\n"
     "                        that comes before --steps, so only a run that ends by --steps repeats step for step\n";
 
@@ -131,10 +136,33 @@ typedef struct {
     int ntrain_dirs, nval_dirs;
     char checkpoint[1024], csv[1024];
     unsigned long seed;
-    long steps, val_every;
+    long steps, val_every, stop_after;
     int batch, patch, threads, resume, rescan, val_max, loss;
     double lr, lr_final, clip, ckpt_minutes, time_limit;
 } options;
+
+enum {
+    OPT_ARCH = 256, OPT_OUT, OPT_EVAL, OPT_INIT, OPT_TRAIN, OPT_VAL, OPT_SHARED, OPT_LOSS, OPT_SEED, OPT_STEPS,
+    OPT_BATCH, OPT_PATCH, OPT_LR, OPT_LR_FINAL, OPT_CLIP, OPT_THREADS, OPT_VAL_EVERY, OPT_VAL_MAX, OPT_CHECKPOINT,
+    OPT_CKPT_MINUTES, OPT_TIME_LIMIT, OPT_RESUME, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP, OPT_STOP_AFTER
+};
+static const struct option long_opts[] = {
+    {"arch", required_argument, NULL, OPT_ARCH}, {"out", required_argument, NULL, OPT_OUT},
+    {"eval", required_argument, NULL, OPT_EVAL}, {"init", required_argument, NULL, OPT_INIT},
+    {"train", required_argument, NULL, OPT_TRAIN}, {"val", required_argument, NULL, OPT_VAL},
+    {"shared", required_argument, NULL, OPT_SHARED}, {"loss", required_argument, NULL, OPT_LOSS},
+    {"seed", required_argument, NULL, OPT_SEED}, {"steps", required_argument, NULL, OPT_STEPS},
+    {"batch", required_argument, NULL, OPT_BATCH}, {"patch", required_argument, NULL, OPT_PATCH},
+    {"lr", required_argument, NULL, OPT_LR}, {"lr-final", required_argument, NULL, OPT_LR_FINAL},
+    {"clip", required_argument, NULL, OPT_CLIP}, {"threads", required_argument, NULL, OPT_THREADS},
+    {"val-every", required_argument, NULL, OPT_VAL_EVERY}, {"val-max", required_argument, NULL, OPT_VAL_MAX},
+    {"checkpoint", required_argument, NULL, OPT_CHECKPOINT},
+    {"checkpoint-minutes", required_argument, NULL, OPT_CKPT_MINUTES},
+    {"time-limit", required_argument, NULL, OPT_TIME_LIMIT}, {"resume", no_argument, NULL, OPT_RESUME},
+    {"rescan", no_argument, NULL, OPT_RESCAN}, {"holdout", required_argument, NULL, OPT_HOLDOUT},
+    {"scenes", required_argument, NULL, OPT_SCENES}, {"train-spp", required_argument, NULL, OPT_TRAIN_SPP},
+    {"stop-after", required_argument, NULL, OPT_STOP_AFTER},
+    {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
 
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
@@ -148,52 +176,71 @@ static int parse(int argc, char **argv, options *o) {
     o->val_every = 250;
     o->val_max = 12;
     o->ckpt_minutes = 3;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-#define VAL() do { if (!v) { fprintf(stderr, "train_kpcn: %s needs a value\n", a); return 0; } i++; } while (0)
-        if (!strcmp(a, "--arch")) { VAL(); o->arch = v; }
-        else if (!strcmp(a, "--out")) { VAL(); o->out = v; }
-        else if (!strcmp(a, "--eval")) { VAL(); o->eval = v; }
-        else if (!strcmp(a, "--init")) { VAL(); o->init = v; }
-        else if (!strcmp(a, "--train")) { VAL(); if (o->ntrain_dirs < MAX_DIRS) o->train[o->ntrain_dirs++] = v; }
-        else if (!strcmp(a, "--val")) { VAL(); if (o->nval_dirs < MAX_DIRS) o->val[o->nval_dirs++] = v; }
-        else if (!strcmp(a, "--shared")) { VAL(); o->shared = v; }
-        else if (!strcmp(a, "--loss")) { VAL(); o->loss_name = v; }
-        else if (!strcmp(a, "--seed")) { VAL(); o->seed = strtoul(v, NULL, 10); }
-        else if (!strcmp(a, "--steps")) { VAL(); o->steps = atol(v); }
-        else if (!strcmp(a, "--batch")) { VAL(); o->batch = atoi(v); }
-        else if (!strcmp(a, "--patch")) { VAL(); o->patch = atoi(v); }
-        else if (!strcmp(a, "--lr")) { VAL(); o->lr = atof(v); }
-        else if (!strcmp(a, "--lr-final")) { VAL(); o->lr_final = atof(v); }
-        else if (!strcmp(a, "--clip")) { VAL(); o->clip = atof(v); }
-        else if (!strcmp(a, "--threads")) { VAL(); o->threads = atoi(v); }
-        else if (!strcmp(a, "--val-every")) { VAL(); o->val_every = atol(v); }
-        else if (!strcmp(a, "--val-max")) { VAL(); o->val_max = atoi(v); }
-        else if (!strcmp(a, "--checkpoint")) { VAL(); snprintf(o->checkpoint, sizeof o->checkpoint, "%s", v); }
-        else if (!strcmp(a, "--checkpoint-minutes")) { VAL(); o->ckpt_minutes = atof(v); }
-        else if (!strcmp(a, "--time-limit")) { VAL(); o->time_limit = atof(v); }
-        else if (!strcmp(a, "--resume")) o->resume = 1;
-        else if (!strcmp(a, "--rescan")) o->rescan = 1;
-        else if (!strcmp(a, "--holdout")) { VAL(); holdout = atoi(v); }
-        else if (!strcmp(a, "--scenes")) { VAL(); o->scenes = v; }
-        else if (!strcmp(a, "--train-spp")) {
-            VAL();
+    int c, ok = 1;
+    long seed = 1;
+    opterr = 0;
+    while (ok && (c = getopt_long(argc, argv, ":h", long_opts, NULL)) != -1) {
+        const char *v = optarg, *a = argv[optind - 1];
+        switch (c) {
+        case OPT_ARCH: o->arch = v; break;
+        case OPT_OUT: o->out = v; break;
+        case OPT_EVAL: o->eval = v; break;
+        case OPT_INIT: o->init = v; break;
+        case OPT_TRAIN:
+        case OPT_VAL:
+            if ((c == OPT_TRAIN ? o->ntrain_dirs : o->nval_dirs) == MAX_DIRS) {
+                fprintf(stderr, "train_kpcn: at most %d %s folders\n", MAX_DIRS, c == OPT_TRAIN ? "--train" : "--val");
+                ok = 0;
+            } else if (c == OPT_TRAIN) o->train[o->ntrain_dirs++] = v;
+            else o->val[o->nval_dirs++] = v;
+            break;
+        case OPT_SHARED: o->shared = v; break;
+        case OPT_LOSS: o->loss_name = v; break;
+        case OPT_SEED: ok = train_parse_long("--seed", v, 0, LONG_MAX, &seed); break;
+        case OPT_STEPS: ok = train_parse_long("--steps", v, 1, 100000000, &o->steps); break;
+        case OPT_BATCH: ok = train_parse_int("--batch", v, 1, 4096, &o->batch); break;
+        case OPT_PATCH: ok = train_parse_int("--patch", v, 16, 4096, &o->patch); break;
+        case OPT_LR: ok = train_parse_double("--lr", v, 0, 1, &o->lr); break;
+        case OPT_LR_FINAL: ok = train_parse_double("--lr-final", v, 0, 1, &o->lr_final); break;
+        case OPT_CLIP: ok = train_parse_double("--clip", v, 0, 1e9, &o->clip); break;
+        case OPT_THREADS: ok = train_parse_int("--threads", v, 0, 1024, &o->threads); break;
+        case OPT_VAL_EVERY: ok = train_parse_long("--val-every", v, 1, 100000000, &o->val_every); break;
+        case OPT_VAL_MAX: ok = train_parse_int("--val-max", v, 0, MAX_SCENES, &o->val_max); break;
+        case OPT_CHECKPOINT:
+            if (snprintf(o->checkpoint, sizeof o->checkpoint, "%s", v) >= (int)sizeof o->checkpoint) {
+                fprintf(stderr, "train_kpcn: --checkpoint: the path is too long\n");
+                ok = 0;
+            }
+            break;
+        case OPT_CKPT_MINUTES: ok = train_parse_double("--checkpoint-minutes", v, 0, 1e6, &o->ckpt_minutes); break;
+        case OPT_TIME_LIMIT: ok = train_parse_double("--time-limit", v, 0, 1e6, &o->time_limit); break;
+        case OPT_STOP_AFTER: ok = train_parse_long("--stop-after", v, 1, 100000000, &o->stop_after); break;
+        case OPT_RESUME: o->resume = 1; break;
+        case OPT_RESCAN: o->rescan = 1; break;
+        case OPT_HOLDOUT: ok = train_parse_int("--holdout", v, 0, 1000, &holdout); break;
+        case OPT_SCENES: o->scenes = v; break;
+        case OPT_TRAIN_SPP:
             if (!parse_spp_list(v)) {
                 fprintf(stderr, "train_kpcn: --train-spp takes sample counts >= 1 separated by commas\n");
-                return 0;
+                ok = 0;
             }
+            break;
+        default: ok = train_getopt_other(c, a, usage); break;
         }
-        else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(usage, stdout); exit(0); }
-        else { fprintf(stderr, "train_kpcn: unknown option '%s'\n%s", a, usage); return 0; }
-#undef VAL
     }
+    if (!ok || !train_no_operands(argc, argv, usage)) return 0;
+    o->seed = (unsigned long)seed;
     o->loss = EW_KPCN_LOSS_TM;
     if (o->loss_name && !strcmp(o->loss_name, "log")) o->loss = EW_KPCN_LOSS_LOG;
     else if (o->loss_name && strcmp(o->loss_name, "tm") != 0) {
         fprintf(stderr, "train_kpcn: --loss tm or log\n");
         return 0;
     }
-    if (o->eval) return o->nval_dirs > 0 || o->ntrain_dirs > 0;
+    if (o->eval && !o->nval_dirs && !o->ntrain_dirs) {
+        fprintf(stderr, "train_kpcn: --eval needs scenes: --val DIR, or --train DIR with --holdout K\n");
+        return 0;
+    }
+    if (o->eval) return 1;
     if (!o->arch || !o->out || (!o->ntrain_dirs && !o->shared)) {
         fputs(usage, stderr);
         return 0;
@@ -205,44 +252,6 @@ static int parse(int argc, char **argv, options *o) {
     if (!o->checkpoint[0]) snprintf(o->checkpoint, sizeof o->checkpoint, "%s.ckpt", o->out);
     snprintf(o->csv, sizeof o->csv, "%s.csv", o->out);
     return 1;
-}
-
-static double now_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-static void *read_file(const char *path, size_t *size) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    void *buf = n > 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *size = buf ? (size_t)n : 0;
-    return buf;
-}
-
-static int write_file_atomic(const char *path, const void *data, size_t size) {
-    char tmp[1100];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) return 1;
-    int bad = fwrite(data, 1, size, f) != size;
-    bad |= fflush(f) != 0;
-    bad |= fsync(fileno(f)) != 0;
-    bad |= fclose(f) != 0;
-    if (bad || rename(tmp, path) != 0) {
-        remove(tmp);
-        return 1;
-    }
-    return 0;
 }
 
 /* ---- data ------------------------------------------------------------------ */
@@ -260,47 +269,6 @@ typedef struct {
 
 static scene_t scenes[MAX_SCENES];
 static int nscenes;
-
-static int read_render(const char *path, int want_features, int *w, int *h, float **color, float **albedo,
-                       float **normal, float **depth) {
-    char err[1024];
-    ewio_file *f = NULL;
-    if (ewio_read(path, &f, err, sizeof err) != 0) {
-        fprintf(stderr, "train_kpcn: %s\n", err);
-        return 1;
-    }
-    ew_layer_passes lp;
-    int found = 0;
-    for (int i = 0; i < ewio_num_layers(f) && !found; i++)
-        found = ew_find_layer_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0;
-    if (!found) {
-        fprintf(stderr, "train_kpcn: '%s' has no colour pass\n", path);
-        ewio_free(f);
-        return 1;
-    }
-    *w = ewio_width(f);
-    *h = ewio_height(f);
-    const size_t n = (size_t)*w * *h;
-    *color = (float *)malloc(n * 3 * sizeof(float));
-    int bad = !*color || ewio_get_pass(f, lp.layer, lp.color, "RGB", *color, err, sizeof err) != 0;
-    if (!bad && want_features) {
-        if (!lp.albedo || !lp.normal || !lp.depth) {
-            snprintf(err, sizeof err, "'%s' lacks albedo, normal or depth passes", path);
-            bad = 1;
-        } else {
-            *albedo = (float *)malloc(n * 3 * sizeof(float));
-            *normal = (float *)malloc(n * 3 * sizeof(float));
-            *depth = (float *)malloc(n * sizeof(float));
-            bad = !*albedo || !*normal || !*depth ||
-                  ewio_get_pass(f, lp.layer, lp.albedo, "RGB", *albedo, err, sizeof err) != 0 ||
-                  ewio_get_pass(f, lp.layer, lp.normal, "XYZ", *normal, err, sizeof err) != 0 ||
-                  ewio_get_pass(f, lp.layer, lp.depth, "Z", *depth, err, sizeof err) != 0;
-        }
-    }
-    ewio_free(f);
-    if (bad) fprintf(stderr, "train_kpcn: %s\n", err);
-    return bad;
-}
 
 static int cmp_name(const void *a, const void *b) { return strcmp((const char *)a, (const char *)b); }
 
@@ -327,7 +295,7 @@ static int load_scene(scene_t *s) {
     snprintf(path, sizeof path, "%.1300s/%.255s", sdir, ref);
     float *r = NULL, *ua = NULL, *un = NULL, *ud = NULL;
     int rw, rh;
-    if (read_render(path, 0, &rw, &rh, &r, &ua, &un, &ud)) return 1;
+    if (train_read_render(path, 0, &rw, &rh, &r, &ua, &un, &ud)) return 1;
     s->frames = (frame_t *)calloc((size_t)nn, sizeof(frame_t));
     s->nframes = 0;
     for (int k = 0; k < nn; k++) {
@@ -337,7 +305,7 @@ static int load_scene(scene_t *s) {
         if (!s->val && !train_loads_spp(spp)) continue;
         frame_t *f = &s->frames[s->nframes];
         snprintf(path, sizeof path, "%.1300s/%.255s", sdir, names[k]);
-        if (read_render(path, 1, &f->w, &f->h, &f->color, &f->albedo, &f->normal, &f->depth)) continue;
+        if (train_read_render(path, 1, &f->w, &f->h, &f->color, &f->albedo, &f->normal, &f->depth)) continue;
         if (f->w != rw || f->h != rh) continue;
         f->spp = spp;
         if (s->val) {
@@ -636,76 +604,29 @@ static int save_checkpoint(const char *path, const ew_kpcn_net *net, const float
     void *bytes;
     size_t size;
     if (ew_kpcn_save(net, params, &bytes, &size) != 0) return 1;
-    ew_weights w;
-    char err[256];
-    if (ew_weights_parse(bytes, size, &w, err, sizeof err) != 0) {
-        free(bytes);
-        return 1;
-    }
-    free(bytes);
-    ew_tensor *t = (ew_tensor *)realloc(w.tensors, sizeof(ew_tensor) * (w.num_tensors + 3));
-    if (!t) {
-        ew_weights_free(&w);
-        return 1;
-    }
-    w.tensors = t;
-    float stepf[2] = {(float)(step / 65536), (float)(step % 65536)};
-    ew_tensor extra[3];
-    memset(extra, 0, sizeof extra);
-    snprintf(extra[0].name, sizeof extra[0].name, "adam.m");
-    snprintf(extra[1].name, sizeof extra[1].name, "adam.v");
-    snprintf(extra[2].name, sizeof extra[2].name, "train.step");
-    extra[0].rank = extra[1].rank = extra[2].rank = 1;
-    extra[0].dims[0] = extra[1].dims[0] = (uint32_t)net->nparams;
-    extra[0].count = extra[1].count = net->nparams;
-    extra[2].dims[0] = 2;
-    extra[2].count = 2;
-    extra[0].data = adam->m;
-    extra[1].data = adam->v;
-    extra[2].data = stepf;
-    for (int k = 0; k < 3; k++) w.tensors[w.num_tensors + (uint32_t)k] = extra[k];
-    w.num_tensors += 3;
-    int bad = ew_weights_serialize(&w, &bytes, &size) != 0;
-    w.num_tensors -= 3;
-    ew_weights_free(&w);
-    if (bad) return 1;
-    bad = write_file_atomic(path, bytes, size);
+    int bad = train_checkpoint_save(path, bytes, size, adam, net->nparams, step);
     free(bytes);
     return bad;
 }
 
+/* 0 resumed, 1 no checkpoint, 2 one that cannot be used (printed) */
 static int load_checkpoint(const char *path, const ew_kpcn_net *net, float *params, ew_adam *adam, long *step) {
-    size_t size;
-    void *bytes = read_file(path, &size);
-    if (!bytes) return 1;
     ew_weights w;
-    char err[256];
-    int bad = ew_weights_parse(bytes, size, &w, err, sizeof err);
-    free(bytes);
-    if (bad) {
-        fprintf(stderr, "train_kpcn: checkpoint '%s': %s\n", path, err);
-        return 2;
-    }
+    int r = train_checkpoint_load(path, net->nparams, &w, adam, step);
+    if (r) return r;
     ew_kpcn_net back;
     float *p = NULL;
-    bad = ew_kpcn_from_weights(&back, &w, &p, err, sizeof err) || strcmp(back.arch, net->arch) != 0;
-    uint32_t nd[1] = {(uint32_t)net->nparams}, sd[1] = {2};
-    const ew_tensor *m = bad ? NULL : ew_weights_find(&w, "adam.m", 1, nd, err, sizeof err);
-    const ew_tensor *v = m ? ew_weights_find(&w, "adam.v", 1, nd, err, sizeof err) : NULL;
-    const ew_tensor *s = v ? ew_weights_find(&w, "train.step", 1, sd, err, sizeof err) : NULL;
-    if (!s) {
-        fprintf(stderr, "train_kpcn: checkpoint '%s' does not match --arch %s\n", path, net->arch);
+    char err[256];
+    int bad = ew_kpcn_from_weights(&back, &w, &p, err, sizeof err);
+    ew_weights_free(&w);
+    if (bad || strcmp(back.arch, net->arch) != 0) {
+        fprintf(stderr, "train_kpcn: checkpoint '%s' does not match --arch %s (%s)\n", path, net->arch,
+                bad ? err : back.arch);
         free(p);
-        ew_weights_free(&w);
         return 2;
     }
     memcpy(params, p, sizeof(float) * net->nparams);
-    memcpy(adam->m, m->data, sizeof(float) * net->nparams);
-    memcpy(adam->v, v->data, sizeof(float) * net->nparams);
-    *step = (long)s->data[0] * 65536 + (long)s->data[1];
-    adam->step = (uint64_t)*step;
     free(p);
-    ew_weights_free(&w);
     return 0;
 }
 
@@ -720,7 +641,7 @@ static int emit_c(const char *dir) {
         char path[1200];
         snprintf(path, sizeof path, "%.1100s/%s.ewm", dir, ew_kpcn_model_name(k));
         size_t size = 0;
-        unsigned char *b = (unsigned char *)read_file(path, &size);
+        unsigned char *b = (unsigned char *)train_read_file(path, &size);
         printf("\n/* %s */\nstatic const unsigned char weights_%d[] = {", ew_kpcn_model_name(k), k);
         if (!b) printf("0");
         for (size_t i = 0; b && i < size; i++) printf("%s%u%s", i % 24 == 0 ? "\n    " : "", b[i], i + 1 < size ? "," : "");
@@ -781,9 +702,9 @@ static int bench(int w, int h, int threads) {
         }
         double best = 1e30;
         for (int rep = 0; rep < 3; rep++) {
-            const double t0 = now_s();
+            const double t0 = train_now_s();
             ew_denoiser_execute(d);
-            best = fmin(best, now_s() - t0);
+            best = fmin(best, train_now_s() - t0);
         }
         /* the convolutions alone, on the op's own buffers */
         const unsigned char *bytes;
@@ -814,7 +735,7 @@ static int bench(int w, int h, int threads) {
              * the best conv pass missed (a share above 100 % was printed). */
             peak = fmax(peak, ew_conv_cpu_fma_gflops(dev, &peak_s));
             for (int path = EW_CONV_CPU_DIRECT; path >= EW_CONV_CPU_AUTO; path--) {
-                const double t0 = now_s();
+                const double t0 = train_now_s();
                 wino_layers = 0;
                 for (int l = 0; l < net.nlayers; l++) {
                     ew_conv_args ca;
@@ -822,7 +743,7 @@ static int bench(int w, int h, int threads) {
                     ca.winograd = 1; /* as the op allows it */
                     wino_layers += ew_cpu_conv5_path(dev, &ca, path, 2) == EW_CONV_CPU_WINOGRAD;
                 }
-                const double dt = now_s() - t0;
+                const double dt = train_now_s() - t0;
                 if (path == EW_CONV_CPU_DIRECT) conv_best = fmin(conv_best, dt);
                 else auto_best = fmin(auto_best, dt);
             }
@@ -845,10 +766,18 @@ static int bench(int w, int h, int threads) {
     return 0;
 }
 
+const char *train_prog = "train_kpcn";
+
 int main(int argc, char **argv) {
     static options o;
     if (argc == 3 && !strcmp(argv[1], "--emit-c")) return emit_c(argv[2]);
-    if (argc == 5 && !strcmp(argv[1], "--bench")) return bench(atoi(argv[2]), atoi(argv[3]), atoi(argv[4]));
+    if (argc == 5 && !strcmp(argv[1], "--bench")) {
+        int w, h, threads;
+        if (!train_parse_int("--bench W", argv[2], 16, 16384, &w) || !train_parse_int("--bench H", argv[3], 16, 16384, &h) ||
+            !train_parse_int("--bench THREADS", argv[4], 0, 1024, &threads))
+            return 2;
+        return bench(w, h, threads);
+    }
     if (!parse(argc, argv, &o)) return 2;
     ew_device_desc dd = EW_DEVICE_DESC_INIT;
     dd.num_threads = o.threads;
@@ -867,7 +796,7 @@ int main(int argc, char **argv) {
         for (int i = 0; i < o.nval_dirs; i++) scan_dir(o.val[i], 1, 0, o.val_max);
         for (int i = 0; i < o.ntrain_dirs; i++) scan_dir(o.train[i], 0, 0, o.val_max);
         size_t size;
-        void *b = read_file(o.eval, &size);
+        void *b = train_read_file(o.eval, &size);
         if (!b) {
             fprintf(stderr, "train_kpcn: cannot read '%s'\n", o.eval);
             return 1;
@@ -913,7 +842,7 @@ int main(int argc, char **argv) {
     }
     if (o.init && !resumed) {
         size_t size = 0;
-        void *bytes = read_file(o.init, &size);
+        void *bytes = train_read_file(o.init, &size);
         ew_weights w;
         ew_kpcn_net src;
         float *sp = NULL;
@@ -933,12 +862,12 @@ int main(int argc, char **argv) {
         free(sp);
         printf("initialised from %s (%s)\n", o.init, src.arch);
     }
-    double t0 = now_s();
+    double t0 = train_now_s();
     printf("scenes:\n");
     scan_all(&o);
     build_index();
     printf("%d training scenes (%d frames), %d validation scenes; loaded in %.1f s\n", ntscenes, ntframes,
-           nscenes - ntscenes, now_s() - t0);
+           nscenes - ntscenes, train_now_s() - t0);
     if (ntscenes == 0) {
         fprintf(stderr, "train_kpcn: no training scenes\n");
         return 1;
@@ -959,12 +888,21 @@ int main(int argc, char **argv) {
                      "nbg_psnr,nbg_1,nbg_4,nbg_16,nbg_64\n");
     double nbg_per[4] = {0, 0, 0, 0}, nbg_all = 0;
     int nbg_scenes = -1;
-    const double start = now_s();
+    const double start = train_now_s();
     const long step0 = step;
     double last_ckpt = start, loss_acc = 0, gn_acc = 0;
     int acc_n = 0;
     for (;;) {
-        const int last = step >= o.steps || (o.time_limit > 0 && now_s() - start > o.time_limit * 60.0);
+        const int last = step >= o.steps || (o.time_limit > 0 && train_now_s() - start > o.time_limit * 60.0);
+        if (!last && o.stop_after > 0 && step >= o.stop_after && step > step0) {
+            /* before this step's validation, which the resumed run does */
+            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0) {
+                fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.checkpoint);
+                return 1;
+            }
+            printf("stopped at step %ld (--stop-after); --resume continues\n", step);
+            break;
+        }
         if (step % o.val_every == 0 || last) {
             if (o.rescan && step > 0 && !last) {
                 scan_all(&o);
@@ -973,7 +911,8 @@ int main(int argc, char **argv) {
             void *bytes;
             size_t size;
             if (ew_kpcn_save(&net, params, &bytes, &size) == 0) {
-                write_file_atomic(o.out, bytes, size);
+                if (train_write_file_atomic(o.out, bytes, size) != 0)
+                    fprintf(stderr, "train_kpcn: cannot write '%s'\n", o.out);
                 write_scenes(o.out);
                 double per[4] = {0, 0, 0, 0}, all = 0;
                 int ns = 0;
@@ -987,11 +926,11 @@ int main(int argc, char **argv) {
                 free(bytes);
                 printf("step %6ld  %7.0f s  loss %.5f  |g| %.4f  train %d scenes  val %d scenes: kpcn %.2f dB "
                        "(%.2f %.2f %.2f %.2f)  nbg %.2f (%.2f %.2f %.2f %.2f)\n",
-                       step, now_s() - start, acc_n ? loss_acc / acc_n : 0.0, acc_n ? gn_acc / acc_n : 0.0, ntscenes,
+                       step, train_now_s() - start, acc_n ? loss_acc / acc_n : 0.0, acc_n ? gn_acc / acc_n : 0.0, ntscenes,
                        ns, all, per[0], per[1], per[2], per[3], nbg_all, nbg_per[0], nbg_per[1], nbg_per[2],
                        nbg_per[3]);
                 fprintf(csv, "%ld,%.0f,%g,%.6f,%.5f,%d,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", step,
-                        now_s() - start, adam.lr, acc_n ? loss_acc / acc_n : 0.0, acc_n ? gn_acc / acc_n : 0.0,
+                        train_now_s() - start, adam.lr, acc_n ? loss_acc / acc_n : 0.0, acc_n ? gn_acc / acc_n : 0.0,
                         ntscenes, ns, all, per[0], per[1], per[2], per[3], nbg_all, nbg_per[0], nbg_per[1],
                         nbg_per[2], nbg_per[3]);
                 fflush(csv);
@@ -1000,17 +939,17 @@ int main(int argc, char **argv) {
             loss_acc = gn_acc = 0;
             acc_n = 0;
         }
-        if (last || now_s() - last_ckpt > o.ckpt_minutes * 60.0) {
+        if (last || train_now_s() - last_ckpt > o.ckpt_minutes * 60.0) {
             if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
                 fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.checkpoint);
-            last_ckpt = now_s();
+            last_ckpt = train_now_s();
         }
         if (last) break;
         static ew_kpcn_patch patches[1024];
         for (int b = 0; b < o.batch && b < 1024; b++) patches[b] = pick(o.seed, (uint64_t)step, b, o.patch);
         /* cosine over --steps, or over --time-limit when that ends first */
         double t = (double)step / (double)o.steps;
-        if (o.time_limit > 0) t = fmax(t, (now_s() - start) / (o.time_limit * 60.0));
+        if (o.time_limit > 0) t = fmax(t, (train_now_s() - start) / (o.time_limit * 60.0));
         if (t > 1.0) t = 1.0;
         adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979 * t));
         const double loss = ew_kpcn_trainer_gradient(tr, params, tframes, patches, grad);
@@ -1022,7 +961,7 @@ int main(int argc, char **argv) {
         step++;
         if (step % 10 == 0) {
             printf("  step %ld loss %.5f |g| %.4f%s  %.2f s/step\n", step, loss, gn, clipped ? " (clipped)" : "",
-                   (now_s() - start) / (double)(step - step0));
+                   (train_now_s() - start) / (double)(step - step0));
             fflush(stdout);
         }
     }

@@ -24,7 +24,9 @@
  * step's gradient does not depend on the thread count.
  */
 #include <dirent.h>
+#include <getopt.h>
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,6 +43,7 @@
 #include "ewio.h"
 #include "src/internal.h"
 #include "src/weights.h"
+#include "train_common.h"
 
 #define MAX_SCENES 256
 #define MAX_FRAMES 4096
@@ -101,6 +104,36 @@ static int parse_spp(const char *s, int *mask) {
     return *mask != 0;
 }
 
+enum {
+    OPT_DATA = 256, OPT_EXTRA_TRAIN, OPT_ARCH, OPT_OUT, OPT_EVAL, OPT_EMIT_C, OPT_INIT, OPT_RATES, OPT_SPLIT,
+    OPT_SEED, OPT_STEPS, OPT_VAL_EVERY, OPT_STOP_AFTER, OPT_BATCH, OPT_PATCH, OPT_THREADS, OPT_LR, OPT_LR_FINAL,
+    OPT_CLIP, OPT_CKPT_MINUTES, OPT_CHECKPOINT, OPT_CSV, OPT_SVG, OPT_SPP, OPT_RESUME, OPT_BENCH, OPT_MODELS,
+    OPT_SIZE
+};
+static const struct option long_opts[] = {
+    {"data", required_argument, NULL, OPT_DATA}, {"extra-train", required_argument, NULL, OPT_EXTRA_TRAIN},
+    {"arch", required_argument, NULL, OPT_ARCH}, {"out", required_argument, NULL, OPT_OUT},
+    {"eval", required_argument, NULL, OPT_EVAL}, {"emit-c", required_argument, NULL, OPT_EMIT_C},
+    {"init", required_argument, NULL, OPT_INIT}, {"rates", required_argument, NULL, OPT_RATES},
+    {"split", required_argument, NULL, OPT_SPLIT}, {"seed", required_argument, NULL, OPT_SEED},
+    {"steps", required_argument, NULL, OPT_STEPS}, {"val-every", required_argument, NULL, OPT_VAL_EVERY},
+    {"stop-after", required_argument, NULL, OPT_STOP_AFTER}, {"batch", required_argument, NULL, OPT_BATCH},
+    {"patch", required_argument, NULL, OPT_PATCH}, {"threads", required_argument, NULL, OPT_THREADS},
+    {"lr", required_argument, NULL, OPT_LR}, {"lr-final", required_argument, NULL, OPT_LR_FINAL},
+    {"clip", required_argument, NULL, OPT_CLIP}, {"checkpoint-minutes", required_argument, NULL, OPT_CKPT_MINUTES},
+    {"checkpoint", required_argument, NULL, OPT_CHECKPOINT}, {"csv", required_argument, NULL, OPT_CSV},
+    {"svg", required_argument, NULL, OPT_SVG}, {"spp", required_argument, NULL, OPT_SPP},
+    {"resume", no_argument, NULL, OPT_RESUME}, {"bench", no_argument, NULL, OPT_BENCH},
+    {"models", required_argument, NULL, OPT_MODELS}, {"size", required_argument, NULL, OPT_SIZE},
+    {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+
+/* a path option into a fixed buffer: too long is an error, not a cut path */
+static int set_path(const char *opt, const char *v, char *dst, size_t len) {
+    if (snprintf(dst, len, "%s", v) < (int)len) return 1;
+    fprintf(stderr, "train_nbg: %s: the path is too long\n", opt);
+    return 0;
+}
+
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
     o->seed = 1;
@@ -117,50 +150,58 @@ static int parse(int argc, char **argv, options *o) {
     o->models = "models/nbg";
     o->bench_w = 1280;
     o->bench_h = 720;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-#define VAL() do { if (!v) { fprintf(stderr, "train_nbg: %s needs a value\n", a); return 0; } i++; } while (0)
-        if (!strcmp(a, "--data")) { VAL(); o->data = v; }
-        else if (!strcmp(a, "--extra-train")) { VAL(); o->extra_train = v; }
-        else if (!strcmp(a, "--arch")) { VAL(); o->arch = v; }
-        else if (!strcmp(a, "--out")) { VAL(); o->out = v; }
-        else if (!strcmp(a, "--eval")) { VAL(); o->eval = v; }
-        else if (!strcmp(a, "--emit-c")) { VAL(); o->emit_c = v; }
-        else if (!strcmp(a, "--init")) { VAL(); o->init = v; }
-        else if (!strcmp(a, "--rates")) { VAL(); o->rates = v; }
-        else if (!strcmp(a, "--split")) { VAL(); o->split = v; }
-        else if (!strcmp(a, "--seed")) { VAL(); o->seed = strtoul(v, NULL, 10); }
-        else if (!strcmp(a, "--steps")) { VAL(); o->steps = atol(v); }
-        else if (!strcmp(a, "--val-every")) { VAL(); o->val_every = atol(v); }
-        else if (!strcmp(a, "--stop-after")) { VAL(); o->stop_after = atol(v); }
-        else if (!strcmp(a, "--batch")) { VAL(); o->batch = atoi(v); }
-        else if (!strcmp(a, "--patch")) { VAL(); o->patch = atoi(v); }
-        else if (!strcmp(a, "--threads")) { VAL(); o->threads = atoi(v); }
-        else if (!strcmp(a, "--lr")) { VAL(); o->lr = atof(v); }
-        else if (!strcmp(a, "--lr-final")) { VAL(); o->lr_final = atof(v); }
-        else if (!strcmp(a, "--clip")) { VAL(); o->clip = atof(v); }
-        else if (!strcmp(a, "--checkpoint-minutes")) { VAL(); o->ckpt_minutes = atof(v); }
-        else if (!strcmp(a, "--checkpoint")) { VAL(); snprintf(o->checkpoint, sizeof o->checkpoint, "%s", v); }
-        else if (!strcmp(a, "--csv")) { VAL(); snprintf(o->csv, sizeof o->csv, "%s", v); }
-        else if (!strcmp(a, "--svg")) { VAL(); snprintf(o->svg, sizeof o->svg, "%s", v); }
-        else if (!strcmp(a, "--spp")) {
-            VAL();
-            if (!parse_spp(v, &o->spp_mask)) { fprintf(stderr, "train_nbg: --spp takes a list of 1, 4, 16, 64\n"); return 0; }
-        }
-        else if (!strcmp(a, "--resume")) o->resume = 1;
-        else if (!strcmp(a, "--bench")) o->bench = 1;
-        else if (!strcmp(a, "--models")) { VAL(); o->models = v; }
-        else if (!strcmp(a, "--size")) {
-            VAL();
-            if (sscanf(v, "%dx%d", &o->bench_w, &o->bench_h) != 2 || o->bench_w < 16 || o->bench_h < 16) {
-                fprintf(stderr, "train_nbg: --size WxH\n");
-                return 0;
+    int c, ok = 1;
+    long seed = 1;
+    opterr = 0;
+    while (ok && (c = getopt_long(argc, argv, ":h", long_opts, NULL)) != -1) {
+        const char *v = optarg, *a = argv[optind - 1];
+        switch (c) {
+        case OPT_DATA: o->data = v; break;
+        case OPT_EXTRA_TRAIN: o->extra_train = v; break;
+        case OPT_ARCH: o->arch = v; break;
+        case OPT_OUT: o->out = v; break;
+        case OPT_EVAL: o->eval = v; break;
+        case OPT_EMIT_C: o->emit_c = v; break;
+        case OPT_INIT: o->init = v; break;
+        case OPT_RATES: o->rates = v; break;
+        case OPT_SPLIT: o->split = v; break;
+        case OPT_SEED: ok = train_parse_long("--seed", v, 0, LONG_MAX, &seed); break;
+        case OPT_STEPS: ok = train_parse_long("--steps", v, 1, 100000000, &o->steps); break;
+        case OPT_VAL_EVERY: ok = train_parse_long("--val-every", v, 1, 100000000, &o->val_every); break;
+        case OPT_STOP_AFTER: ok = train_parse_long("--stop-after", v, 1, 100000000, &o->stop_after); break;
+        case OPT_BATCH: ok = train_parse_int("--batch", v, 1, 4096, &o->batch); break;
+        case OPT_PATCH: ok = train_parse_int("--patch", v, 16, 4096, &o->patch); break;
+        case OPT_THREADS: ok = train_parse_int("--threads", v, 0, 1024, &o->threads); break;
+        case OPT_LR: ok = train_parse_double("--lr", v, 0, 1, &o->lr); break;
+        case OPT_LR_FINAL: ok = train_parse_double("--lr-final", v, 0, 1, &o->lr_final); break;
+        case OPT_CLIP: ok = train_parse_double("--clip", v, 0, 1e9, &o->clip); break;
+        case OPT_CKPT_MINUTES: ok = train_parse_double("--checkpoint-minutes", v, 0, 1e6, &o->ckpt_minutes); break;
+        case OPT_CHECKPOINT: ok = set_path("--checkpoint", v, o->checkpoint, sizeof o->checkpoint); break;
+        case OPT_CSV: ok = set_path("--csv", v, o->csv, sizeof o->csv); break;
+        case OPT_SVG: ok = set_path("--svg", v, o->svg, sizeof o->svg); break;
+        case OPT_SPP:
+            if (!parse_spp(v, &o->spp_mask)) {
+                fprintf(stderr, "train_nbg: --spp takes a list of 1, 4, 16, 64\n");
+                ok = 0;
             }
+            break;
+        case OPT_RESUME: o->resume = 1; break;
+        case OPT_BENCH: o->bench = 1; break;
+        case OPT_MODELS: o->models = v; break;
+        case OPT_SIZE: {
+            char tail;
+            if (sscanf(v, "%dx%d%c", &o->bench_w, &o->bench_h, &tail) != 2 || o->bench_w < 16 || o->bench_h < 16 ||
+                o->bench_w > 16384 || o->bench_h > 16384) {
+                fprintf(stderr, "train_nbg: --size WxH, each from 16 to 16384\n");
+                ok = 0;
+            }
+            break;
         }
-        else if (!strcmp(a, "-h") || !strcmp(a, "--help")) { fputs(usage, stdout); exit(0); }
-        else { fprintf(stderr, "train_nbg: unknown option '%s'\n%s", a, usage); return 0; }
-#undef VAL
+        default: ok = train_getopt_other(c, a, usage); break;
+        }
     }
+    if (!ok || !train_no_operands(argc, argv, usage)) return 0;
+    o->seed = (unsigned long)seed;
     if (o->emit_c || o->bench) return 1;
     if (!o->data) { fprintf(stderr, "train_nbg: --data DIR is required\n"); return 0; }
     if (o->eval) return 1;
@@ -173,46 +214,6 @@ static int parse(int argc, char **argv, options *o) {
     if (!o->csv[0]) snprintf(o->csv, sizeof o->csv, "%s.csv", o->out);
     if (!o->svg[0]) snprintf(o->svg, sizeof o->svg, "%s.svg", o->out);
     return 1;
-}
-
-static double now_s(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-/* ---- files ------------------------------------------------------------ */
-static void *read_file(const char *path, size_t *size) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    void *buf = n > 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *size = buf ? (size_t)n : 0;
-    return buf;
-}
-
-/* write to PATH.tmp, then rename: a killed run never leaves half a file */
-static int write_file_atomic(const char *path, const void *data, size_t size) {
-    char tmp[1100];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) return 1;
-    int bad = fwrite(data, 1, size, f) != size;
-    bad |= fflush(f) != 0;
-    bad |= fsync(fileno(f)) != 0;
-    bad |= fclose(f) != 0;
-    if (bad || rename(tmp, path) != 0) {
-        remove(tmp);
-        return 1;
-    }
-    return 0;
 }
 
 /* ---- the data set ------------------------------------------------------- */
@@ -286,47 +287,6 @@ static int list_scenes(const char *dir, scene_info *scenes, int max, int all_tra
     return n;
 }
 
-/* Read the colour and features of the first layer with a colour pass. */
-static int read_render(const char *path, int want_features, int *w, int *h, float **color, float **albedo,
-                       float **normal, float **depth) {
-    char err[1024];
-    ewio_file *f = NULL;
-    if (ewio_read(path, &f, err, sizeof err) != 0) {
-        fprintf(stderr, "train_nbg: %s\n", err);
-        return 1;
-    }
-    ew_layer_passes lp;
-    int found = 0;
-    for (int i = 0; i < ewio_num_layers(f) && !found; i++)
-        found = ew_find_layer_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0;
-    if (!found) {
-        fprintf(stderr, "train_nbg: '%s' has no colour pass\n", path);
-        ewio_free(f);
-        return 1;
-    }
-    *w = ewio_width(f);
-    *h = ewio_height(f);
-    const size_t n = (size_t)*w * *h;
-    *color = (float *)malloc(n * 3 * sizeof(float));
-    int bad = !*color || ewio_get_pass(f, lp.layer, lp.color, "RGB", *color, err, sizeof err) != 0;
-    if (!bad && want_features) {
-        if (!lp.albedo || !lp.normal || !lp.depth) {
-            snprintf(err, sizeof err, "'%s' lacks albedo, normal or depth passes", path);
-            bad = 1;
-        } else {
-            *albedo = (float *)malloc(n * 3 * sizeof(float));
-            *normal = (float *)malloc(n * 3 * sizeof(float));
-            *depth = (float *)malloc(n * sizeof(float));
-            bad = !*albedo || !*normal || !*depth ||
-                  ewio_get_pass(f, lp.layer, lp.albedo, "RGB", *albedo, err, sizeof err) != 0 ||
-                  ewio_get_pass(f, lp.layer, lp.normal, "XYZ", *normal, err, sizeof err) != 0 ||
-                  ewio_get_pass(f, lp.layer, lp.depth, "Z", *depth, err, sizeof err) != 0;
-        }
-    }
-    ewio_free(f);
-    if (bad) fprintf(stderr, "train_nbg: %s\n", err);
-    return bad;
-}
 
 typedef struct {
     scene_info scenes[MAX_SCENES];
@@ -365,8 +325,8 @@ static int load_frames(dataset *ds, int split_mask, int spp_mask) {
                 continue; /* (a path this long is not one of ours) */
             float *unused_a = NULL, *unused_n = NULL, *unused_d = NULL;
             int rw, rh;
-            if (read_render(path, 1, &fi->w, &fi->h, &fi->color, &fi->albedo, &fi->normal, &fi->depth) != 0 ||
-                read_render(rpath, 0, &rw, &rh, &fi->ref, &unused_a, &unused_n, &unused_d) != 0)
+            if (train_read_render(path, 1, &fi->w, &fi->h, &fi->color, &fi->albedo, &fi->normal, &fi->depth) != 0 ||
+                train_read_render(rpath, 0, &rw, &rh, &fi->ref, &unused_a, &unused_n, &unused_d) != 0)
                 return 1;
             if (rw != fi->w || rh != fi->h) {
                 fprintf(stderr, "train_nbg: '%s' and its reference differ in size\n", path);
@@ -444,76 +404,29 @@ static int save_checkpoint(const char *path, const ew_guidenet *net, const float
     void *bytes;
     size_t size;
     if (ew_guidenet_save(net, params, &bytes, &size) != 0) return 1;
-    ew_weights w;
-    char err[256];
-    if (ew_weights_parse(bytes, size, &w, err, sizeof err) != 0) {
-        free(bytes);
-        return 1;
-    }
-    free(bytes);
-    ew_tensor *t = (ew_tensor *)realloc(w.tensors, sizeof(ew_tensor) * (w.num_tensors + 3));
-    if (!t) {
-        ew_weights_free(&w);
-        return 1;
-    }
-    w.tensors = t;
-    float stepf[2] = {(float)(step / 65536), (float)(step % 65536)}; /* exact in floats */
-    ew_tensor extra[3];
-    memset(extra, 0, sizeof extra);
-    snprintf(extra[0].name, sizeof extra[0].name, "adam.m");
-    snprintf(extra[1].name, sizeof extra[1].name, "adam.v");
-    snprintf(extra[2].name, sizeof extra[2].name, "train.step");
-    extra[0].rank = extra[1].rank = extra[2].rank = 1;
-    extra[0].dims[0] = extra[1].dims[0] = (uint32_t)net->nparams;
-    extra[0].count = extra[1].count = net->nparams;
-    extra[2].dims[0] = 2;
-    extra[2].count = 2;
-    extra[0].data = adam->m;
-    extra[1].data = adam->v;
-    extra[2].data = stepf;
-    for (int k = 0; k < 3; k++) w.tensors[w.num_tensors + (uint32_t)k] = extra[k];
-    w.num_tensors += 3;
-    int bad = ew_weights_serialize(&w, &bytes, &size) != 0;
-    w.num_tensors -= 3; /* the extra tensors' data is not the parse's to free */
-    ew_weights_free(&w);
-    if (bad) return 1;
-    bad = write_file_atomic(path, bytes, size);
+    int bad = train_checkpoint_save(path, bytes, size, adam, net->nparams, step);
     free(bytes);
     return bad;
 }
 
+/* 0 resumed, 1 no checkpoint, 2 one that cannot be used (printed) */
 static int load_checkpoint(const char *path, const ew_guidenet *net, float *params, ew_adam *adam, long *step) {
-    size_t size;
-    void *bytes = read_file(path, &size);
-    if (!bytes) return 1;
     ew_weights w;
-    char err[256];
-    int bad = ew_weights_parse(bytes, size, &w, err, sizeof err);
-    free(bytes);
-    if (bad) {
-        fprintf(stderr, "train_nbg: checkpoint '%s': %s\n", path, err);
-        return 2;
-    }
+    int r = train_checkpoint_load(path, net->nparams, &w, adam, step);
+    if (r) return r;
     ew_guidenet back;
     float *p = NULL;
-    bad = ew_guidenet_from_weights(&back, &w, &p, err, sizeof err) || strcmp(back.arch, net->arch) != 0;
-    uint32_t nd[1] = {(uint32_t)net->nparams}, sd[1] = {2};
-    const ew_tensor *m = bad ? NULL : ew_weights_find(&w, "adam.m", 1, nd, err, sizeof err);
-    const ew_tensor *v = m ? ew_weights_find(&w, "adam.v", 1, nd, err, sizeof err) : NULL;
-    const ew_tensor *s = v ? ew_weights_find(&w, "train.step", 1, sd, err, sizeof err) : NULL;
-    if (!s) {
-        fprintf(stderr, "train_nbg: checkpoint '%s' does not match --arch %s (%s)\n", path, net->arch, err);
+    char err[256];
+    int bad = ew_guidenet_from_weights(&back, &w, &p, err, sizeof err);
+    ew_weights_free(&w);
+    if (bad || strcmp(back.arch, net->arch) != 0) {
+        fprintf(stderr, "train_nbg: checkpoint '%s' does not match --arch %s (%s)\n", path, net->arch,
+                bad ? err : back.arch);
         free(p);
-        ew_weights_free(&w);
         return 2;
     }
     memcpy(params, p, sizeof(float) * net->nparams);
-    memcpy(adam->m, m->data, sizeof(float) * net->nparams);
-    memcpy(adam->v, v->data, sizeof(float) * net->nparams);
-    *step = (long)s->data[0] * 65536 + (long)s->data[1];
-    adam->step = (uint64_t)*step;
     free(p);
-    ew_weights_free(&w);
     return 0;
 }
 
@@ -584,7 +497,7 @@ static int emit_c(const char *dir) {
         for (char *c = ident; *c; c++)
             if (*c == '-') *c = '_';
         size_t size = 0;
-        unsigned char *b = (unsigned char *)read_file(path, &size);
+        unsigned char *b = (unsigned char *)train_read_file(path, &size);
         printf("\nconst unsigned char ew_nbg_weights_%s[] = {", ident);
         if (!b) printf("0");
         for (size_t i = 0; b && i < size; i++) printf("%s%u", i % 24 == 0 ? "\n    " : "", b[i]), printf(i + 1 < size ? "," : "");
@@ -620,7 +533,7 @@ static int pick_frame(void *user, double u) {
 
 static int evaluate(const options *o, dataset *ds, ew_device *dev) {
     size_t wsize = 0;
-    void *w = read_file(o->eval, &wsize);
+    void *w = train_read_file(o->eval, &wsize);
     if (!w) {
         fprintf(stderr, "train_nbg: cannot read '%s'\n", o->eval);
         return 1;
@@ -689,9 +602,9 @@ static int cmp_double(const void *a, const void *b) {
         CALL;                                                                                            \
         double c0_ = cpu_s();                                                                            \
         for (int r_ = 0; r_ < (reps); r_++) {                                                            \
-            double t0_ = now_s();                                                                        \
+            double t0_ = train_now_s();                                                                        \
             CALL;                                                                                        \
-            ts_[r_] = now_s() - t0_;                                                                     \
+            ts_[r_] = train_now_s() - t0_;                                                                     \
         }                                                                                                \
         (cpu) = (cpu_s() - c0_) / (reps);                                                                \
         qsort(ts_, (size_t)(reps), sizeof(double), cmp_double);                                          \
@@ -715,7 +628,7 @@ static int bench(const options *o, ew_device *dev) {
     float *c0 = NULL, *a0 = NULL, *n0 = NULL, *d0 = NULL;
     char path[4200];
     snprintf(path, sizeof path, "%s/a_cornell_119_256x256/f0001_spp0001.exr", o->data ? o->data : "");
-    int have = o->data && read_render(path, 1, &fw, &fh, &c0, &a0, &n0, &d0) == 0;
+    int have = o->data && train_read_render(path, 1, &fw, &fh, &c0, &a0, &n0, &d0) == 0;
     unsigned seed = 1;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
@@ -756,7 +669,7 @@ static int bench(const options *o, ew_device *dev) {
         char mpath[4200];
         snprintf(mpath, sizeof mpath, "%s/%s.ewm", o->models, archs[m]);
         size_t wsize = 0;
-        void *wb = read_file(mpath, &wsize);
+        void *wb = train_read_file(mpath, &wsize);
         const int trained = wb != NULL;
         ew_guidenet net;
         char err[256], arch[32];
@@ -815,6 +728,8 @@ static int bench(const options *o, ew_device *dev) {
     free(c0); free(a0); free(n0); free(d0);
     return 0;
 }
+
+const char *train_prog = "train_nbg";
 
 int main(int argc, char **argv) {
     static options o;
@@ -884,7 +799,7 @@ int main(int argc, char **argv) {
     ew_guidenet_random(&net, o.seed, params);
     if (o.init) {
         size_t size;
-        void *b = read_file(o.init, &size);
+        void *b = train_read_file(o.init, &size);
         ew_weights w;
         ew_guidenet other;
         float *p = NULL;
@@ -909,7 +824,7 @@ int main(int argc, char **argv) {
     /* data: train + validation scenes only */
     printf("split (whole scenes; test scenes are not read):\n");
     for (int i = 0; i < ds.nscenes; i++) printf("  %-5s %s\n", split_name(ds.scenes[i].split), ds.scenes[i].name);
-    double t_load = now_s();
+    double t_load = train_now_s();
     if (load_frames(&ds, 1 | 2, o.spp_mask) != 0) return 1;
     static ew_train_frame tframes[MAX_FRAMES];
     static picker pk;
@@ -935,7 +850,7 @@ int main(int argc, char **argv) {
         ntrain++;
     }
     printf("%d training frames from %d scenes, %d validation frames; loaded in %.1f s\n", ntrain, pk.nused, nval,
-           now_s() - t_load);
+           train_now_s() - t_load);
     if (ntrain == 0 || nval == 0) {
         fprintf(stderr, "train_nbg: need training and validation scenes\n");
         return 1;
@@ -999,7 +914,7 @@ int main(int argc, char **argv) {
         if (old) fclose(old);
     }
 
-    double t0 = now_s(), last_ckpt = t0, loss_sum = 0, norm_sum = 0, norm_max = 0;
+    double t0 = train_now_s(), last_ckpt = t0, loss_sum = 0, norm_sum = 0, norm_max = 0;
     int nsum = 0, nclipped = 0;
     const int np = (int)net.nparams;
     ew_patch_ref *refs = (ew_patch_ref *)malloc(sizeof(ew_patch_ref) * (size_t)o.batch);
@@ -1039,9 +954,9 @@ int main(int argc, char **argv) {
                 summary_add(&sv, f->spp, &q);
             }
             summary_finish(&sv);
-            write_file_atomic(o.out, wb, ws);
+            if (train_write_file_atomic(o.out, wb, ws) != 0) fprintf(stderr, "train_nbg: cannot write '%s'\n", o.out);
             free(wb);
-            double el = now_s() - t0;
+            double el = train_now_s() - t0;
             printf("step %6ld  %6.0f s  lr %.2e  train loss %.5f  grad norm mean %.3g max %.3g, %d/%d clipped  |  val "
                    "PSNR %.2f dB (1spp %.2f, 4 %.2f, 16 %.2f, 64 %.2f) SSIM %.4f  [bgrid %.2f, input %.2f]\n",
                    step, el, adam.lr, loss_sum / nsum, norm_sum / nsum, norm_max, nclipped, nsum, sv.psnr,
@@ -1062,10 +977,10 @@ int main(int argc, char **argv) {
             nsum = nclipped = 0;
         }
         const int stop = o.stop_after > 0 && step >= o.stop_after;
-        if (now_s() - last_ckpt > 60.0 * o.ckpt_minutes || step == o.steps || stop) {
+        if (train_now_s() - last_ckpt > 60.0 * o.ckpt_minutes || step == o.steps || stop) {
             if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
                 fprintf(stderr, "train_nbg: could not write the checkpoint '%s'\n", o.checkpoint);
-            last_ckpt = now_s();
+            last_ckpt = train_now_s();
         }
         if (stop) {
             printf("stopped at step %ld (--stop-after); --resume continues\n", step);
@@ -1080,11 +995,11 @@ int main(int argc, char **argv) {
     void *wb;
     size_t ws;
     ew_guidenet_save(&net, params, &wb, &ws);
-    if (write_file_atomic(o.out, wb, ws) != 0) {
+    if (train_write_file_atomic(o.out, wb, ws) != 0) {
         fprintf(stderr, "train_nbg: cannot write '%s'\n", o.out);
         return 1;
     }
-    printf("wrote %s (%zu bytes) after %ld steps, %.0f s\n", o.out, ws, step, now_s() - t0);
+    printf("wrote %s (%zu bytes) after %ld steps, %.0f s\n", o.out, ws, step, train_now_s() - t0);
     free(wb);
     free(refs);
     free(vout);

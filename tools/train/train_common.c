@@ -1,0 +1,227 @@
+/* train_common.c — see train_common.h. */
+#include "train_common.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "cycles_passes.h"
+#include "ewio.h"
+
+double train_now_s(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+void *train_read_file(const char *path, size_t *size) {
+    *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    void *buf = n > 0 && fseek(f, 0, SEEK_SET) == 0 ? malloc((size_t)n) : NULL;
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    if (!buf) {
+        errno = n == 0 ? EINVAL : EIO; /* an empty file is no weights file either */
+        return NULL;
+    }
+    *size = (size_t)n;
+    return buf;
+}
+
+int train_write_file_atomic(const char *path, const void *data, size_t size) {
+    char tmp[PATH_MAX];
+    if (snprintf(tmp, sizeof tmp, "%s.XXXXXX", path) >= (int)sizeof tmp) return 1;
+    int fd = mkstemp(tmp);
+    if (fd < 0) return 1;
+    /* mkstemp makes the file 0600; a model is as readable as any file the user writes */
+    mode_t mask = umask(0);
+    umask(mask);
+    int bad = fchmod(fd, 0666 & ~mask) != 0;
+    const char *p = (const char *)data;
+    for (size_t left = size; !bad && left > 0;) {
+        ssize_t k = write(fd, p, left);
+        if (k < 0 && errno == EINTR) continue;
+        bad = k <= 0;
+        if (!bad) {
+            p += k;
+            left -= (size_t)k;
+        }
+    }
+    bad |= fsync(fd) != 0;
+    bad |= close(fd) != 0;
+    if (bad || rename(tmp, path) != 0) {
+        unlink(tmp);
+        return 1;
+    }
+    return 0;
+}
+
+int train_read_render(const char *path, int want_features, int *w, int *h, float **color, float **albedo,
+                      float **normal, float **depth) {
+    char err[1024];
+    ewio_file *f = NULL;
+    if (ewio_read(path, &f, err, sizeof err) != 0) {
+        fprintf(stderr, "%s: %s\n", train_prog, err);
+        return 1;
+    }
+    ew_layer_passes lp;
+    int found = 0;
+    for (int i = 0; i < ewio_num_layers(f) && !found; i++)
+        found = ew_find_layer_passes(f, ewio_layer_name(f, i), &lp, err, sizeof err) == 0;
+    if (!found) {
+        fprintf(stderr, "%s: '%s' has no colour pass\n", train_prog, path);
+        ewio_free(f);
+        return 1;
+    }
+    *w = ewio_width(f);
+    *h = ewio_height(f);
+    const size_t n = (size_t)*w * *h;
+    *color = (float *)malloc(n * 3 * sizeof(float));
+    int bad = !*color || ewio_get_pass(f, lp.layer, lp.color, "RGB", *color, err, sizeof err) != 0;
+    if (!bad && want_features) {
+        if (!lp.albedo || !lp.normal || !lp.depth) {
+            snprintf(err, sizeof err, "'%s' lacks albedo, normal or depth passes", path);
+            bad = 1;
+        } else {
+            *albedo = (float *)malloc(n * 3 * sizeof(float));
+            *normal = (float *)malloc(n * 3 * sizeof(float));
+            *depth = (float *)malloc(n * sizeof(float));
+            bad = !*albedo || !*normal || !*depth ||
+                  ewio_get_pass(f, lp.layer, lp.albedo, "RGB", *albedo, err, sizeof err) != 0 ||
+                  ewio_get_pass(f, lp.layer, lp.normal, "XYZ", *normal, err, sizeof err) != 0 ||
+                  ewio_get_pass(f, lp.layer, lp.depth, "Z", *depth, err, sizeof err) != 0;
+        }
+    }
+    ewio_free(f);
+    if (bad) fprintf(stderr, "%s: %s\n", train_prog, err);
+    return bad;
+}
+
+int train_checkpoint_save(const char *path, const void *model, size_t model_size, const ew_adam *adam,
+                          size_t nparams, long step) {
+    ew_weights w;
+    char err[256];
+    if (ew_weights_parse(model, model_size, &w, err, sizeof err) != 0) return 1;
+    ew_tensor *t = (ew_tensor *)realloc(w.tensors, sizeof(ew_tensor) * (w.num_tensors + 3));
+    if (!t) {
+        ew_weights_free(&w);
+        return 1;
+    }
+    w.tensors = t;
+    float stepf[2] = {(float)(step / 65536), (float)(step % 65536)};
+    ew_tensor extra[3];
+    memset(extra, 0, sizeof extra);
+    snprintf(extra[0].name, sizeof extra[0].name, "adam.m");
+    snprintf(extra[1].name, sizeof extra[1].name, "adam.v");
+    snprintf(extra[2].name, sizeof extra[2].name, "train.step");
+    extra[0].rank = extra[1].rank = extra[2].rank = 1;
+    extra[0].dims[0] = extra[1].dims[0] = (uint32_t)nparams;
+    extra[0].count = extra[1].count = nparams;
+    extra[2].dims[0] = 2;
+    extra[2].count = 2;
+    extra[0].data = adam->m;
+    extra[1].data = adam->v;
+    extra[2].data = stepf;
+    for (int k = 0; k < 3; k++) w.tensors[w.num_tensors + (uint32_t)k] = extra[k];
+    w.num_tensors += 3;
+    void *bytes;
+    size_t size;
+    int bad = ew_weights_serialize(&w, &bytes, &size) != 0;
+    w.num_tensors -= 3; /* the extra tensors' data is not the parse's to free */
+    ew_weights_free(&w);
+    if (bad) return 1;
+    bad = train_write_file_atomic(path, bytes, size);
+    free(bytes);
+    return bad;
+}
+
+int train_checkpoint_load(const char *path, size_t nparams, ew_weights *w, ew_adam *adam, long *step) {
+    size_t size;
+    void *bytes = train_read_file(path, &size);
+    if (!bytes) {
+        if (errno == ENOENT) return 1;
+        /* there is a file: starting over would overwrite it at the first checkpoint */
+        fprintf(stderr, "%s: checkpoint '%s' exists but cannot be read (%s)\n", train_prog, path, strerror(errno));
+        return 2;
+    }
+    char err[256];
+    int bad = ew_weights_parse(bytes, size, w, err, sizeof err);
+    free(bytes);
+    if (bad) {
+        fprintf(stderr, "%s: checkpoint '%s': %s\n", train_prog, path, err);
+        return 2;
+    }
+    uint32_t nd[1] = {(uint32_t)nparams}, sd[1] = {2};
+    const ew_tensor *m = ew_weights_find(w, "adam.m", 1, nd, err, sizeof err);
+    const ew_tensor *v = m ? ew_weights_find(w, "adam.v", 1, nd, err, sizeof err) : NULL;
+    const ew_tensor *s = v ? ew_weights_find(w, "train.step", 1, sd, err, sizeof err) : NULL;
+    if (!s) {
+        fprintf(stderr, "%s: checkpoint '%s' is not one of this architecture's (%s)\n", train_prog, path, err);
+        ew_weights_free(w);
+        return 2;
+    }
+    memcpy(adam->m, m->data, sizeof(float) * nparams);
+    memcpy(adam->v, v->data, sizeof(float) * nparams);
+    *step = (long)s->data[0] * 65536 + (long)s->data[1];
+    adam->step = (uint64_t)*step;
+    return 0;
+}
+
+int train_getopt_other(int c, const char *arg, const char *usage) {
+    if (c == 'h') {
+        fputs(usage, stdout);
+        exit(0);
+    }
+    if (c == ':') fprintf(stderr, "%s: %s needs a value\n", train_prog, arg);
+    else fprintf(stderr, "%s: unknown option '%s'\n%s", train_prog, arg, usage);
+    return 0;
+}
+
+int train_no_operands(int argc, char **argv, const char *usage) {
+    if (optind >= argc) return 1;
+    fprintf(stderr, "%s: unexpected argument '%s'\n%s", train_prog, argv[optind], usage);
+    return 0;
+}
+
+int train_parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (!*s || *end || errno || v < lo || v > hi) {
+        fprintf(stderr, "%s: %s takes a whole number from %ld to %ld, not '%s'\n", train_prog, opt, lo, hi, s);
+        return 0;
+    }
+    *out = v;
+    return 1;
+}
+
+int train_parse_int(const char *opt, const char *s, int lo, int hi, int *out) {
+    long v;
+    if (!train_parse_long(opt, s, lo, hi, &v)) return 0;
+    *out = (int)v;
+    return 1;
+}
+
+int train_parse_double(const char *opt, const char *s, double lo, double hi, double *out) {
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (!*s || *end || errno || !isfinite(v) || v < lo || v > hi) {
+        fprintf(stderr, "%s: %s takes a number from %g to %g, not '%s'\n", train_prog, opt, lo, hi, s);
+        return 0;
+    }
+    *out = v;
+    return 1;
+}
