@@ -35,16 +35,7 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #define EW_XB4 3
 #define EW_XB5 2
 #include "backends/cpu/cpu_conv_block.h"
-#undef EW_V
-#undef EW_VLOAD
-#undef EW_VSTORE
-#undef EW_VSET1
-#undef EW_VZERO
-#undef EW_VFMA
-#undef EW_SUFFIX
-#undef EW_VW
-#undef EW_XB4
-#undef EW_XB5
+#include "backends/cpu/cpu_simd_end.h"
 
 /* ---- AVX2 + FMA ------------------------------------------------------- */
 #if defined(__GNUC__) && defined(__x86_64__)
@@ -53,50 +44,18 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #pragma GCC target("avx2,fma")
 #include <immintrin.h>
 #define EW_V __m256
-#define EW_VLOAD(p) _mm256_loadu_ps(p)
-#define EW_VSTORE(p, v) _mm256_storeu_ps((p), (v))
-#define EW_VSET1(f) _mm256_set1_ps(f)
-#define EW_VZERO() _mm256_setzero_ps()
-#define EW_VFMA(a, b, c) _mm256_fmadd_ps((a), (b), (c))
+#define EW_MM(op) _mm256_##op
 #define EW_SUFFIX(name) name##_avx2
 #define EW_VW 8
 #define EW_XB4 3
 #define EW_XB5 2
-#include "backends/cpu/cpu_conv_block.h"
-#define EW_VADD(a, b) _mm256_add_ps((a), (b))
-#define EW_VSUB(a, b) _mm256_sub_ps((a), (b))
-#define EW_VMUL(a, b) _mm256_mul_ps((a), (b))
-#define EW_VMAX(a, b) _mm256_max_ps((a), (b))
-#define EW_VTRANS4(a, b, c, d)                                                                                       \
-    do {                                                                                                             \
-        const __m256 t0_ = _mm256_unpacklo_ps((a), (b)), t1_ = _mm256_unpackhi_ps((a), (b));                         \
-        const __m256 t2_ = _mm256_unpacklo_ps((c), (d)), t3_ = _mm256_unpackhi_ps((c), (d));                         \
-        (a) = _mm256_shuffle_ps(t0_, t2_, 0x44);                                                                     \
-        (b) = _mm256_shuffle_ps(t0_, t2_, 0xEE);                                                                     \
-        (c) = _mm256_shuffle_ps(t1_, t3_, 0x44);                                                                     \
-        (d) = _mm256_shuffle_ps(t1_, t3_, 0xEE);                                                                     \
-    } while (0)
 /* 16 registers: 4 channels x 3 vectors of 8 tiles accumulate */
 #define EW_WXB 3
 #define EW_WCB 4
+#include "backends/cpu/cpu_simd_x86.h"
+#include "backends/cpu/cpu_conv_block.h"
 #include "backends/cpu/cpu_conv_wino.h"
-#undef EW_VADD
-#undef EW_VSUB
-#undef EW_VMUL
-#undef EW_VMAX
-#undef EW_VTRANS4
-#undef EW_WXB
-#undef EW_WCB
-#undef EW_V
-#undef EW_VLOAD
-#undef EW_VSTORE
-#undef EW_VSET1
-#undef EW_VZERO
-#undef EW_VFMA
-#undef EW_SUFFIX
-#undef EW_VW
-#undef EW_XB4
-#undef EW_XB5
+#include "backends/cpu/cpu_simd_end.h"
 #pragma GCC pop_options
 
 /* ---- AVX-512 (forward blocks only) ----------------------------------- */
@@ -106,86 +65,19 @@ typedef float ew_v8u __attribute__((vector_size(32), aligned(4), may_alias));
 #pragma GCC push_options
 #pragma GCC target("avx512f,avx2,fma")
 #define EW_V __m512
-#define EW_VLOAD(p) _mm512_loadu_ps(p)
-#define EW_VSTORE(p, v) _mm512_storeu_ps((p), (v))
-#define EW_VSET1(f) _mm512_set1_ps(f)
-#define EW_VZERO() _mm512_setzero_ps()
-#define EW_VFMA(a, b, c) _mm512_fmadd_ps((a), (b), (c))
+#define EW_MM(op) _mm512_##op
 #define EW_SUFFIX(name) name##_avx512
 #define EW_VW 16
 #define EW_XB4 4
 #define EW_XB5 4
 #define EW_NO_DWEIGHT 1
-#include "backends/cpu/cpu_conv_block.h"
-#define EW_VADD(a, b) _mm512_add_ps((a), (b))
-#define EW_VSUB(a, b) _mm512_sub_ps((a), (b))
-#define EW_VMUL(a, b) _mm512_mul_ps((a), (b))
-#define EW_VMAX(a, b) _mm512_max_ps((a), (b))
-#define EW_VTRANS4(a, b, c, d)                                                                                       \
-    do {                                                                                                             \
-        const __m512 t0_ = _mm512_unpacklo_ps((a), (b)), t1_ = _mm512_unpackhi_ps((a), (b));                         \
-        const __m512 t2_ = _mm512_unpacklo_ps((c), (d)), t3_ = _mm512_unpackhi_ps((c), (d));                         \
-        (a) = _mm512_shuffle_ps(t0_, t2_, 0x44);                                                                     \
-        (b) = _mm512_shuffle_ps(t0_, t2_, 0xEE);                                                                     \
-        (c) = _mm512_shuffle_ps(t1_, t3_, 0x44);                                                                     \
-        (d) = _mm512_shuffle_ps(t1_, t3_, 0xEE);                                                                     \
-    } while (0)
 /* 32 registers: 8 channels x 2 vectors of 16 tiles accumulate */
 #define EW_WXB 2
 #define EW_WCB 8
+#include "backends/cpu/cpu_simd_x86.h"
+#include "backends/cpu/cpu_conv_block.h"
 #include "backends/cpu/cpu_conv_wino.h"
-#undef EW_VADD
-#undef EW_VSUB
-#undef EW_VMUL
-#undef EW_VMAX
-#undef EW_VTRANS4
-#undef EW_WXB
-#undef EW_WCB
-#undef EW_V
-#undef EW_VLOAD
-#undef EW_VSTORE
-#undef EW_VSET1
-#undef EW_VZERO
-#undef EW_VFMA
-#undef EW_SUFFIX
-#undef EW_VW
-#undef EW_XB4
-#undef EW_XB5
-#undef EW_NO_DWEIGHT
-#pragma GCC pop_options
-#endif
-
-#ifdef EW_HAVE_AVX2_PATH
-#pragma GCC push_options
-#pragma GCC target("avx2,fma")
-/* 12 independent FMA chains of 8 floats: enough in flight to fill two FMA
- * pipes with a 4-cycle latency. Returns the flops done. */
-static double fma_burn(long iters, float seed) {
-    __m256 a[12], m = _mm256_set1_ps(0.999999f), c = _mm256_set1_ps(1e-7f);
-    for (int k = 0; k < 12; k++) a[k] = _mm256_set1_ps(seed + (float)k);
-    for (long i = 0; i < iters; i++)
-        for (int k = 0; k < 12; k++) a[k] = _mm256_fmadd_ps(a[k], m, c);
-    float t[8];
-    __m256 s = a[0];
-    for (int k = 1; k < 12; k++) s = _mm256_add_ps(s, a[k]);
-    _mm256_storeu_ps(t, s);
-    return t[0] > -1.0f ? (double)iters * 12 * 8 * 2 : 0.0; /* (use the result) */
-}
-#pragma GCC pop_options
-#pragma GCC push_options
-#pragma GCC target("avx512f,avx2,fma")
-/* The same with 16-float vectors (the AVX-512 convolutions' peak). */
-static double fma_burn512(long iters, float seed) {
-    __m512 a[12], m = _mm512_set1_ps(0.999999f), c = _mm512_set1_ps(1e-7f);
-    for (int k = 0; k < 12; k++) a[k] = _mm512_set1_ps(seed + (float)k);
-    for (long i = 0; i < iters; i++)
-        for (int k = 0; k < 12; k++) a[k] = _mm512_fmadd_ps(a[k], m, c);
-    float t[16];
-    __m512 s = a[0];
-    for (int k = 1; k < 12; k++) s = _mm512_add_ps(s, a[k]);
-    _mm512_storeu_ps(t, s);
-    return t[0] > -1.0f ? (double)iters * 12 * 16 * 2 : 0.0;
-}
+#include "backends/cpu/cpu_simd_end.h"
 #pragma GCC pop_options
 #endif
 
@@ -199,8 +91,8 @@ static void peak_items(void *ctx, int64_t begin, int64_t end, int tid) {
     for (int64_t i = begin; i < end; i++) {
 #ifdef EW_HAVE_AVX2_PATH
         const int level = ew_conv_cpu_simd_level();
-        if (level == 2) j->flops[tid & 255] += fma_burn512(j->iters / 2, (float)i);
-        else if (level == 1) j->flops[tid & 255] += fma_burn(j->iters, (float)i);
+        if (level == 2) j->flops[tid & 255] += fma_burn_avx512(j->iters / 2, (float)i);
+        else if (level == 1) j->flops[tid & 255] += fma_burn_avx2(j->iters, (float)i);
 #else
         (void)j;
 #endif
