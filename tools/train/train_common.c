@@ -25,18 +25,27 @@ void *train_read_file(const char *path, size_t *size) {
     *size = 0;
     FILE *f = fopen(path, "rb");
     if (!f) return NULL;
-    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-    void *buf = n > 0 && fseek(f, 0, SEEK_SET) == 0 ? malloc((size_t)n) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    if (!buf) {
-        errno = n == 0 ? EINVAL : EIO; /* an empty file is no weights file either */
+    /* a directory opens too, and reports a size no allocation can take */
+    struct stat st;
+    int e = 0;
+    if (fstat(fileno(f), &st) != 0) e = errno;
+    else if (S_ISDIR(st.st_mode)) e = EISDIR;
+    else if (!S_ISREG(st.st_mode) || st.st_size <= 0) e = EINVAL; /* a device, a FIFO, an empty file: none is ours to read */
+    if (e) {
+        fclose(f);
+        errno = e;
         return NULL;
     }
-    *size = (size_t)n;
+    const size_t n = (size_t)st.st_size;
+    void *buf = malloc(n);
+    const int bad = !buf || fread(buf, 1, n, f) != n;
+    fclose(f);
+    if (bad) {
+        free(buf);
+        errno = EIO;
+        return NULL;
+    }
+    *size = n;
     return buf;
 }
 

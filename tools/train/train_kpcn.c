@@ -766,56 +766,54 @@ static int bench(int w, int h, int threads) {
     return 0;
 }
 
-const char *train_prog = "train_kpcn";
-
-int main(int argc, char **argv) {
-    static options o;
-    if (argc == 3 && !strcmp(argv[1], "--emit-c")) return emit_c(argv[2]);
-    if (argc == 5 && !strcmp(argv[1], "--bench")) {
-        int w, h, threads;
-        if (!train_parse_int("--bench W", argv[2], 16, 16384, &w) || !train_parse_int("--bench H", argv[3], 16, 16384, &h) ||
-            !train_parse_int("--bench THREADS", argv[4], 0, 1024, &threads))
-            return 2;
-        return bench(w, h, threads);
-    }
-    if (!parse(argc, argv, &o)) return 2;
-    ew_device_desc dd = EW_DEVICE_DESC_INIT;
-    dd.num_threads = o.threads;
-    ew_device *dev = NULL;
-    if (ew_device_create(&dd, &dev) != EW_OK) {
-        fprintf(stderr, "train_kpcn: cannot create the device\n");
+/* --eval: the model against nbg, auto (quality fast) and the input on the
+ * validation scenes */
+static int evaluate(const options *opt, ew_device *dev) {
+    const options o = *opt;
+    only_val = 1;
+    for (int i = 0; i < o.nval_dirs; i++) scan_dir(o.val[i], 1, 0, o.val_max);
+    for (int i = 0; i < o.ntrain_dirs; i++) scan_dir(o.train[i], 0, 0, o.val_max);
+    size_t size;
+    void *b = train_read_file(o.eval, &size);
+    if (!b) {
+        fprintf(stderr, "train_kpcn: cannot read '%s'\n", o.eval);
         return 1;
     }
+    double per[4], all, pn[4], an, pi[4], ai, pa[4], aa;
+    int ns;
+    auto_quality = 0;
+    const int bad = validate(dev, "kpcn", b, size, per, &all, &ns) || validate(dev, "nbg", NULL, 0, pn, &an, &ns) ||
+                    validate(dev, NULL, NULL, 0, pi, &ai, &ns) || validate(dev, "auto", NULL, 0, pa, &aa, &ns);
+    free(b);
+    if (bad) return 1;
+    printf("%d scenes, PSNR at 1/4/16/64 spp and all:\n", ns);
+    printf("  input %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pi[0], pi[1], pi[2], pi[3], ai);
+    printf("  nbg   %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pn[0], pn[1], pn[2], pn[3], an);
+    printf("  auto (quality fast) %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pa[0], pa[1], pa[2], pa[3], aa);
+    printf("  kpcn  %6.2f %6.2f %6.2f %6.2f | %6.2f\n", per[0], per[1], per[2], per[3], all);
+    return 0;
+}
+
+/* What a training run holds, freed by main however train() ends. */
+static struct {
+    float *params, *grad, *m, *v;
+    ew_kpcn_trainer *tr;
+    FILE *csv;
+} run;
+
+static void run_free(void) {
+    free(run.params);
+    free(run.grad);
+    free(run.m);
+    free(run.v);
+    if (run.tr) ew_kpcn_trainer_destroy(run.tr);
+    if (run.csv) fclose(run.csv);
+    memset(&run, 0, sizeof run);
+}
+
+static int train(const options *opt, ew_device *dev) {
+    const options o = *opt;
     char err[256];
-    if (o.scenes && read_allowed(o.scenes) != 0) {
-        fprintf(stderr, "train_kpcn: cannot read --scenes '%s'\n", o.scenes);
-        return 2;
-    }
-    if (o.eval) {
-        only_val = 1;
-        for (int i = 0; i < o.nval_dirs; i++) scan_dir(o.val[i], 1, 0, o.val_max);
-        for (int i = 0; i < o.ntrain_dirs; i++) scan_dir(o.train[i], 0, 0, o.val_max);
-        size_t size;
-        void *b = train_read_file(o.eval, &size);
-        if (!b) {
-            fprintf(stderr, "train_kpcn: cannot read '%s'\n", o.eval);
-            return 1;
-        }
-        double per[4], all, pn[4], an, pi[4], ai, pa[4], aa;
-        int ns;
-        auto_quality = 0;
-        if (validate(dev, "kpcn", b, size, per, &all, &ns) || validate(dev, "nbg", NULL, 0, pn, &an, &ns) ||
-            validate(dev, NULL, NULL, 0, pi, &ai, &ns) || validate(dev, "auto", NULL, 0, pa, &aa, &ns))
-            return 1;
-        printf("%d scenes, PSNR at 1/4/16/64 spp and all:\n", ns);
-        printf("  input %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pi[0], pi[1], pi[2], pi[3], ai);
-        printf("  nbg   %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pn[0], pn[1], pn[2], pn[3], an);
-        printf("  auto (quality fast) %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pa[0], pa[1], pa[2], pa[3], aa);
-        printf("  kpcn  %6.2f %6.2f %6.2f %6.2f | %6.2f\n", per[0], per[1], per[2], per[3], all);
-        free(b);
-        ew_device_destroy(dev);
-        return 0;
-    }
     ew_kpcn_net net;
     if (ew_kpcn_init(&net, o.arch, err, sizeof err) != 0) {
         fprintf(stderr, "train_kpcn: %s\n", err);
@@ -826,10 +824,14 @@ int main(int argc, char **argv) {
                 ew_kpcn_align(&net), net.arch, net.scales - 1);
         return 2;
     }
-    float *params = (float *)malloc(sizeof(float) * net.nparams);
-    float *grad = (float *)malloc(sizeof(float) * net.nparams);
-    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, (float *)calloc(net.nparams, sizeof(float)),
-                    (float *)calloc(net.nparams, sizeof(float))};
+    float *params = run.params = (float *)malloc(sizeof(float) * net.nparams);
+    float *grad = run.grad = (float *)malloc(sizeof(float) * net.nparams);
+    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, run.m = (float *)calloc(net.nparams, sizeof(float)),
+                    run.v = (float *)calloc(net.nparams, sizeof(float))};
+    if (!params || !grad || !adam.m || !adam.v) {
+        fprintf(stderr, "train_kpcn: out of memory for %zu parameters\n", net.nparams);
+        return 1;
+    }
     ew_kpcn_random(&net, o.seed, params);
     long step = 0;
     int resumed = 0;
@@ -872,7 +874,7 @@ int main(int argc, char **argv) {
         fprintf(stderr, "train_kpcn: no training scenes\n");
         return 1;
     }
-    ew_kpcn_trainer *tr = ew_kpcn_trainer_create(dev, &net, o.batch, o.patch, o.loss);
+    ew_kpcn_trainer *tr = run.tr = ew_kpcn_trainer_create(dev, &net, o.batch, o.patch, o.loss);
     if (!tr) {
         fprintf(stderr, "train_kpcn: out of memory for the trainer\n");
         return 1;
@@ -881,8 +883,11 @@ int main(int argc, char **argv) {
            "lr %g -> %g, clip %g, loss %s, %d threads\n",
            net.arch, net.nparams, ew_kpcn_macs_per_pixel(&net), o.seed, o.steps, o.batch, o.patch, o.lr, o.lr_final,
            o.clip, o.loss == EW_KPCN_LOSS_LOG ? "log" : "tm", ew_device_get_num_threads(dev));
-    FILE *csv = fopen(o.csv, step > 0 ? "a" : "w");
-    if (!csv) return 1;
+    FILE *csv = run.csv = fopen(o.csv, step > 0 ? "a" : "w");
+    if (!csv) {
+        fprintf(stderr, "train_kpcn: cannot write '%s'\n", o.csv);
+        return 1;
+    }
     if (step == 0)
         fprintf(csv, "step,seconds,lr,train_loss,grad_norm,train_scenes,val_scenes,val_psnr,val_1,val_4,val_16,val_64,"
                      "nbg_psnr,nbg_1,nbg_4,nbg_16,nbg_64\n");
@@ -965,8 +970,36 @@ int main(int argc, char **argv) {
             fflush(stdout);
         }
     }
-    fclose(csv);
-    ew_kpcn_trainer_destroy(tr);
-    ew_device_destroy(dev);
     return 0;
+}
+
+const char *train_prog = "train_kpcn";
+
+int main(int argc, char **argv) {
+    static options o;
+    if (argc == 3 && !strcmp(argv[1], "--emit-c")) return emit_c(argv[2]);
+    if (argc == 5 && !strcmp(argv[1], "--bench")) {
+        int w, h, threads;
+        if (!train_parse_int("--bench W", argv[2], 16, 16384, &w) || !train_parse_int("--bench H", argv[3], 16, 16384, &h) ||
+            !train_parse_int("--bench THREADS", argv[4], 0, 1024, &threads))
+            return 2;
+        return bench(w, h, threads);
+    }
+    if (!parse(argc, argv, &o)) return 2;
+    ew_device_desc dd = EW_DEVICE_DESC_INIT;
+    dd.num_threads = o.threads;
+    ew_device *dev = NULL;
+    if (ew_device_create(&dd, &dev) != EW_OK) {
+        fprintf(stderr, "train_kpcn: cannot create the device\n");
+        return 1;
+    }
+    if (o.scenes && read_allowed(o.scenes) != 0) {
+        fprintf(stderr, "train_kpcn: cannot read --scenes '%s'\n", o.scenes);
+        ew_device_destroy(dev);
+        return 2;
+    }
+    const int rc = o.eval ? evaluate(&o, dev) : train(&o, dev);
+    run_free();
+    ew_device_destroy(dev);
+    return rc;
 }

@@ -729,6 +729,268 @@ static int bench(const options *o, ew_device *dev) {
     return 0;
 }
 
+/* What a training run holds, freed by main however train() ends. */
+static struct {
+    float *params, *m, *v, *vout;
+    ew_patch_ref *refs;
+    ew_trainer *tr;
+    FILE *csv;
+} run;
+
+static void run_free(void) {
+    free(run.params);
+    free(run.m);
+    free(run.v);
+    free(run.vout);
+    free(run.refs);
+    if (run.tr) ew_trainer_destroy(run.tr);
+    if (run.csv) fclose(run.csv);
+    memset(&run, 0, sizeof run);
+}
+
+static int train(const options *opt, dataset *ds, ew_device *dev) {
+    const options o = *opt;
+    /* the net */
+    ew_guidenet net;
+    char err[256];
+    if (ew_guidenet_init(&net, o.arch, err, sizeof err) != 0) {
+        fprintf(stderr, "train_nbg: %s\n", err);
+        return 2;
+    }
+    if (o.rates) {
+        const char *s = o.rates;
+        for (int g = 0; g < net.ngrids; g++) {
+            float rs, rd;
+            int used = 0;
+            if (sscanf(s, "%f:%f%n", &rs, &rd, &used) != 2 || rs < 1 || rd < 1 || rs > 256 || rd > 256) {
+                fprintf(stderr, "train_nbg: --rates needs %d pairs eta_s:eta_d in [1, 256]\n", net.ngrids);
+                return 2;
+            }
+            net.rate_s[g] = rs;
+            net.rate_d[g] = rd;
+            s += used;
+            if (*s == ',') s++;
+        }
+    }
+    float *params = run.params = (float *)malloc(sizeof(float) * net.nparams);
+    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, run.m = (float *)calloc(net.nparams, sizeof(float)),
+                    run.v = (float *)calloc(net.nparams, sizeof(float))};
+    if (!params || !adam.m || !adam.v) {
+        fprintf(stderr, "train_nbg: out of memory for %zu parameters\n", net.nparams);
+        return 1;
+    }
+    ew_guidenet_random(&net, o.seed, params);
+    if (o.init) {
+        size_t size;
+        void *b = train_read_file(o.init, &size);
+        ew_weights w;
+        ew_guidenet other;
+        float *p = NULL;
+        if (!b || ew_weights_parse(b, size, &w, err, sizeof err) != 0 ||
+            ew_guidenet_from_weights(&other, &w, &p, err, sizeof err) != 0 || other.nparams != net.nparams) {
+            fprintf(stderr, "train_nbg: --init '%s': %s\n", o.init, b ? err : "cannot read");
+            return 1;
+        }
+        memcpy(params, p, sizeof(float) * net.nparams);
+        free(p);
+        free(b);
+        ew_weights_free(&w);
+    }
+    long step = 0;
+    if (o.resume) {
+        int r = load_checkpoint(o.checkpoint, &net, params, &adam, &step);
+        if (r == 2) return 1;
+        if (r == 0) printf("resumed from %s at step %ld\n", o.checkpoint, step);
+        else printf("no checkpoint at %s: starting from scratch\n", o.checkpoint);
+    }
+
+    /* data: train + validation scenes only */
+    printf("split (whole scenes; test scenes are not read):\n");
+    for (int i = 0; i < ds->nscenes; i++) printf("  %-5s %s\n", split_name(ds->scenes[i].split), ds->scenes[i].name);
+    double t_load = train_now_s();
+    if (load_frames(ds, 1 | 2, o.spp_mask) != 0) return 1;
+    static ew_train_frame tframes[MAX_FRAMES];
+    static picker pk;
+    int ntrain = 0, nval = 0;
+    pk.ds = ds;
+    for (int i = 0; i < ds->nframes; i++) {
+        const frame_info *f = &ds->frames[i];
+        if (ds->scenes[f->scene].split != 0) {
+            nval++;
+            continue;
+        }
+        if (f->w < o.patch || f->h < o.patch) {
+            fprintf(stderr, "train_nbg: frame %dx%d is smaller than --patch %d\n", f->w, f->h, o.patch);
+            return 1;
+        }
+        if (ew_train_frame_init(&tframes[ntrain], f->w, f->h, f->color, f->albedo, f->normal, f->depth, f->ref, 3.0f) != 0) {
+            fprintf(stderr, "train_nbg: out of memory\n");
+            return 1;
+        }
+        int s = f->scene;
+        if (pk.scene_count[s] == 0) pk.scenes_used[pk.nused++] = s;
+        if (pk.scene_count[s] < 64) pk.scene_frames[s][pk.scene_count[s]++] = ntrain;
+        ntrain++;
+    }
+    printf("%d training frames from %d scenes, %d validation frames; loaded in %.1f s\n", ntrain, pk.nused, nval,
+           train_now_s() - t_load);
+    if (ntrain == 0 || nval == 0) {
+        fprintf(stderr, "train_nbg: need training and validation scenes\n");
+        return 1;
+    }
+    /* baselines on the validation frames, once */
+    summary base_in, base_bg;
+    memset(&base_in, 0, sizeof base_in);
+    memset(&base_bg, 0, sizeof base_bg);
+    size_t most = 0;
+    for (int i = 0; i < ds->nframes; i++)
+        if ((size_t)ds->frames[i].w * ds->frames[i].h > most) most = (size_t)ds->frames[i].w * ds->frames[i].h;
+    float *vout = run.vout = (float *)malloc(sizeof(float) * 3 * most);
+    if (!vout) {
+        fprintf(stderr, "train_nbg: out of memory\n");
+        return 1;
+    }
+    for (int i = 0; i < ds->nframes; i++) {
+        const frame_info *f = &ds->frames[i];
+        if (ds->scenes[f->scene].split != 1) continue;
+        quality q;
+        if (run_method(dev, f, NULL, NULL, 0, vout, &q)) return 1;
+        summary_add(&base_in, f->spp, &q);
+        if (run_method(dev, f, "bgrid", NULL, 0, vout, &q)) return 1;
+        summary_add(&base_bg, f->spp, &q);
+    }
+    summary_finish(&base_in);
+    summary_finish(&base_bg);
+    printf("validation baselines: input %.2f dB, bgrid %.2f dB (1 spp: %.2f / %.2f)\n", base_in.psnr, base_bg.psnr,
+           base_in.psnr_spp[0], base_bg.psnr_spp[0]);
+
+    ew_trainer *tr = run.tr = ew_trainer_create(dev, &net, o.batch, o.patch);
+    if (!tr) {
+        fprintf(stderr, "train_nbg: out of memory for the trainer\n");
+        return 1;
+    }
+    printf("arch %s: %zu parameters, %.0f multiply-adds a pixel, grids", net.arch, net.nparams,
+           ew_guidenet_macs_per_pixel(&net));
+    for (int g = 0; g < net.ngrids; g++) printf(" (%g, %g)", (double)net.rate_s[g], (double)net.rate_d[g]);
+    printf("; seed %lu, %ld steps of %d patches of %d^2, lr %g -> %g, clip %g, %d threads\n", o.seed, o.steps, o.batch,
+           o.patch, o.lr, o.lr_final, o.clip, ew_device_get_num_threads(dev));
+    fflush(stdout);
+
+    /* the curve so far (a resumed run appends to its CSV) */
+    static curve_point pts[100000];
+    int npts = 0;
+    FILE *csv = run.csv = fopen(o.csv, step > 0 ? "a" : "w");
+    if (!csv) {
+        fprintf(stderr, "train_nbg: cannot write '%s'\n", o.csv);
+        return 1;
+    }
+    if (step == 0)
+        fprintf(csv, "step,seconds,lr,train_loss,grad_norm_mean,grad_norm_max,clipped_steps,val_psnr,val_ssim,"
+                     "val_psnr_1spp,val_psnr_4spp,val_psnr_16spp,val_psnr_64spp,bgrid_val_psnr,input_val_psnr\n");
+    else {
+        FILE *old = fopen(o.csv, "r");
+        char line[1024];
+        while (old && fgets(line, sizeof line, old)) {
+            curve_point p;
+            double sec, lr, gm, gx, cl, ssim, p4, p16, p64;
+            if (sscanf(line, "%ld,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &p.step, &sec, &lr, &p.loss, &gm, &gx,
+                       &cl, &p.psnr, &ssim, &p.psnr1, &p4, &p16, &p64, &p.bgrid, &p.input) == 15 &&
+                p.step <= step && npts < 100000)
+                pts[npts++] = p;
+        }
+        if (old) fclose(old);
+    }
+
+    double t0 = train_now_s(), last_ckpt = t0, loss_sum = 0, norm_sum = 0, norm_max = 0;
+    int nsum = 0, nclipped = 0;
+    const int np = (int)net.nparams;
+    ew_patch_ref *refs = run.refs = (ew_patch_ref *)malloc(sizeof(ew_patch_ref) * (size_t)o.batch);
+    if (!refs) return 1;
+    while (step < o.steps) {
+        /* cosine schedule, a function of the step alone */
+        adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979323846 * (double)step / (double)o.steps));
+        for (int b = 0; b < o.batch; b++) refs[b] = ew_train_pick(o.seed, (uint64_t)step, b, tframes, pick_frame, &pk, o.patch);
+        ew_train_step_stats st;
+        ew_trainer_step(tr, params, &adam, tframes, refs, o.clip, &st);
+        step++;
+        if (!isfinite(st.loss) || !isfinite(st.grad_norm)) {
+            fprintf(stderr, "train_nbg: step %ld: loss %g, gradient norm %g: stopping (the last checkpoint is intact)\n",
+                    step, st.loss, st.grad_norm);
+            return 1;
+        }
+        loss_sum += st.loss;
+        norm_sum += st.grad_norm;
+        if (st.grad_norm > norm_max) norm_max = st.grad_norm;
+        nsum++;
+        if (st.clipped) {
+            nclipped++;
+            /* logged, never silently dropped: the step still happens, scaled */
+            if (nclipped <= 3)
+                printf("  step %ld: gradient norm %.4g clipped to %.4g\n", step, st.grad_norm, o.clip);
+        }
+        if (step % o.val_every == 0 || step == o.steps) {
+            void *wb;
+            size_t ws;
+            ew_guidenet_save(&net, params, &wb, &ws);
+            summary sv;
+            memset(&sv, 0, sizeof sv);
+            for (int i = 0; i < ds->nframes; i++) {
+                const frame_info *f = &ds->frames[i];
+                if (ds->scenes[f->scene].split != 1) continue;
+                quality q;
+                if (run_method(dev, f, "nbg", wb, ws, vout, &q)) return 1;
+                summary_add(&sv, f->spp, &q);
+            }
+            summary_finish(&sv);
+            if (train_write_file_atomic(o.out, wb, ws) != 0) fprintf(stderr, "train_nbg: cannot write '%s'\n", o.out);
+            free(wb);
+            double el = train_now_s() - t0;
+            printf("step %6ld  %6.0f s  lr %.2e  train loss %.5f  grad norm mean %.3g max %.3g, %d/%d clipped  |  val "
+                   "PSNR %.2f dB (1spp %.2f, 4 %.2f, 16 %.2f, 64 %.2f) SSIM %.4f  [bgrid %.2f, input %.2f]\n",
+                   step, el, adam.lr, loss_sum / nsum, norm_sum / nsum, norm_max, nclipped, nsum, sv.psnr,
+                   sv.psnr_spp[0], sv.psnr_spp[1], sv.psnr_spp[2], sv.psnr_spp[3], sv.ssim, base_bg.psnr, base_in.psnr);
+            fprintf(csv, "%ld,%.1f,%.4g,%.6f,%.5g,%.5g,%d,%.4f,%.5f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n", step, el, adam.lr,
+                    loss_sum / nsum, norm_sum / nsum, norm_max, nclipped, sv.psnr, sv.ssim, sv.psnr_spp[0],
+                    sv.psnr_spp[1], sv.psnr_spp[2], sv.psnr_spp[3], base_bg.psnr, base_in.psnr);
+            fflush(csv);
+            if (npts < 100000) {
+                curve_point p = {step, loss_sum / nsum, sv.psnr, sv.psnr_spp[0], base_bg.psnr, base_in.psnr};
+                pts[npts++] = p;
+            }
+            char title[160];
+            snprintf(title, sizeof title, "nbg %s, seed %lu: validation scenes (%d frames)", net.arch, o.seed, nval);
+            write_svg(o.svg, pts, npts, title);
+            fflush(stdout);
+            loss_sum = norm_sum = norm_max = 0;
+            nsum = nclipped = 0;
+        }
+        const int stop = o.stop_after > 0 && step >= o.stop_after;
+        if (train_now_s() - last_ckpt > 60.0 * o.ckpt_minutes || step == o.steps || stop) {
+            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
+                fprintf(stderr, "train_nbg: could not write the checkpoint '%s'\n", o.checkpoint);
+            last_ckpt = train_now_s();
+        }
+        if (stop) {
+            printf("stopped at step %ld (--stop-after); --resume continues\n", step);
+            return 0;
+        }
+    }
+    /* the final model (also written at each validation) */
+    void *wb;
+    size_t ws;
+    ew_guidenet_save(&net, params, &wb, &ws);
+    if (train_write_file_atomic(o.out, wb, ws) != 0) {
+        fprintf(stderr, "train_nbg: cannot write '%s'\n", o.out);
+        free(wb);
+        return 1;
+    }
+    printf("wrote %s (%zu bytes) after %ld steps, %.0f s\n", o.out, ws, step, train_now_s() - t0);
+    free(wb);
+    for (int i = 0; i < ntrain; i++) ew_train_frame_free(&tframes[i]);
+    (void)np;
+    return 0;
+}
+
 const char *train_prog = "train_nbg";
 
 int main(int argc, char **argv) {
@@ -765,250 +1027,8 @@ int main(int argc, char **argv) {
         fprintf(stderr, "train_nbg: cannot create the device\n");
         return 1;
     }
-    if (o.eval) {
-        int rc = evaluate(&o, &ds, dev);
-        ew_device_destroy(dev);
-        return rc;
-    }
-
-    /* the net */
-    ew_guidenet net;
-    char err[256];
-    if (ew_guidenet_init(&net, o.arch, err, sizeof err) != 0) {
-        fprintf(stderr, "train_nbg: %s\n", err);
-        return 2;
-    }
-    if (o.rates) {
-        const char *s = o.rates;
-        for (int g = 0; g < net.ngrids; g++) {
-            float rs, rd;
-            int used = 0;
-            if (sscanf(s, "%f:%f%n", &rs, &rd, &used) != 2 || rs < 1 || rd < 1 || rs > 256 || rd > 256) {
-                fprintf(stderr, "train_nbg: --rates needs %d pairs eta_s:eta_d in [1, 256]\n", net.ngrids);
-                return 2;
-            }
-            net.rate_s[g] = rs;
-            net.rate_d[g] = rd;
-            s += used;
-            if (*s == ',') s++;
-        }
-    }
-    float *params = (float *)malloc(sizeof(float) * net.nparams);
-    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, (float *)calloc(net.nparams, sizeof(float)),
-                    (float *)calloc(net.nparams, sizeof(float))};
-    ew_guidenet_random(&net, o.seed, params);
-    if (o.init) {
-        size_t size;
-        void *b = train_read_file(o.init, &size);
-        ew_weights w;
-        ew_guidenet other;
-        float *p = NULL;
-        if (!b || ew_weights_parse(b, size, &w, err, sizeof err) != 0 ||
-            ew_guidenet_from_weights(&other, &w, &p, err, sizeof err) != 0 || other.nparams != net.nparams) {
-            fprintf(stderr, "train_nbg: --init '%s': %s\n", o.init, b ? err : "cannot read");
-            return 1;
-        }
-        memcpy(params, p, sizeof(float) * net.nparams);
-        free(p);
-        free(b);
-        ew_weights_free(&w);
-    }
-    long step = 0;
-    if (o.resume) {
-        int r = load_checkpoint(o.checkpoint, &net, params, &adam, &step);
-        if (r == 2) return 1;
-        if (r == 0) printf("resumed from %s at step %ld\n", o.checkpoint, step);
-        else printf("no checkpoint at %s: starting from scratch\n", o.checkpoint);
-    }
-
-    /* data: train + validation scenes only */
-    printf("split (whole scenes; test scenes are not read):\n");
-    for (int i = 0; i < ds.nscenes; i++) printf("  %-5s %s\n", split_name(ds.scenes[i].split), ds.scenes[i].name);
-    double t_load = train_now_s();
-    if (load_frames(&ds, 1 | 2, o.spp_mask) != 0) return 1;
-    static ew_train_frame tframes[MAX_FRAMES];
-    static picker pk;
-    int ntrain = 0, nval = 0;
-    pk.ds = &ds;
-    for (int i = 0; i < ds.nframes; i++) {
-        const frame_info *f = &ds.frames[i];
-        if (ds.scenes[f->scene].split != 0) {
-            nval++;
-            continue;
-        }
-        if (f->w < o.patch || f->h < o.patch) {
-            fprintf(stderr, "train_nbg: frame %dx%d is smaller than --patch %d\n", f->w, f->h, o.patch);
-            return 1;
-        }
-        if (ew_train_frame_init(&tframes[ntrain], f->w, f->h, f->color, f->albedo, f->normal, f->depth, f->ref, 3.0f) != 0) {
-            fprintf(stderr, "train_nbg: out of memory\n");
-            return 1;
-        }
-        int s = f->scene;
-        if (pk.scene_count[s] == 0) pk.scenes_used[pk.nused++] = s;
-        if (pk.scene_count[s] < 64) pk.scene_frames[s][pk.scene_count[s]++] = ntrain;
-        ntrain++;
-    }
-    printf("%d training frames from %d scenes, %d validation frames; loaded in %.1f s\n", ntrain, pk.nused, nval,
-           train_now_s() - t_load);
-    if (ntrain == 0 || nval == 0) {
-        fprintf(stderr, "train_nbg: need training and validation scenes\n");
-        return 1;
-    }
-    /* baselines on the validation frames, once */
-    summary base_in, base_bg;
-    memset(&base_in, 0, sizeof base_in);
-    memset(&base_bg, 0, sizeof base_bg);
-    size_t most = 0;
-    for (int i = 0; i < ds.nframes; i++)
-        if ((size_t)ds.frames[i].w * ds.frames[i].h > most) most = (size_t)ds.frames[i].w * ds.frames[i].h;
-    float *vout = (float *)malloc(sizeof(float) * 3 * most);
-    for (int i = 0; i < ds.nframes; i++) {
-        const frame_info *f = &ds.frames[i];
-        if (ds.scenes[f->scene].split != 1) continue;
-        quality q;
-        if (run_method(dev, f, NULL, NULL, 0, vout, &q)) return 1;
-        summary_add(&base_in, f->spp, &q);
-        if (run_method(dev, f, "bgrid", NULL, 0, vout, &q)) return 1;
-        summary_add(&base_bg, f->spp, &q);
-    }
-    summary_finish(&base_in);
-    summary_finish(&base_bg);
-    printf("validation baselines: input %.2f dB, bgrid %.2f dB (1 spp: %.2f / %.2f)\n", base_in.psnr, base_bg.psnr,
-           base_in.psnr_spp[0], base_bg.psnr_spp[0]);
-
-    ew_trainer *tr = ew_trainer_create(dev, &net, o.batch, o.patch);
-    if (!tr) {
-        fprintf(stderr, "train_nbg: out of memory for the trainer\n");
-        return 1;
-    }
-    printf("arch %s: %zu parameters, %.0f multiply-adds a pixel, grids", net.arch, net.nparams,
-           ew_guidenet_macs_per_pixel(&net));
-    for (int g = 0; g < net.ngrids; g++) printf(" (%g, %g)", (double)net.rate_s[g], (double)net.rate_d[g]);
-    printf("; seed %lu, %ld steps of %d patches of %d^2, lr %g -> %g, clip %g, %d threads\n", o.seed, o.steps, o.batch,
-           o.patch, o.lr, o.lr_final, o.clip, ew_device_get_num_threads(dev));
-    fflush(stdout);
-
-    /* the curve so far (a resumed run appends to its CSV) */
-    static curve_point pts[100000];
-    int npts = 0;
-    FILE *csv = fopen(o.csv, step > 0 ? "a" : "w");
-    if (!csv) {
-        fprintf(stderr, "train_nbg: cannot write '%s'\n", o.csv);
-        return 1;
-    }
-    if (step == 0)
-        fprintf(csv, "step,seconds,lr,train_loss,grad_norm_mean,grad_norm_max,clipped_steps,val_psnr,val_ssim,"
-                     "val_psnr_1spp,val_psnr_4spp,val_psnr_16spp,val_psnr_64spp,bgrid_val_psnr,input_val_psnr\n");
-    else {
-        FILE *old = fopen(o.csv, "r");
-        char line[1024];
-        while (old && fgets(line, sizeof line, old)) {
-            curve_point p;
-            double sec, lr, gm, gx, cl, ssim, p4, p16, p64;
-            if (sscanf(line, "%ld,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &p.step, &sec, &lr, &p.loss, &gm, &gx,
-                       &cl, &p.psnr, &ssim, &p.psnr1, &p4, &p16, &p64, &p.bgrid, &p.input) == 15 &&
-                p.step <= step && npts < 100000)
-                pts[npts++] = p;
-        }
-        if (old) fclose(old);
-    }
-
-    double t0 = train_now_s(), last_ckpt = t0, loss_sum = 0, norm_sum = 0, norm_max = 0;
-    int nsum = 0, nclipped = 0;
-    const int np = (int)net.nparams;
-    ew_patch_ref *refs = (ew_patch_ref *)malloc(sizeof(ew_patch_ref) * (size_t)o.batch);
-    while (step < o.steps) {
-        /* cosine schedule, a function of the step alone */
-        adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979323846 * (double)step / (double)o.steps));
-        for (int b = 0; b < o.batch; b++) refs[b] = ew_train_pick(o.seed, (uint64_t)step, b, tframes, pick_frame, &pk, o.patch);
-        ew_train_step_stats st;
-        ew_trainer_step(tr, params, &adam, tframes, refs, o.clip, &st);
-        step++;
-        if (!isfinite(st.loss) || !isfinite(st.grad_norm)) {
-            fprintf(stderr, "train_nbg: step %ld: loss %g, gradient norm %g: stopping (the last checkpoint is intact)\n",
-                    step, st.loss, st.grad_norm);
-            return 1;
-        }
-        loss_sum += st.loss;
-        norm_sum += st.grad_norm;
-        if (st.grad_norm > norm_max) norm_max = st.grad_norm;
-        nsum++;
-        if (st.clipped) {
-            nclipped++;
-            /* logged, never silently dropped: the step still happens, scaled */
-            if (nclipped <= 3)
-                printf("  step %ld: gradient norm %.4g clipped to %.4g\n", step, st.grad_norm, o.clip);
-        }
-        if (step % o.val_every == 0 || step == o.steps) {
-            void *wb;
-            size_t ws;
-            ew_guidenet_save(&net, params, &wb, &ws);
-            summary sv;
-            memset(&sv, 0, sizeof sv);
-            for (int i = 0; i < ds.nframes; i++) {
-                const frame_info *f = &ds.frames[i];
-                if (ds.scenes[f->scene].split != 1) continue;
-                quality q;
-                if (run_method(dev, f, "nbg", wb, ws, vout, &q)) return 1;
-                summary_add(&sv, f->spp, &q);
-            }
-            summary_finish(&sv);
-            if (train_write_file_atomic(o.out, wb, ws) != 0) fprintf(stderr, "train_nbg: cannot write '%s'\n", o.out);
-            free(wb);
-            double el = train_now_s() - t0;
-            printf("step %6ld  %6.0f s  lr %.2e  train loss %.5f  grad norm mean %.3g max %.3g, %d/%d clipped  |  val "
-                   "PSNR %.2f dB (1spp %.2f, 4 %.2f, 16 %.2f, 64 %.2f) SSIM %.4f  [bgrid %.2f, input %.2f]\n",
-                   step, el, adam.lr, loss_sum / nsum, norm_sum / nsum, norm_max, nclipped, nsum, sv.psnr,
-                   sv.psnr_spp[0], sv.psnr_spp[1], sv.psnr_spp[2], sv.psnr_spp[3], sv.ssim, base_bg.psnr, base_in.psnr);
-            fprintf(csv, "%ld,%.1f,%.4g,%.6f,%.5g,%.5g,%d,%.4f,%.5f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n", step, el, adam.lr,
-                    loss_sum / nsum, norm_sum / nsum, norm_max, nclipped, sv.psnr, sv.ssim, sv.psnr_spp[0],
-                    sv.psnr_spp[1], sv.psnr_spp[2], sv.psnr_spp[3], base_bg.psnr, base_in.psnr);
-            fflush(csv);
-            if (npts < 100000) {
-                curve_point p = {step, loss_sum / nsum, sv.psnr, sv.psnr_spp[0], base_bg.psnr, base_in.psnr};
-                pts[npts++] = p;
-            }
-            char title[160];
-            snprintf(title, sizeof title, "nbg %s, seed %lu: validation scenes (%d frames)", net.arch, o.seed, nval);
-            write_svg(o.svg, pts, npts, title);
-            fflush(stdout);
-            loss_sum = norm_sum = norm_max = 0;
-            nsum = nclipped = 0;
-        }
-        const int stop = o.stop_after > 0 && step >= o.stop_after;
-        if (train_now_s() - last_ckpt > 60.0 * o.ckpt_minutes || step == o.steps || stop) {
-            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
-                fprintf(stderr, "train_nbg: could not write the checkpoint '%s'\n", o.checkpoint);
-            last_ckpt = train_now_s();
-        }
-        if (stop) {
-            printf("stopped at step %ld (--stop-after); --resume continues\n", step);
-            fclose(csv);
-            ew_trainer_destroy(tr);
-            ew_device_destroy(dev);
-            return 0;
-        }
-    }
-    fclose(csv);
-    /* the final model (also written at each validation) */
-    void *wb;
-    size_t ws;
-    ew_guidenet_save(&net, params, &wb, &ws);
-    if (train_write_file_atomic(o.out, wb, ws) != 0) {
-        fprintf(stderr, "train_nbg: cannot write '%s'\n", o.out);
-        return 1;
-    }
-    printf("wrote %s (%zu bytes) after %ld steps, %.0f s\n", o.out, ws, step, train_now_s() - t0);
-    free(wb);
-    free(refs);
-    free(vout);
-    free(params);
-    free(adam.m);
-    free(adam.v);
-    ew_trainer_destroy(tr);
-    for (int i = 0; i < ntrain; i++) ew_train_frame_free(&tframes[i]);
+    const int rc = o.eval ? evaluate(&o, &ds, dev) : train(&o, &ds, dev);
+    run_free();
     ew_device_destroy(dev);
-    (void)np;
-    return 0;
+    return rc;
 }
