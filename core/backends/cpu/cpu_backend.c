@@ -194,22 +194,36 @@ static EW_MULTIVERSION void robust_count_shifted(const robust_row *c, const robu
  * ew_outlier_guided_px itself: the same tests and decisions, the same bits. */
 static int outlier_robust_rows(const ew_outlier_params *p, const ew_outlier_buffers *b, int64_t begin, int64_t end) {
     const int w = p->width, h = p->height, r = ew_mini(p->radius, EW_OUTLIER_ROBUST_RADIUS), cc = b->channels;
-    float *fbuf = (float *)calloc((size_t)w * 17, sizeof(float));
-    int *ibuf = (int *)malloc((size_t)w * 7 * sizeof(int));
+    /* a ring of the 2 r + 1 rows of the window, each filled once for this
+     * range of rows (slot yy mod ring holds row yy) */
+    enum { RING = 2 * EW_OUTLIER_ROBUST_RADIUS + 1 };
+    const int ring = 2 * r + 1;
+    float *fbuf = (float *)calloc((size_t)w * (8 * (size_t)ring + 1), sizeof(float));
+    int *ibuf = (int *)malloc((size_t)w * (5 + (size_t)ring) * sizeof(int));
     if (!fbuf || !ibuf) {
         free(fbuf);
         free(ibuf);
         return 0;
     }
-    float *f = fbuf;
-    int *in = ibuf;
-    robust_row centre = {f, f + w, f + 2 * w, f + 3 * w, f + 4 * w, f + 5 * w, f + 6 * w, f + 7 * w, in};
-    robust_row nb = {f + 8 * w, f + 9 * w, f + 10 * w, f + 11 * w, f + 12 * w, f + 13 * w, f + 14 * w, f + 15 * w, in + w};
-    float *keep = f + 16 * w;
-    int *use_a = in + 2 * w, *use_n = in + 3 * w, *n = in + 4 * w, *below = in + 5 * w, *judge = in + 6 * w;
+    robust_row rows[RING];
+    int held[RING];
+    for (int i = 0; i < ring; i++) {
+        float *f = fbuf + (size_t)8 * (size_t)w * (size_t)i;
+        const robust_row row = {f, f + w, f + 2 * w, f + 3 * w, f + 4 * w, f + 5 * w, f + 6 * w, f + 7 * w,
+                                ibuf + (size_t)(5 + i) * (size_t)w};
+        rows[i] = row;
+        held[i] = -1;
+    }
+    float *keep = fbuf + (size_t)8 * (size_t)w * (size_t)ring;
+    int *use_a = ibuf, *use_n = ibuf + w, *n = ibuf + 2 * w, *below = ibuf + 3 * w, *judge = ibuf + 4 * w;
     for (int64_t yl = begin; yl < end; yl++) {
-        const int y = (int)yl;
-        robust_row_fill(b, w, y, &centre);
+        const int y = (int)yl, y0 = ew_maxi(y - r, 0), y1 = ew_mini(y + r, h - 1);
+        for (int yy = y0; yy <= y1; yy++)
+            if (held[yy % ring] != yy) {
+                robust_row_fill(b, w, yy, &rows[yy % ring]);
+                held[yy % ring] = yy;
+            }
+        const robust_row *centre = &rows[y % ring];
         for (int x = 0; x < w; x++) {
             const long j = (long)y * w + x;
             const float *c0 = b->color + j * cc;
@@ -221,24 +235,23 @@ static int outlier_robust_rows(const ew_outlier_params *p, const ew_outlier_buff
             use_a[x] = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
             use_n[x] = b->normal != 0 && ew_outlier_finite3(b->normal + j * 3);
             /* 0: kept as it is; 1: by the count; 2: by the per-pixel function */
-            if (!centre.finite[x]) {
+            if (!centre->finite[x]) {
                 judge[x] = p->repair ? 2 : 0;
-            } else if (p->k <= 0.0f || !(centre.lum[x] > 0.0f)) {
+            } else if (p->k <= 0.0f || !(centre->lum[x] > 0.0f)) {
                 judge[x] = 0;
             } else if (use_a[x] && p->emitter_albedo > 0.0f && ew_outlier_lone_emitter(x, y, p, b)) {
                 judge[x] = 2;
             } else {
                 judge[x] = 1;
-                keep[x] = ew_outlier_keep_below(p, centre.lum[x]);
+                keep[x] = ew_outlier_keep_below(p, centre->lum[x]);
             }
         }
-        for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++) {
-            robust_row_fill(b, w, yy, &nb);
+        for (int yy = y0; yy <= y1; yy++) {
             for (int dx = -r; dx <= r; dx++) {
                 const int lo = dx < 0 ? -dx : 0, hi = dx > 0 ? w - dx : w;
                 if ((yy != y || dx != 0) && lo < hi)
-                    robust_count_shifted(&centre, &nb, use_a, use_n, keep, n, below, lo, hi, dx, p->albedo_tol,
-                                         p->normal_cos);
+                    robust_count_shifted(centre, &rows[yy % ring], use_a, use_n, keep, n, below, lo, hi, dx,
+                                         p->albedo_tol, p->normal_cos);
             }
         }
         for (int x = 0; x < w; x++)
