@@ -58,7 +58,8 @@
 #define EW_KERNELS_HARM_H
 
 #include "kernels/color.h"
-#include "kernels/denoise_px.h" /* ew_albedo_factor */
+#include "kernels/denoise_px.h" /* EW_ALBEDO_EPSILON */
+#include "kernels/fastmath.h"
 
 
 enum {
@@ -112,20 +113,62 @@ typedef struct ew_harm_args {
 
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
 
-EW_HD float ew_harm_albedo(const ew_harm_args *a, long j, int c) {
-    return a->albedo ? ew_albedo_factor(a->albedo[j * 3 + c]) : 1.0f;
+/* ew_albedo_factor's value (a damaged or negative albedo counts as black),
+ * by an integer mask on the bits: 0 < bits < those of +inf is a positive,
+ * finite albedo. Branch-free, so that a row of them vectorises. */
+EW_HD float ew_harm_albedo_factor(float albedo) {
+    const int b = ew_float_to_bits(albedo);
+    return ew_bits_to_float(b & -((b > 0) & (b < 0x7f800000))) + EW_ALBEDO_EPSILON;
 }
 
-/* display-like compression (see above); non-finite and negative: 0 */
-EW_HD float ew_harm_tone(float v) {
-    if (!(v > 0.0f)) return 0.0f;
-    if (v < 1.0f) return powf(v, 1.0f / 2.2f);
-    return ew_finitef(v) ? 1.0f + logf(v) * (1.0f / 2.2f) : 0.0f;
+EW_HD float ew_harm_albedo(const ew_harm_args *a, long j, int c) {
+    return a->albedo ? ew_harm_albedo_factor(a->albedo[j * 3 + c]) : 1.0f;
 }
+
+/* the finite test of ew_finitef on the bits (vectorises): not all exponent bits set */
+EW_HD int ew_harm_finite_bits(float v) { return (ew_float_to_bits(v) & 0x7f800000) != 0x7f800000; }
+
+/* REMOD's choice for a pixel: the caller's colour where the rejection kept
+ * the radiance r0 as r1 (or r1 is not finite) */
+EW_HD int ew_harm_kept(const float *r0, const float *r1) {
+    return ((r0[0] == r1[0]) & (r0[1] == r1[1]) & (r0[2] == r1[2])) |
+           !(ew_harm_finite_bits(r1[0]) & ew_harm_finite_bits(r1[1]) & ew_harm_finite_bits(r1[2]));
+}
+
+/* display-like compression (see above): v^(1/2.2) below 1, 1 + ln(v) / 2.2
+ * above; non-finite and negative: 0. Through log2 and exp2 in plain
+ * arithmetic (kernels/fastmath.h, a few 1e-7 relative, as libm's powf and
+ * logf round), both branches computed and one taken by integer masks on
+ * the bits (positive floats order as ints), so that a row of them
+ * vectorises: the stage takes six a pixel. (Below 1e-37 the value is that
+ * of 1e-37, 1e-17: a residual's scale is 1e-3 and up.) */
+EW_HD float ew_harm_log2(float v) { /* ew_flog2's value, in integer selects (vectorises) */
+    int b = ew_float_to_bits(v);
+    b = b < 0x02081cea ? 0x02081cea : b; /* 1e-37 (and v <= 0, as ints) */
+    const int big = (b & 0x007fffff) > 0x003504f3; /* mantissa > sqrt(2): halved */
+    const float m = ew_bits_to_float(((b & 0x007fffff) | 0x3f800000) - (big << 23));
+    return (float)((b >> 23) - 127 + big) + ew_flog2_mantissa(m);
+}
+
+EW_HD float ew_harm_tone(float v) {
+    const int b = ew_float_to_bits(v);
+    const float l = ew_harm_log2(v);
+    const float below = ew_fexp2(l * (1.0f / 2.2f)), above = 1.0f + l * (0.693147181f / 2.2f);
+    const int lo = -(b < 0x3f800000), ok = -((b > 0) & (b < 0x7f800000)); /* v < 1; 0 < v < inf */
+    return ew_bits_to_float(((ew_float_to_bits(below) & lo) | (ew_float_to_bits(above) & ~lo)) & ok);
+}
+
+/* v where it is finite, else 0 (integer masks: vectorises) */
+EW_HD float ew_harm_finite_or0(float v) {
+    const int b = ew_float_to_bits(v);
+    return ew_bits_to_float(b & -((b & 0x7f800000) != 0x7f800000));
+}
+
+/* T(c) - T(o): finite (T is) */
+EW_HD float ew_harm_tone_diff(float c, float o) { return ew_harm_tone(c) - ew_harm_tone(o); }
 
 EW_HD float ew_harm_residual(const ew_harm_args *a, long j, int c) {
-    const float d = ew_harm_tone(a->clamped[j * a->channels + c]) - ew_harm_tone(a->out[j * 3 + c]);
-    return ew_finitef(d) ? d : 0.0f;
+    return ew_harm_tone_diff(a->clamped[j * a->channels + c], a->out[j * 3 + c]);
 }
 
 EW_HD void ew_harm_demod_px(long j, const ew_harm_args *a) {
@@ -136,16 +179,15 @@ EW_HD void ew_harm_demod_px(long j, const ew_harm_args *a) {
  * rounding through / and *), else the rejected radiance remodulated. */
 EW_HD void ew_harm_remod_px(long j, const ew_harm_args *a) {
     const long cc = a->channels;
-    const float *r0 = a->radiance + j * 3, *r1 = a->rejected + j * 3;
-    const int same = (r0[0] == r1[0] && r0[1] == r1[1] && r0[2] == r1[2]) || !ew_harm_finite3(r1);
+    const float *r1 = a->rejected + j * 3;
+    const int same = ew_harm_kept(a->radiance + j * 3, r1);
     for (long c = 0; c < cc; c++)
         a->clamped[j * cc + c] = same || c >= 3 ? a->color[j * cc + c] : r1[c] * ew_harm_albedo(a, j, (int)c);
 }
 
 /* the residual input - output in linear units, non-finite as 0 */
 EW_HD float ew_harm_lin_residual(const ew_harm_args *a, long j, int c) {
-    const float v = a->clamped[j * a->channels + c] - a->out[j * 3 + c];
-    return ew_finitef(v) ? v : 0.0f;
+    return ew_harm_finite_or0(a->clamped[j * a->channels + c] - a->out[j * 3 + c]);
 }
 
 /* The statistics of (x, y) from its residuals (3 floats each, T then
@@ -247,13 +289,23 @@ EW_HD void ew_harm_blend_apply(long j, const ew_harm_args *a, const float *sums)
     for (int c = 0; c < 3; c++) o[c] = in[c] + alpha * (o[c] - in[c]);
 }
 
+/* The window sums in a separable order: each column of the window summed
+ * over its rows (ascending), then those column sums along the row
+ * (ascending). A backend that sums the columns of a whole row once, then
+ * the row (the CPU backend), gets the same bits as this pixel-at-a-time
+ * body: 2 (2 radius + 1) adds a statistic where the window has
+ * (2 radius + 1)^2. */
 EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
     float sums[EW_HARM_STATS_FLOATS] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-    for (int yy = ew_maxi(y - a->radius, 0); yy <= ew_mini(y + a->radius, a->height - 1); yy++)
-        for (int xx = ew_maxi(x - a->radius, 0); xx <= ew_mini(x + a->radius, a->width - 1); xx++) {
+    const int y0 = ew_maxi(y - a->radius, 0), y1 = ew_mini(y + a->radius, a->height - 1);
+    for (int xx = ew_maxi(x - a->radius, 0); xx <= ew_mini(x + a->radius, a->width - 1); xx++) {
+        float col[EW_HARM_STATS_FLOATS] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+        for (int yy = y0; yy <= y1; yy++) {
             const float *st = a->stats + ((long)yy * a->width + xx) * EW_HARM_STATS_FLOATS;
-            for (int k = 0; k < EW_HARM_STATS_FLOATS; k++) sums[k] += st[k];
+            for (int k = 0; k < EW_HARM_STATS_FLOATS; k++) col[k] += st[k];
         }
+        for (int k = 0; k < EW_HARM_STATS_FLOATS; k++) sums[k] += col[k];
+    }
     ew_harm_blend_apply((long)y * a->width + x, a, sums);
 }
 
@@ -288,32 +340,63 @@ EW_HD void ew_harm_blend_px(int x, int y, const ew_harm_args *a) {
  * sample hundreds of times brighter than its surface carries far more than
  * its pixel's share of the frame) and take_limit a pixel (a damaged sample
  * would otherwise brighten the frame); SCALE applies the gain. */
-EW_HD float ew_harm_box_row(const float *v, int x, int y, int r, int w) {
+/* The energy return's box sums: the 2 r + 1 taps of a window in blocks of
+ * ew_harm_box_block(r) consecutive taps (7 blocks of 7 for the 49 of r 24),
+ * each block's taps added in order, then the blocks in order; taps past the
+ * frame add nothing. A backend that sums the blocks of a whole row (or of a
+ * run of rows) once reuses each block for that many pixels — 2 sqrt(49)
+ * adds a pixel instead of 49, as the CPU backend does — and gets the same
+ * bits as these pixel-at-a-time bodies. */
+EW_HD int ew_harm_box_block(int r) {
+    const int n = 2 * r + 1;
+    int b = 1;
+    for (int d = 2; d * d <= n; d++)
+        if (n % d == 0) b = d;
+    return b;
+}
+
+/* the output's luminance at j where it is finite and positive, else 0 */
+EW_HD float ew_harm_lum_tap(const ew_harm_args *a, long j) {
+    const float l = ew_luminance(a->out + j * 3);
+    return ew_finitef(l) && l > 0.0f ? l : 0.0f;
+}
+
+/* The box sum over x - r .. x + r of row y of v (lum: the output's
+ * luminance taps instead, v unused). */
+EW_HD float ew_harm_box_h(const ew_harm_args *a, const float *v, int lum, int x, int y, int r) {
+    const int b = ew_harm_box_block(r);
+    const long row = (long)y * a->width;
     float s = 0.0f;
-    for (int xx = ew_maxi(x - r, 0); xx <= ew_mini(x + r, w - 1); xx++) s += v[(long)y * w + xx];
+    for (int k0 = x - r; k0 <= x + r; k0 += b) {
+        float blk = 0.0f;
+        for (int xx = ew_maxi(k0, 0); xx <= ew_mini(k0 + b - 1, a->width - 1); xx++)
+            blk += lum ? ew_harm_lum_tap(a, row + xx) : v[row + xx];
+        s += blk;
+    }
     return s;
 }
 
-EW_HD float ew_harm_box_col(const float *v, int x, int y, int r, int w, int h) {
+/* The box sum over y - r .. y + r of column x of v. */
+EW_HD float ew_harm_box_v(const ew_harm_args *a, const float *v, int x, int y, int r) {
+    const int b = ew_harm_box_block(r);
     float s = 0.0f;
-    for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++) s += v[(long)yy * w + x];
+    for (int k0 = y - r; k0 <= y + r; k0 += b) {
+        float blk = 0.0f;
+        for (int yy = ew_maxi(k0, 0); yy <= ew_mini(k0 + b - 1, a->height - 1); yy++) blk += v[(long)yy * a->width + x];
+        s += blk;
+    }
     return s;
 }
 
 /* SUM_H: the output's luminance (finite, positive) summed along the row */
 EW_HD void ew_harm_sum_h_px(int x, int y, const ew_harm_args *a) {
-    float s = 0.0f;
-    for (int xx = ew_maxi(x - a->give_radius, 0); xx <= ew_mini(x + a->give_radius, a->width - 1); xx++) {
-        const float l = ew_luminance(a->out + ((long)y * a->width + xx) * 3);
-        if (ew_finitef(l) && l > 0.0f) s += l;
-    }
-    a->spread[(long)y * a->width + x] = s;
+    a->spread[(long)y * a->width + x] = ew_harm_box_h(a, NULL, 1, x, y, a->give_radius);
 }
 
 /* SUM_V: ... and along the column: S */
 EW_HD void ew_harm_sum_v_px(int x, int y, const ew_harm_args *a) {
     const long n = (long)a->width * a->height;
-    a->spread[n + (long)y * a->width + x] = ew_harm_box_col(a->spread, x, y, a->give_radius, a->width, a->height);
+    a->spread[n + (long)y * a->width + x] = ew_harm_box_v(a, a->spread, x, y, a->give_radius);
 }
 
 /* GIVE: g / S into give[3 j] (what the method's clamp took; the rejection's
@@ -353,16 +436,23 @@ EW_HD void ew_harm_scale_px(long j, const ew_harm_args *a) {
 
 /* SPREAD_H: the shares g / S summed along the row */
 EW_HD void ew_harm_spread_h_px(int x, int y, const ew_harm_args *a) {
+    const long n = (long)a->width * a->height;
+    /* as ew_harm_box_h, over the first of give's 3 floats a pixel */
+    const int b = ew_harm_box_block(a->give_radius), r = a->give_radius;
     float s = 0.0f;
-    for (int xx = ew_maxi(x - a->give_radius, 0); xx <= ew_mini(x + a->give_radius, a->width - 1); xx++)
-        s += a->give[((long)y * a->width + xx) * 3];
-    a->spread[2 * (long)a->width * a->height + (long)y * a->width + x] = s;
+    for (int k0 = x - r; k0 <= x + r; k0 += b) {
+        float blk = 0.0f;
+        for (int xx = ew_maxi(k0, 0); xx <= ew_mini(k0 + b - 1, a->width - 1); xx++)
+            blk += a->give[((long)y * a->width + xx) * 3];
+        s += blk;
+    }
+    a->spread[2 * n + (long)y * a->width + x] = s;
 }
 
 /* SPREAD_V: ... and along the column; the output scaled by 1 + that */
 EW_HD void ew_harm_spread_v_px(int x, int y, const ew_harm_args *a) {
     const long n = (long)a->width * a->height;
-    const float t = ew_minf(ew_harm_box_col(a->spread + 2 * n, x, y, a->give_radius, a->width, a->height), a->give_gain);
+    const float t = ew_minf(ew_harm_box_v(a, a->spread + 2 * n, x, y, a->give_radius), a->give_gain);
     float *o = a->out + ((long)y * a->width + x) * 3;
     if (!ew_harm_finite3(o) || !(t > 0.0f)) return;
     for (int c = 0; c < 3; c++) o[c] *= 1.0f + t;

@@ -413,10 +413,11 @@ TEST(harm_stage_steps) {
     h.theta_n = 0.2f;
     h.give = hrand(N * 3, 0.0f, 1.0f, 41); /* what a method's clamp took */
     h.spread = hnan(N * 3);
-    h.give_radius = 3;
+    h.give_radius = 7; /* 15 taps: 5 blocks of 3 (kernels/harm.h), windows past every edge */
     h.give_cap = 2.0f;
     h.give_limit = 5.0f;
     h.take_limit = 4.0f;
+    h.give_gain = 0.5f;
     h.gain = 0.3f;
     ew_harm_args d = h;
     d.color = dup_to(p.dut, color, N * 4);
@@ -443,7 +444,23 @@ TEST(harm_stage_steps) {
     ok = ok && match(back(p.dut, d.clamped, N * 4), h.clamped, N * 4, "remodulated");
     ok = ok && match(back(p.dut, d.stats, N * EW_HARM_STATS_FLOATS), h.stats, N * EW_HARM_STATS_FLOATS, "residual statistics");
     ok = ok && match(back(p.dut, d.give, N * 3), h.give, N * 3, "shares given back");
+    ok = ok && match(back(p.dut, d.spread, N * 3), h.spread, N * 3, "box sums of the energy return");
     ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended, light given back");
+    /* RGB colour (no channels to copy), with and without albedo: the CPU
+     * backend's rows take other paths there */
+    for (int with_albedo = 0; with_albedo < 2; with_albedo++) {
+        h.channels = d.channels = 3;
+        h.albedo = with_albedo ? albedo : NULL;
+        d.albedo = with_albedo ? dup_to(p.dut, albedo, N * 3) : NULL;
+        d.color = dup_to(p.dut, color, N * 3);
+        for (int step = EW_HARM_DEMOD; step <= EW_HARM_BLEND; step++) {
+            ew_cpu_backend.harm(p.cpu, step, &h);
+            p.dut->backend->harm(p.dut, step, &d);
+        }
+        ok = ok && match(back(p.dut, d.radiance, N * 3), h.radiance, N * 3, "demodulated RGB");
+        ok = ok && match(back(p.dut, d.clamped, N * 3), h.clamped, N * 3, "remodulated RGB");
+        ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended RGB");
+    }
     close_pair(&p);
     CHECK(ok);
     CHECK_NO_MISUSE();

@@ -12,6 +12,7 @@
 #include "src/internal.h"
 #include "src/cpu_clones.h" /* EW_MULTIVERSION */
 
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -305,33 +306,148 @@ static void harm_row_window(float *acc, const float *v, int w, int r, int k) {
     }
 }
 
-/* acc[x] = the sum over the rows yy of the window around y (ascending) of
- * v[yy * w + x] */
-static void harm_col_window(float *acc, const float *v, int w, int h, int y, int r) {
+/* acc[x] = ew_harm_box_h's sum over v[x - r .. x + r] (a row of w floats):
+ * the row with r zeros on either side, the sums of b consecutive taps from
+ * every start once, then the blocks of each window; tmp: 2 (w + 2 r) floats */
+static void harm_box_row(float *acc, const float *v, int w, int r, float *tmp) {
+    const int b = ew_harm_box_block(r), n = 2 * r + 1;
+    const long padded = (long)w + 2 * r, starts = padded - b + 1;
+    float *p = tmp, *blk = tmp + padded;
+    memset(p, 0, (size_t)r * sizeof(float));
+    memcpy(p + r, v, (size_t)w * sizeof(float));
+    memset(p + r + w, 0, (size_t)r * sizeof(float));
+    memset(blk, 0, (size_t)starts * sizeof(float));
+    for (int i = 0; i < b; i++) harm_add_shifted(blk, p, 0, starts, i);
     memset(acc, 0, (size_t)w * sizeof(float));
-    for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++)
-        harm_add_shifted(acc, v + (long)yy * w, 0, w, 0);
+    for (int k = 0; k < n / b; k++) harm_add_shifted(acc, blk, 0, w, (long)k * b);
 }
 
-/* rows t (T residual) and l (linear) of row y, 3 floats a pixel */
-static void harm_residual_row(const ew_harm_args *a, int y, float *t, float *l) {
-    for (int x = 0; x < a->width; x++) ew_harm_residuals(a, (long)y * a->width + x, t + 3 * x, l + 3 * x);
+/* A thread's column sums of blocks of rows (ew_harm_box_v's blocks), each
+ * computed once for the run of rows the thread takes: the block starting
+ * at row k0 sits in slot k0 mod (2 r + 1), which no other block a window
+ * needs at the same time shares. */
+typedef struct {
+    float *rows; /* (2 r + 1) x w */
+    int *held;   /* the first row of each slot's block, or INT_MIN */
+} harm_col_ring;
+
+/* acc[x] = ew_harm_box_v's sum over rows y - r .. y + r of column x of v */
+static void harm_box_col(float *acc, const float *v, int w, int h, int y, int r, harm_col_ring *ring) {
+    const int b = ew_harm_box_block(r), n = 2 * r + 1;
+    memset(acc, 0, (size_t)w * sizeof(float));
+    for (int k0 = y - r; k0 <= y + r; k0 += b) {
+        const int slot = ((k0 % n) + n) % n;
+        float *blk = ring->rows + (size_t)slot * (size_t)w;
+        if (ring->held[slot] != k0) {
+            memset(blk, 0, (size_t)w * sizeof(float));
+            for (int yy = ew_maxi(k0, 0); yy <= ew_mini(k0 + b - 1, h - 1); yy++)
+                harm_add_shifted(blk, v + (long)yy * w, 0, w, 0);
+            ring->held[slot] = k0;
+        }
+        harm_add_shifted(acc, blk, 0, w, 0);
+    }
+}
+
+/* DEMOD over contiguous RGB floats: rad[i] = col[i] / the albedo factor
+ * (as ew_harm_demod_px; no albedo: / 1) */
+static EW_MULTIVERSION void harm_demod_span(float *EW_RESTRICT rad, const float *EW_RESTRICT col,
+                                            const float *EW_RESTRICT alb, long n) {
+    if (alb)
+        for (long i = 0; i < n; i++) rad[i] = col[i] / ew_harm_albedo_factor(alb[i]);
+    else
+        for (long i = 0; i < n; i++) rad[i] = col[i] / 1.0f;
+}
+
+/* REMOD's RGB for w pixels of contiguous RGB, as ew_harm_remod_px */
+static EW_MULTIVERSION void harm_remod_span(float *EW_RESTRICT out, const float *EW_RESTRICT col,
+                                            const float *EW_RESTRICT r0, const float *EW_RESTRICT r1,
+                                            const float *EW_RESTRICT alb, long w) {
+    /* the choice as a mask on the bits, the two cases in loops of their
+     * own: a float select or a test inside keeps the loop scalar */
+    if (alb)
+        for (long x = 0; x < w; x++) {
+            const int keep = -ew_harm_kept(r0 + 3 * x, r1 + 3 * x);
+            for (int c = 0; c < 3; c++) {
+                const float m = r1[3 * x + c] * ew_harm_albedo_factor(alb[3 * x + c]);
+                out[3 * x + c] = ew_bits_to_float((ew_float_to_bits(col[3 * x + c]) & keep) | (ew_float_to_bits(m) & ~keep));
+            }
+        }
+    else
+        for (long x = 0; x < w; x++) {
+            const int keep = -ew_harm_kept(r0 + 3 * x, r1 + 3 * x);
+            for (int c = 0; c < 3; c++) {
+                const float m = r1[3 * x + c] * 1.0f;
+                out[3 * x + c] = ew_bits_to_float((ew_float_to_bits(col[3 * x + c]) & keep) | (ew_float_to_bits(m) & ~keep));
+            }
+        }
+}
+
+/* DEMOD and REMOD of row y; rgb: 6 w floats when the colour has more than
+ * RGB (its RGB gathered, REMOD's RGB before the other channels are copied) */
+static void harm_modulate_row(const ew_harm_args *a, int step, int y, float *rgb) {
+    const long w = a->width, cc = a->channels, j0 = (long)y * w;
+    const float *col = a->color + j0 * cc, *alb = a->albedo ? a->albedo + j0 * 3 : NULL;
+    if (cc != 3) {
+        for (long x = 0; x < w; x++)
+            for (int c = 0; c < 3; c++) rgb[3 * x + c] = col[x * cc + c];
+        col = rgb;
+    }
+    if (step == EW_HARM_DEMOD) {
+        harm_demod_span(a->radiance + j0 * 3, col, alb, 3 * w);
+        return;
+    }
+    float *out = cc != 3 ? rgb + 3 * w : a->clamped + j0 * 3;
+    harm_remod_span(out, col, a->radiance + j0 * 3, a->rejected + j0 * 3, alb, w);
+    if (cc != 3) {
+        const float *c0 = a->color + j0 * cc;
+        float *o = a->clamped + j0 * cc;
+        for (long x = 0; x < w; x++)
+            for (long c = 0; c < cc; c++) o[x * cc + c] = c < 3 ? out[3 * x + c] : c0[x * cc + c];
+    }
+}
+
+/* t[i], l[i] = ew_harm_residual's and ew_harm_lin_residual's values for
+ * the input c[i] and the output o[i], over contiguous floats (vectorised) */
+static EW_MULTIVERSION void harm_residual_span(float *EW_RESTRICT t, float *EW_RESTRICT l, const float *EW_RESTRICT c,
+                                               const float *EW_RESTRICT o, long n) {
+    for (long i = 0; i < n; i++) {
+        t[i] = ew_harm_tone_diff(c[i], o[i]);
+        l[i] = ew_harm_finite_or0(c[i] - o[i]);
+    }
+}
+
+/* rows t (T residual) and l (linear) of row y, 3 floats a pixel, as
+ * ew_harm_residuals; rgb: 3 w floats for the input's RGB when it has more
+ * channels */
+static void harm_residual_row(const ew_harm_args *a, int y, float *t, float *l, float *rgb) {
+    const long w = a->width, cc = a->channels;
+    const float *c = a->clamped + (long)y * w * cc;
+    if (cc != 3) {
+        for (long x = 0; x < w; x++) {
+            rgb[3 * x] = c[x * cc];
+            rgb[3 * x + 1] = c[x * cc + 1];
+            rgb[3 * x + 2] = c[x * cc + 2];
+        }
+        c = rgb;
+    }
+    harm_residual_span(t, l, c, a->out + (long)y * w * 3, 3 * w);
 }
 
 static void harm_stats_rows(const ew_harm_args *a, int64_t begin, int64_t end, float *buf) {
     const int w = a->width, h = a->height;
     float *t0 = buf, *l0 = t0 + 3 * (size_t)w, *t1 = l0 + 3 * (size_t)w, *l1 = t1 + 3 * (size_t)w;
+    float *rgb = l1 + 3 * (size_t)w;
     for (int64_t yl = begin; yl < end; yl++) {
         const int y = (int)yl;
         /* t0/l0: row y; t1/l1: row y + 1, or y - 1 at the last row (its block) */
         if (yl == begin) {
-            harm_residual_row(a, y, t0, l0);
+            harm_residual_row(a, y, t0, l0, rgb);
         } else {
             float *tt = t0, *ll = l0;
             t0 = t1; l0 = l1; t1 = tt; l1 = ll;
         }
         const int last = y + 1 >= h, other = last ? y - 1 : y + 1;
-        if (other >= 0) harm_residual_row(a, other, t1, l1);
+        if (other >= 0) harm_residual_row(a, other, t1, l1, rgb);
         /* blocks on rows (by, by + 1) */
         const float *bt0 = last ? t1 : t0, *bt1 = last ? t0 : t1, *bl0 = last ? l1 : l0, *bl1 = last ? l0 : l1;
         for (int x = 0; x < w; x++) {
@@ -354,59 +470,67 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     const int w = a->width, H = a->height;
     const long n = (long)w * H;
     float *buf = NULL;
+    const int gr = a->give_radius, gn = 2 * gr + 1;
+    harm_col_ring ring = {NULL, NULL};
     switch (h->step) {
-    case EW_HARM_STATS: buf = (float *)malloc(12 * (size_t)w * sizeof(float)); break;
-    case EW_HARM_BLEND: buf = (float *)malloc((size_t)EW_HARM_STATS_FLOATS * (size_t)w * sizeof(float)); break;
+    case EW_HARM_DEMOD:
+    case EW_HARM_REMOD: buf = (float *)malloc(6 * (size_t)w * sizeof(float)); break;
+    case EW_HARM_STATS: buf = (float *)malloc(15 * (size_t)w * sizeof(float)); break;
+    case EW_HARM_BLEND: buf = (float *)malloc(2 * (size_t)EW_HARM_STATS_FLOATS * (size_t)w * sizeof(float)); break;
     case EW_HARM_SUM_H:
-    case EW_HARM_SPREAD_H: buf = (float *)malloc(2 * (size_t)w * sizeof(float)); break;
+    case EW_HARM_SPREAD_H: buf = (float *)malloc((3 * (size_t)w + 4 * (size_t)gr) * sizeof(float)); break;
     case EW_HARM_SUM_V:
-    case EW_HARM_SPREAD_V: buf = (float *)malloc((size_t)w * sizeof(float)); break;
+    case EW_HARM_SPREAD_V:
+        buf = (float *)malloc((size_t)w * (1 + (size_t)gn) * sizeof(float));
+        ring.held = (int *)malloc((size_t)gn * sizeof(int));
+        if (!ring.held) {
+            free(buf);
+            buf = NULL;
+        } else {
+            ring.rows = buf + w;
+            for (int i = 0; i < gn; i++) ring.held[i] = INT_MIN;
+        }
+        break;
     default: break;
     }
     const int rows = buf != NULL;
     if (rows && h->step == EW_HARM_STATS) {
         harm_stats_rows(a, begin, end, buf);
+    } else if (rows && (h->step == EW_HARM_DEMOD || h->step == EW_HARM_REMOD)) {
+        for (int64_t y = begin; y < end; y++) harm_modulate_row(a, h->step, (int)y, buf);
     } else if (rows) {
         for (int64_t yl = begin; yl < end; yl++) {
             const int y = (int)yl;
             const long j0 = (long)y * w;
             switch (h->step) {
             case EW_HARM_BLEND: {
-                /* the window's rows in order, each added over its offsets in order */
+                /* as ew_harm_blend_px: the window's columns of the whole row
+                 * (its rows in order), then those along the row (offsets in order) */
                 const int r = a->radius;
-                memset(buf, 0, (size_t)EW_HARM_STATS_FLOATS * (size_t)w * sizeof(float));
-                for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, H - 1); yy++) {
-                    const float *st = a->stats + (long)yy * w * EW_HARM_STATS_FLOATS;
-                    for (int dx = -r; dx <= r; dx++) {
-                        const long lo = dx < 0 ? -dx : 0, hi = dx > 0 ? w - dx : w;
-                        if (lo < hi)
-                            harm_add_shifted(buf, st, lo * EW_HARM_STATS_FLOATS, hi * EW_HARM_STATS_FLOATS,
-                                             (long)dx * EW_HARM_STATS_FLOATS);
-                    }
-                }
-                for (int x = 0; x < w; x++) ew_harm_blend_apply(j0 + x, a, buf + (size_t)x * EW_HARM_STATS_FLOATS);
+                const size_t k = EW_HARM_STATS_FLOATS;
+                float *col = buf + k * (size_t)w;
+                memset(col, 0, k * (size_t)w * sizeof(float));
+                for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, H - 1); yy++)
+                    harm_add_shifted(col, a->stats + (long)yy * w * (long)k, 0, (long)(k * (size_t)w), 0);
+                harm_row_window(buf, col, w, r, (int)k);
+                for (int x = 0; x < w; x++) ew_harm_blend_apply(j0 + x, a, buf + (size_t)x * k);
                 break;
             }
-            case EW_HARM_SUM_H: { /* as ew_harm_sum_h_px: a luminance that is not finite and positive adds 0 */
-                float *v = buf + w;
-                for (int x = 0; x < w; x++) {
-                    const float l = ew_luminance(a->out + (j0 + x) * 3);
-                    v[x] = ew_finitef(l) && l > 0.0f ? l : 0.0f;
-                }
-                harm_row_window(a->spread + j0, v, w, a->give_radius, 1);
+            case EW_HARM_SUM_H: { /* as ew_harm_sum_h_px */
+                for (int x = 0; x < w; x++) buf[x] = ew_harm_lum_tap(a, j0 + x);
+                harm_box_row(a->spread + j0, buf, w, gr, buf + w);
                 break;
             }
             case EW_HARM_SUM_V: /* as ew_harm_sum_v_px */
-                harm_col_window(a->spread + n + j0, a->spread, w, H, y, a->give_radius);
+                harm_box_col(a->spread + n + j0, a->spread, w, H, y, gr, &ring);
                 break;
             case EW_HARM_SPREAD_H: { /* as ew_harm_spread_h_px */
-                float *v = buf + w;
-                for (int x = 0; x < w; x++) v[x] = a->give[(j0 + x) * 3];
-                harm_row_window(a->spread + 2 * n + j0, v, w, a->give_radius, 1);
+                for (int x = 0; x < w; x++) buf[x] = a->give[(j0 + x) * 3];
+                harm_box_row(a->spread + 2 * n + j0, buf, w, gr, buf + w);
                 break;
             }
             default: { /* EW_HARM_SPREAD_V, as ew_harm_spread_v_px */
-                harm_col_window(buf, a->spread + 2 * n, w, H, y, a->give_radius);
+                harm_box_col(buf, a->spread + 2 * n, w, H, y, gr, &ring);
                 for (int x = 0; x < w; x++) {
                     const float t = ew_minf(buf[x], a->give_gain);
                     float *o = a->out + (j0 + x) * 3;
@@ -437,11 +561,17 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
             }
     }
     free(buf);
+    free(ring.held);
 }
 
 static void cpu_harm(ew_device *dev, int step, const ew_harm_args *a) {
     harm_job h = {step, a};
-    ew_pool_run(dev->pool, a->height, 0, harm_rows, &h);
+    /* the column box sums fill their ring of blocks anew at the start of
+     * each run of rows: a few long runs, not the pool's many short ones */
+    const int threads = ew_pool_threads(dev->pool);
+    const int64_t grain = step == EW_HARM_SUM_V || step == EW_HARM_SPREAD_V
+                              ? (a->height + 2 * threads - 1) / (2 * threads) : 0;
+    ew_pool_run(dev->pool, a->height, grain, harm_rows, &h);
 }
 
 typedef struct {
