@@ -16,7 +16,7 @@ convolutions' GFLOP/s against the FMA peak it measures in the same run (target >
 --uhd: the same input resized to 3840x2160, `edgewise denoise --method kpcn` once per model under
 /usr/bin/time -v: peak RSS of the whole CLI (EXR in and out included).
 
-Which build: EW_BUILD_DIR (default build; targets edgewise_cli, the Python package's library and, for
+Which build: EW_BUILD_DIR (default build; targets edgewise_cli, edgewise and, for
 the FMA-peak line, train_kpcn); the script prints whether it was built without function
 multiversioning (-DEW_NO_MULTIVERSION, the helpers' fast-compiling build) or as the release default.
 Not a test: speed depends on the machine and its load, which it prints.
