@@ -141,10 +141,20 @@ void ew_pyr_params_at(const ew_pyr_table *t, float sigma, int level, float analy
     lerp_params(&a, &b, fminf(fmaxf(f, 0.0f), 1.0f), out);
 }
 
-static size_t level_floats(const ew_bf_model *m, int w, int h) {
+/* dup_attr: with the duplicated attributes (a plan without cbuf) */
+static size_t level_floats(const ew_bf_model *m, int w, int h, int dup_attr) {
     /* down, attributes, duplicated attributes, duplicated up, duplicated content CoC */
     return (size_t)w * (size_t)h *
-           (size_t)(EW_BF_CH + 3 * m->attrs + 2 * EW_BF_CH + (m->kind == EW_RANGE_DOF ? 2 : 0));
+           (size_t)(EW_BF_CH + (dup_attr ? 3 : 1) * m->attrs + 2 * EW_BF_CH + (m->kind == EW_RANGE_DOF ? 2 : 0));
+}
+
+/* Planes of a thread's coarse rows: the attributes and DOF's content CoC. */
+static long cbuf_planes(const ew_bf_model *m) { return m->attrs + (m->kind == EW_RANGE_DOF ? 1 : 0); }
+
+/* Floats of a thread's coarse rows: three duplicated rows of level 1, the
+ * widest level a pass reads them from. */
+static size_t cbuf_floats(const ew_bf_model *m, int w) {
+    return (size_t)cbuf_planes(m) * 3 * 2 * (size_t)((w + 1) / 2);
 }
 
 int ew_pyr_band_threads(const ew_device *dev, int w, int h) {
@@ -180,10 +190,12 @@ static size_t in_floats(const ew_bf_model *m, int w, int h, int levels, int band
 size_t ew_pyr_scratch_floats_banded(const ew_bf_model *m, int w, int h, int levels, int uniform, int band_threads) {
     /* level 0: in, attributes, out */
     size_t n = in_floats(m, w, h, levels, band_threads) + out_floats(w, h, band_threads);
+    const int rows = band_threads && levels > 0; /* the coarse rows in the threads' buffers */
+    if (rows) n += (size_t)band_threads * cbuf_floats(m, w);
     for (int l = 1; l <= levels; l++) {
         w = (w + 1) / 2;
         h = (h + 1) / 2;
-        n += level_floats(m, w, h);
+        n += level_floats(m, w, h, !rows);
     }
     if (!uniform) n += (size_t)levels * EW_PYR_LUT_N * (sizeof(ew_pyr_wrow) / sizeof(float));
     return n;
@@ -228,6 +240,11 @@ void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h,
         p->band = EW_PYR_BAND;
         p->band_stride = (long)EW_PYR_BAND * w * EW_BF_CH;
     }
+    if (band_threads && levels > 0) {
+        p->cbuf = s;
+        p->cbuf_stride = (long)cbuf_floats(m, w);
+        s += (size_t)band_threads * cbuf_floats(m, w);
+    }
     for (int l = 1; l <= levels; l++) {
         p->w[l] = (p->w[l - 1] + 1) / 2;
         p->h[l] = (p->h[l - 1] + 1) / 2;
@@ -236,8 +253,10 @@ void ew_pyr_plan_init_banded(ew_pyr_plan *p, const ew_bf_model *m, int w, int h,
         s += n * (size_t)EW_BF_CH;
         p->attr[l] = s;
         s += n * (size_t)m->attrs;
-        p->attr2[l] = s;
-        s += 2 * n * (size_t)m->attrs;
+        if (!p->cbuf) {
+            p->attr2[l] = s;
+            s += 2 * n * (size_t)m->attrs;
+        }
         p->up[l] = s;
         s += 2 * n * (size_t)EW_BF_CH;
         if (m->kind == EW_RANGE_DOF) {
@@ -348,6 +367,12 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
         a.attr = p->attr[l];
         a.cup = p->up[l + 1];
         a.cattr = p->attr2[l + 1];
+        if (p->cbuf) { /* the backend points cattr and ccoc at its rows */
+            a.cattr_src = p->attr[l + 1];
+            a.ccoc_src = m->kind == EW_RANGE_DOF && l + 1 < p->levels ? p->coc[l + 1] : NULL;
+            a.cbuf = p->cbuf;
+            a.cbuf_stride = p->cbuf_stride;
+        }
         a.up = l == 0 ? p->out : p->up[l];
         a.dup_out = l > 0;
         a.d2_unit = (float)(1u << (2 * l));
@@ -355,7 +380,7 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
         a.row = p->uniform ? &p->rows[l] : NULL;
         a.lut = p->uniform ? NULL : p->lut + (size_t)l * EW_PYR_LUT_N;
         /* the coarsest level: its own C (the duplicated attributes' plane 1) */
-        if (m->kind == EW_RANGE_DOF)
+        if (m->kind == EW_RANGE_DOF && !p->cbuf)
             a.ccoc = l + 1 < p->levels ? p->coc[l + 1] : p->attr2[l + 1] + 2 * (size_t)a.cw * (size_t)a.ch;
         a.ucoc = l > 0 ? p->coc[l] : NULL;
         if (l == 0 && inside) {
@@ -382,12 +407,13 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
             a.fedge = p->in_edge;
         }
         /* Upsampling level l reads levels l and l + 1 but not level l + 1's
-         * down and attribute planes, nor any coarser level: with
-         * release_scratch their pages go back before level l's planes are
-         * written (level 1's upsampled planes, written here, are the run's
-         * largest new pages), and the next run's downsampling writes them
-         * before reading them. The table after the levels stays. */
-        ew_dev_release_pages(dev, p->down[l + 1], p->attr2[l + 1]);
+         * down planes, nor its attribute planes when it has them duplicated,
+         * nor any coarser level: with release_scratch their pages go back
+         * before level l's planes are written (level 1's upsampled planes,
+         * written here, are the run's largest new pages), and the next run's
+         * downsampling writes them before reading them. The table after the
+         * levels stays. */
+        ew_dev_release_pages(dev, p->down[l + 1], p->attr2[l + 1] ? p->attr2[l + 1] : p->attr[l + 1]);
         if (l + 2 <= p->levels) ew_dev_release_pages(dev, p->down[l + 2], p->levels_end);
         be->pyr_up(dev, &a);
     }

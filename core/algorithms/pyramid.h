@@ -90,6 +90,12 @@ typedef struct ew_pyr_plan {
     float *in;
     long in_stride, in_ps;
     float *in_edge;
+    /* With the input in bands, no level holds duplicated attributes
+     * (attr2[l] NULL): each upsampling pass expands the three coarse rows a
+     * fine row reads into a thread's buffer (kernels/pyramid.h,
+     * ew_pyr_up_args.cbuf), one a thread, cbuf_stride floats apart. */
+    float *cbuf;
+    long cbuf_stride;
 } ew_pyr_plan;
 
 /* Squared distance (full-resolution pixels) substituted for the coarse

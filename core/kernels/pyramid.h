@@ -47,7 +47,10 @@
  * i_x), so consecutive fine pixels read consecutive coarse floats. The
  * downsampling writes the duplicated attributes (and, for the coarsest
  * level, values) beside the plain ones; the upsampling of level l >= 1
- * writes its result duplicated, since only level l - 1 reads it.
+ * writes its result duplicated, since only level l - 1 reads it. The CPU
+ * with level 0 in bands keeps no level's duplicated attributes: each pass
+ * expands the three coarse rows a fine row reads into a thread's buffer
+ * (ew_pyr_up_args.cbuf), and the kernels read them there (cps, cy0).
  *
  * Interior pixels (every sample inside: all but two columns and rows at each
  * border) take a path without bounds logic or branches (ew_pyr_up_in_k,
@@ -354,10 +357,29 @@ typedef struct ew_pyr_up_args {
     float *fbuf;
     long fbuf_stride, fps;
     const float *fedge;
+    /* The coarse attributes (cattr) and DOF's content CoC (ccoc) held in
+     * part: coarse row cy at row cy - cy0 of duplicated planes cps floats
+     * apart (cps 0: the whole level, 2 cw ch floats apart, cy0 0). Up(l + 1)
+     * (cup) is always the whole level. */
+    long cps, cy0;
+    /* CPU, with cbuf: no level holds duplicated attributes. Before a fine
+     * row is computed, the backend expands the three coarse rows it reads
+     * (cy - 1 .. cy + 1 for cy = y / 2) into the thread's buffer (cbuf,
+     * cbuf_stride floats apart), from cattr_src (the attributes at l + 1:
+     * plain planes of cw x ch) and, for DOF, ccoc_src (the content CoC of
+     * Up(l + 1), duplicated; NULL at the coarsest level: the attributes'
+     * own C), and points cattr and ccoc there. */
+    const float *cattr_src, *ccoc_src;
+    float *cbuf;
+    long cbuf_stride;
 } ew_pyr_up_args;
 
 /* Down(l) planes dps floats apart: the whole level's w h when dps is 0. */
 EW_HD long ew_pyr_up_dps(const ew_pyr_up_args *a) { return a->dps ? a->dps : (long)a->w * a->h; }
+
+/* The coarse attribute planes cps floats apart: the whole duplicated
+ * level's 2 cw ch when cps is 0. */
+EW_HD long ew_pyr_up_cps(const ew_pyr_up_args *a) { return a->cps ? a->cps : 2L * a->cw * a->ch; }
 
 /* log2 of the domain sigma at a centre with attributes ap, for the table
  * (ew_flog2(ew_bf_sigma), written without a square root or branch). */
@@ -431,7 +453,7 @@ EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind
     const ew_bf_model *m = a->m;
     const int C = EW_BF_CH, A = ew_bf_attrs(kind);
     const long n = ew_pyr_up_dps(a), j = ((long)y - a->dy0) * a->w + x;
-    const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch;
+    const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch, cps = ew_pyr_up_cps(a);
     float ap[EW_BF_MAX_ATTR];
     for (int k = 0; k < EW_BF_MAX_ATTR; k++) ap[k] = k < A ? a->attr[k * n + j] : 0.0f;
     ew_pyr_weights(x, y, a, kind, ap, t->wf, t->wdc, &t->gamma);
@@ -439,14 +461,14 @@ EW_HD void ew_pyr_up_terms(int x, int y, const ew_pyr_up_args *a, const int kind
     for (int k = 0; k < 9; k++) {
         const int ix = k % 3 - 1, iy = k / 3 - 1, qx = cx + ix, qy = cy + iy;
         const int in = qx >= 0 && qx < a->cw && qy >= 0 && qy < a->ch;
-        const long i = in ? (long)qy * cw2 + 2 * qx : 0;
+        const long i = in ? (long)qy * cw2 + 2 * qx : 0, ia = in ? ((long)qy - a->cy0) * cw2 + 2 * qx : 0;
         float aq[EW_BF_MAX_ATTR];
-        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cn2 + i] : 0.0f;
+        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cps + ia] : 0.0f;
         t->in[k] = in;
         for (int c = 0; c < C; c++) t->V[k][c] = in ? a->cup[c * cn2 + i] : 0.0f;
         t->coc[k] = 0.0f;
         if (kind == EW_RANGE_DOF) { /* the CoC of the content (see the top) */
-            t->coc[k] = a->ccoc ? a->ccoc[i] : aq[1];
+            t->coc[k] = a->ccoc ? a->ccoc[ia] : aq[1];
             aq[1] = t->coc[k];
         }
         t->E[k] = in ? ew_bf_energy(m, kind, ap, aq, a->coarse_d2) : 0.0f;
@@ -592,16 +614,17 @@ typedef struct ew_pyr_coarse_rows {
     int xo;
 } ew_pyr_coarse_rows;
 
-/* The value pair of coarse sample i (a duplicated-plane index) for a centre
- * with attributes ap: what ew_pyr_up_in_k computes for it (DOF's content
- * CoC in place of the coarse C), for ew_pyr_coarse_rows. */
+/* The value pair of coarse sample i (an index into the duplicated attribute
+ * planes, relative to a->cy0) for a centre with attributes ap: what
+ * ew_pyr_up_in_k computes for it (DOF's content CoC in place of the coarse
+ * C), for ew_pyr_coarse_rows. */
 EW_HD void ew_pyr_coarse_fg_k(long i, const float *ap, const ew_pyr_up_args *a, const int kind, float gamma, float *f,
                               float *g) {
     const int A = ew_bf_attrs(kind);
-    const long cn2 = 2L * a->cw * a->ch;
+    const long cps = ew_pyr_up_cps(a);
     float aq[EW_BF_MAX_ATTR];
     EW_PYR_UNROLL
-    for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cn2 + i] : 0.0f;
+    for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cps + i] : 0.0f;
     if (kind == EW_RANGE_DOF) aq[1] = a->ccoc[i];
     const float e = ew_bf_energy_v(a->m, kind, 0, ap, aq, a->coarse_d2);
     *f = ew_fexp2(e);
@@ -617,6 +640,7 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
     const int C = EW_BF_CH, A = ew_bf_attrs(kind), rough = !uniform, vec = ew_pyr_up_in_vec(kind, uniform);
     const long n = ew_pyr_up_dps(a), j = ((long)y - a->dy0) * a->w + x;
     const long cw2 = 2L * a->cw, cn2 = cw2 * a->ch, cj = (long)(y >> 1) * cw2 + x;
+    const long cps = ew_pyr_up_cps(a), cja = cj - a->cy0 * cw2; /* the attributes' index (cy0) */
     float ap[EW_BF_MAX_ATTR];
     EW_PYR_UNROLL
     for (int k = 0; k < EW_BF_MAX_ATTR; k++) ap[k] = k < A ? a->attr[k * n + j] : 0.0f;
@@ -637,10 +661,10 @@ EW_HD void ew_pyr_up_in_k(int x, int y, const ew_pyr_up_args *a, const int kind,
     const float *ccoc = kind == EW_RANGE_DOF ? a->ccoc : a->cattr; /* DOF: ew_pyr_up_in_ok */
     EW_PYR_UNROLL
     for (int k = 0; k < 9; k++) {
-        const long i = cj + (long)(k / 3 - 1) * cw2 + 2 * (k % 3 - 1);
+        const long i = cja + (long)(k / 3 - 1) * cw2 + 2 * (k % 3 - 1);
         float aq[EW_BF_MAX_ATTR];
         EW_PYR_UNROLL
-        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cn2 + i] : 0.0f;
+        for (int kk = 0; kk < EW_BF_MAX_ATTR; kk++) aq[kk] = kk < A ? a->cattr[kk * cps + i] : 0.0f;
         coc[k] = 0.0f;
         if (kind == EW_RANGE_DOF) {
             coc[k] = ccoc[i];

@@ -223,6 +223,12 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
         pu.fbuf_stride = 0;
         pu.fps = 0;
         pu.fedge = 0;
+        pu.cps = 0; /* the coarse attributes whole */
+        pu.cy0 = 0;
+        pu.cattr_src = 0;
+        pu.ccoc_src = 0;
+        pu.cbuf = 0;
+        pu.cbuf_stride = 0;
         {
             const ew_launch l2 = ew_kl_pyr_up(&pu);
             EW_PROBE_FOR_THREADS(l2, t, ew_kb_pyr_up(&t, &pu, &m, &row))

@@ -700,7 +700,8 @@ TEST(pyramid_down_and_up_rows_and_table) {
         float *cup = hrand_px(2 * nc, EW_BF_CH, 0.0f, 1.0f, 89); /* duplicated coarse planes: */
         for (size_t i = 0; i + 1 < 2 * nc * EW_BF_CH; i += 2) cup[i + 1] = cup[i]; /* columns 2x, 2x+1 equal */
         ew_pyr_up_args hu = {&m, W, H, cw, ch, down, attr, cup, hd.cattr2, hnan(N * EW_BF_CH), 1.0f, 0.75f, &row, NULL, NULL, NULL, 0,
-                             NULL, NULL, 0, 0, 0, 0, 0, 0, NULL, NULL, NULL, 0, 0, NULL};
+                             NULL, NULL, 0, 0, 0, 0, 0, 0, NULL, NULL, NULL, 0, 0, NULL,
+                             0, 0, NULL, NULL, NULL, 0};
         ew_pyr_up_args du = hu;
         du.down = dd.down;
         du.attr = dd.attr;

@@ -145,11 +145,16 @@ EW_DOWN_KIND_SPANS(gi, EW_RANGE_GI)
 EW_DOWN_KIND_SPANS(depth, EW_RANGE_DEPTH)
 EW_DOWN_KIND_SPANS(dof, EW_RANGE_DOF)
 EW_DOWN_KIND_SPANS(none, EW_RANGE_NONE)
-EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 1, 0)
-EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 3, 0)
-EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 1, 1)
-EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 3, 1)
-#define EW_DOWN_IN_NOT_MAJOR(S, K) EW_DOWN_IN_SPAN(S, K, 0, 1, 0) EW_DOWN_IN_SPAN(S, K, 0, 3, 0)
+/* DUP2 (ew_pyr_down_dup2): 1, 3 with the duplicated attributes (a whole
+ * frame), 0, 2 without them (bands: the upsampling's coarse rows) */
+#define EW_DOWN_IN_GI(ROUGH)                                                                                   \
+    EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 1, ROUGH) EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 3, ROUGH)                \
+    EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 0, ROUGH) EW_DOWN_IN_SPAN(gi, EW_RANGE_GI, 1, 2, ROUGH)
+EW_DOWN_IN_GI(0)
+EW_DOWN_IN_GI(1)
+#define EW_DOWN_IN_NOT_MAJOR(S, K)                                                                             \
+    EW_DOWN_IN_SPAN(S, K, 0, 1, 0) EW_DOWN_IN_SPAN(S, K, 0, 3, 0) EW_DOWN_IN_SPAN(S, K, 0, 0, 0)               \
+    EW_DOWN_IN_SPAN(S, K, 0, 2, 0)
 EW_DOWN_IN_NOT_MAJOR(color, EW_RANGE_COLOR)
 EW_DOWN_IN_NOT_MAJOR(depth, EW_RANGE_DEPTH)
 EW_DOWN_IN_NOT_MAJOR(dof, EW_RANGE_DOF)
@@ -200,17 +205,27 @@ static inline void down_rows_body(const ew_pyr_down_args *j, int64_t begin, int6
             if (kind == EW_RANGE_GI) {
                 if (major && dup2 == 1 && !rough) EW_IN(gi, 110);
                 else if (major && dup2 == 3 && !rough) EW_IN(gi, 130);
+                else if (major && dup2 == 0 && !rough) EW_IN(gi, 100);
+                else if (major && dup2 == 2 && !rough) EW_IN(gi, 120);
                 else if (major && dup2 == 1 && rough) EW_IN(gi, 111);
                 else if (major && dup2 == 3 && rough) EW_IN(gi, 131);
+                else if (major && dup2 == 0 && rough) EW_IN(gi, 101);
+                else if (major && dup2 == 2 && rough) EW_IN(gi, 121);
                 else EW_ANY(gi);
             } else {
 #define EW_IN_010(S) EW_IN(S, 010)
 #define EW_IN_030(S) EW_IN(S, 030)
+#define EW_IN_000(S) EW_IN(S, 000)
+#define EW_IN_020(S) EW_IN(S, 020)
                 if (!major && dup2 == 1) EW_PER_NON_GI_KIND(EW_IN_010)
                 else if (!major && dup2 == 3) EW_PER_NON_GI_KIND(EW_IN_030)
+                else if (!major && dup2 == 0) EW_PER_NON_GI_KIND(EW_IN_000)
+                else if (!major && dup2 == 2) EW_PER_NON_GI_KIND(EW_IN_020)
                 else EW_PER_NON_GI_KIND(EW_ANY)
 #undef EW_IN_010
 #undef EW_IN_030
+#undef EW_IN_000
+#undef EW_IN_020
             }
 #undef EW_IN
 #undef EW_ANY
@@ -229,6 +244,44 @@ EW_ROWS_PER_KIND(down_rows, ew_pyr_down_args, down_rows_body(j, begin, end, kind
 
 void ew_cpu_pyr_down(ew_device *dev, const ew_pyr_down_args *a) {
     ew_pool_run(dev->pool, a->ch, 0, down_rows(a->m->kind), (void *)a);
+}
+
+/* The coarse rows fine row y reads (ew_pyr_up_args.cbuf): rows cy - 1 ..
+ * cy + 1 of the attributes and DOF's content CoC, duplicated, into the
+ * thread's buffer that t's cattr and ccoc point at (rows beyond the level
+ * are never read: the pixels that would read them take the general path,
+ * which checks). *have: the coarse row the buffer holds now. */
+static void coarse_rows(const ew_pyr_up_args *j, ew_pyr_up_args *t, int y, int tid, int *have) {
+    const int cy = y >> 1;
+    if (!j->cbuf || cy == *have) return;
+    *have = cy;
+    const int cw = j->cw, A = ew_bf_attrs(j->m->kind);
+    const long cw2 = 2L * cw, cn = (long)cw * j->ch, cps = t->cps;
+    float *buf = j->cbuf + (long)tid * j->cbuf_stride; /* t->cattr */
+    t->cy0 = cy - 1;
+    for (int r = 0; r < 3; r++) {
+        const int qy = cy - 1 + r;
+        if (qy < 0 || qy >= j->ch) continue;
+        for (int k = 0; k < A; k++) {
+            const float *src = j->cattr_src + k * cn + (long)qy * cw;
+            float *dst = buf + k * cps + r * cw2;
+            for (int x = 0; x < cw; x++) dst[2 * x] = dst[2 * x + 1] = src[x];
+        }
+        if (j->ccoc_src) memcpy(buf + A * cps + r * cw2, j->ccoc_src + (long)qy * cw2, sizeof(float) * (size_t)cw2);
+    }
+}
+
+/* Point t (a copy of j) at thread tid's coarse rows, when j has them. */
+static void coarse_rows_init(const ew_pyr_up_args *j, ew_pyr_up_args *t, int tid) {
+    if (!j->cbuf) return;
+    const long cps = 3L * 2 * j->cw;
+    const float *buf = j->cbuf + (long)tid * j->cbuf_stride;
+    t->cps = cps;
+    t->cattr = buf;
+    /* DOF: the content CoC after the attributes (coarse_rows); at the
+     * coarsest level the attributes' own C (plane 1), as the whole-frame
+     * plan passes it */
+    if (j->m->kind == EW_RANGE_DOF) t->ccoc = j->ccoc_src ? buf + ew_bf_attrs(j->m->kind) * cps : buf + cps;
 }
 
 /* ---- upsampling: per kind, the general pixels [x0, x1) of row y, and the
@@ -315,6 +368,7 @@ EW_SPAN_FN up_spans_sym_color(const ew_pyr_up_args *ap, int64_t begin, int64_t e
     /* a row is done after its last segment: with one segment, drain it then
      * (the rows without an interior were drained by the caller) */
     const int one = x1 - x0 <= EW_PYR_SEG;
+    int crow = -1; /* the coarse row a.cattr holds (coarse_rows) */
     for (int xb = x0; xb < x1; xb += EW_PYR_SEG) {
         const int xe = xb + EW_PYR_SEG < x1 ? xb + EW_PYR_SEG : x1;
         int have = 0, cur = 0, c0, c1;
@@ -323,6 +377,7 @@ EW_SPAN_FN up_spans_sym_color(const ew_pyr_up_args *ap, int64_t begin, int64_t e
                 have = 0;
                 continue;
             }
+            coarse_rows(ap, &a, (int)y, tid, &crow);
             if (!have) fine_fwd_row(&a, (int)y - 1, xb, xe, buf[cur ^ 1], kind);
             have = 1;
             fine_fwd_row(&a, (int)y, xb, xe, buf[cur], kind);
@@ -381,7 +436,8 @@ static void up_run_shared(const ew_pyr_up_args *a, int64_t y, int xs, int xe, co
     const int cy = (int)(y >> 1);
     for (int cb = xs; cb < xe; cb += EW_PYR_CR) {
         const int ce = cb + EW_PYR_CR < xe ? cb + EW_PYR_CR : xe, xo = cb - 2;
-        for (int r = 0; r < 3; r++) coarse_fg_dof(a, (long)(cy + r - 1) * cw2, cb - 2, ce + 2, xo, at, gamma, fb[r], gb[r]);
+        for (int r = 0; r < 3; r++)
+            coarse_fg_dof(a, (long)(cy + r - 1 - a->cy0) * cw2, cb - 2, ce + 2, xo, at, gamma, fb[r], gb[r]);
         const ew_pyr_coarse_rows cr = {{fb[0], fb[1], fb[2]}, {gb[0], gb[1], gb[2]}, xo};
         if (dup) up_cr_dof_1(a, (int)y, cb, ce, &cr);
         else up_cr_dof_0(a, (int)y, cb, ce, &cr);
@@ -421,12 +477,16 @@ static void up_span_runs(const ew_pyr_up_args *ap, int64_t y, int x0, int x1, co
 }
 
 static inline void up_rows_body(const ew_pyr_up_args *j, int64_t begin, int64_t end, const int kind, int tid) {
-    const ew_pyr_up_args *a = j;
+    ew_pyr_up_args t = *j;
+    coarse_rows_init(j, &t, tid);
+    const ew_pyr_up_args *a = &t;
     const int fast = ew_pyr_up_in_ok(a, kind), uniform = a->row != 0, g1 = uniform && a->row->gamma == 1.0f;
     const int dup = a->dup_out != 0, sym = fast && uniform && ew_pyr_symmetric(kind);
+    int crow = -1; /* the coarse row t holds (coarse_rows) */
     for (int64_t y = begin; y < end; y++) {
         const int yi = (int)y;
         int x0, x1;
+        coarse_rows(j, &t, yi, tid, &crow);
 #define EW_GEN(XB, XE)                                                                                         \
     do {                                                                                                       \
         const int gb_ = (XB), ge_ = (XE);                                                                      \
