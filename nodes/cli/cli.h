@@ -29,6 +29,15 @@ int cmd_nodes(int argc, char **argv);
 const char *cli_pass_comps(const ewio_file *f, const char *layer, const char *pass);
 float *cli_read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
                      size_t errlen);
+/* When the alpha of *rgba (n interleaved RGBA pixels of pass `pass`, as
+ * read from f) is one finite value everywhere and the file it was read
+ * from still holds it: set the file's alpha to come from there at write
+ * time, pack *rgba to RGB in place (shrunk; *rgba may move) and return 1.
+ * Else 0, nothing changed. For the filters (filters_alpha in the library):
+ * they give such an alpha back as it is, and the colour they compute does
+ * not depend on it (its finite test passes alike; as a guide it differs by
+ * zero everywhere), so the method can run on RGB with the same result. */
+int cli_keep_uniform_alpha(ewio_file *f, const char *layer, const char *pass, float **rgba, size_t n);
 long cli_count_nonfinite(const float *v, size_t n);
 
 /* A command that runs one library op on one pass (cli_op.c), its options

@@ -499,10 +499,19 @@ static int execute(const parser *p) {
     if (!pass) { cli_fail("'%s' has no colour pass to %s (%s); name one with --pass", in_path, cmd->name, err); goto done; }
     const char *comps = cli_pass_comps(f, layer, pass);
     if (!comps) { cli_fail("layer '%s' has no pass '%s'", layer, pass); goto done; }
-    const int C = (int)strlen(comps);
+    int C = (int)strlen(comps);
     if (load_used_passes(p, f, method, layer, pass, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
     if (!(pix = cli_read_pass(f, layer, pass, comps, err, sizeof err))) { cli_fail("%s", err); goto done; }
     long bad = cli_count_nonfinite(pix, n * (size_t)C);
+    /* An alpha of one value everywhere (a render without a transparent
+     * film) stays in the file and the method runs on RGB: the filters give
+     * such an alpha back as it is, and their colour does not depend on it
+     * (cli_keep_uniform_alpha). One float a pixel less while it works. */
+    const int alpha_in_file = C == 4 && cli_keep_uniform_alpha(f, layer, pass, &pix, n);
+    if (alpha_in_file) {
+        comps = "RGB";
+        C = 3;
+    }
     /* a method that may filter in place writes over the pass read for it
      * (one frame less in memory), unless the input is still wanted for the
      * reference scores */
@@ -566,6 +575,14 @@ static int execute(const parser *p) {
         const char *sc = cli_pass_comps(f, layer, src);
         const int nc = (int)strlen(sc);
         if (!(bufs[k] = cli_read_pass(f, layer, src, sc, err, sizeof err))) { cli_fail("%s", err); goto done; }
+        /* the method reads its copy; the file's goes back to the source,
+         * which still holds these values, and the write copies them from
+         * there (the colour pass keeps its own handling: it gets the result) */
+        if (strcmp(src, pass) != 0 && ewio_pass_in_source(f, layer, src, sc) &&
+            ewio_set_pass_from_source(f, layer, src, sc, src, err, sizeof err) != 0) {
+            cli_fail("%s", err);
+            goto done;
+        }
         /* as many channels as the pass has, up to 4; a pass with more
          * components than the image reads is read from its first ones */
         ew_image v = ew_image_packed(bufs[k], w, h, nc > 4 ? 4 : nc);

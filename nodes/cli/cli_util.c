@@ -1,4 +1,5 @@
 #include <errno.h>
+#include <stdint.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -115,6 +116,23 @@ float *cli_read_pass(const ewio_file *f, const char *layer, const char *pass, co
         return NULL;
     }
     return buf;
+}
+
+int cli_keep_uniform_alpha(ewio_file *f, const char *layer, const char *pass, float **rgba, size_t n) {
+    float *p = *rgba;
+    uint32_t a0, b;
+    memcpy(&a0, p + 3, sizeof a0);
+    if ((a0 & 0x7f800000u) == 0x7f800000u || !ewio_pass_in_source(f, layer, pass, "A")) return 0;
+    for (size_t i = 1; i < n; i++) {
+        memcpy(&b, p + 4 * i + 3, sizeof b);
+        if (b != a0) return 0;
+    }
+    if (ewio_set_pass_from_source(f, layer, pass, "A", pass, NULL, 0) != 0) return 0;
+    for (size_t i = 0; i < n; i++) /* RGBA to RGB in place: pixel i's floats move down or stay */
+        for (int c = 0; c < 3; c++) p[3 * i + (size_t)c] = p[4 * i + (size_t)c];
+    float *q = (float *)realloc(p, n * 3 * sizeof(float));
+    if (q) *rgba = q;
+    return 1;
 }
 
 long cli_count_nonfinite(const float *v, size_t n) {

@@ -3,7 +3,10 @@
  * and checks premultiplied colour in one:
  *   make_fixtures --premultiplied FILE LAYER PASS
  * prints "over N soft M nonfinite K": N colour samples above their alpha,
- * M pixels with alpha strictly between 0 and 1, K non-finite samples. */
+ * M pixels with alpha strictly between 0 and 1, K non-finite samples; and
+ * compares two RGBA passes value by value:
+ *   make_fixtures --same FILE1 LAYER1 PASS1 FILE2 LAYER2 PASS2
+ * prints "same" or "differ N" (N samples whose bits differ). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -103,8 +106,45 @@ static int check_premultiplied(const char *path, const char *layer, const char *
     return 0;
 }
 
+static float *read_rgba(const char *path, const char *layer, const char *pass, size_t *n) {
+    char err[512];
+    ewio_file *f = NULL;
+    if (ewio_read(path, &f, err, sizeof err) != 0) {
+        fprintf(stderr, "make_fixtures: %s\n", err);
+        return NULL;
+    }
+    *n = (size_t)ewio_width(f) * (size_t)ewio_height(f);
+    float *p = (float *)malloc(*n * 4 * sizeof(float));
+    if (!p || ewio_get_pass(f, layer, pass, "RGBA", p, err, sizeof err) != 0) {
+        fprintf(stderr, "make_fixtures: %s\n", p ? err : "out of memory");
+        free(p);
+        p = NULL;
+    }
+    ewio_free(f);
+    return p;
+}
+
+static int check_same(char **a) {
+    size_t na = 0, nb = 0;
+    float *p = read_rgba(a[0], a[1], a[2], &na), *q = read_rgba(a[3], a[4], a[5], &nb);
+    int rc = 1;
+    if (p && q && na == nb) {
+        long differ = 0;
+        for (size_t i = 0; i < 4 * na; i++) differ += memcmp(p + i, q + i, sizeof(float)) != 0;
+        if (differ) printf("differ %ld\n", differ);
+        else printf("same\n");
+        rc = 0;
+    } else if (p && q) {
+        fprintf(stderr, "make_fixtures: the images differ in size\n");
+    }
+    free(p);
+    free(q);
+    return rc;
+}
+
 int main(int argc, char **argv) {
     if (argc == 5 && !strcmp(argv[1], "--premultiplied")) return check_premultiplied(argv[2], argv[3], argv[4]);
+    if (argc == 8 && !strcmp(argv[1], "--same")) return check_same(argv + 2);
     if (argc != 2) { fprintf(stderr, "usage: make_fixtures DIR\n"); return 2; }
     const char *dir = argv[1];
     char err[512];

@@ -45,5 +45,35 @@ JSON
 # the graph's pixels are the CLI's
 "$EW" compare "$T/graph.exr" "$T/separable.exr" 2>&1 | grep -q "^PSNR inf" && ok graph_equals_cli || bad graph_equals_cli
 
+# An alpha of one value everywhere (bad_samples.exr: Combined.A = 1, some
+# colour samples NaN or infinite) stays in the file and `filter`/`dof` run
+# the method on RGB: the written colour and alpha are, value for value, a
+# graph's, whose filter node gets the RGBA pass (the library's alpha path).
+U="$T/bad_samples.exr"
+same() { # NAME CLI_ARGS... -- GRAPH_FILTER_NODE_JSON
+  local name="$1"; shift
+  local args=(); while [ "$1" != "--" ]; do args+=("$1"); shift; done; shift
+  cat >"$T/u.json" <<JSON
+{"edgewise_graph": 1, "nodes": {
+  "r": {"type": "read", "params": {"path": "$U", "pass": "Combined"}},
+  "f": $1,
+  "w": {"type": "write", "params": {"path": "$T/u_graph.exr", "pixel_type": "half"}, "inputs": {"image": "f"}}}}
+JSON
+  if "$EW" "${args[@]}" "$U" -o "$T/u_cli.exr" -q 2>"$T/err" && "$EW" graph run "$T/u.json" -q 2>"$T/err"; then
+    local got; got=$("$FIX" --same "$T/u_cli.exr" ViewLayer Combined "$T/u_graph.exr" "" "" 2>&1)
+    [ "$got" = same ] && ok "$name" || bad "$name ($got)"
+  else
+    bad "$name (runs)"
+  fi
+}
+for m in pyramid bilateral separable atrous; do
+  # the command guides the a-trous filter by the file's normal and depth
+  guides=""; [ $m = atrous ] && guides=", \"normal\": \"r.normal\", \"depth\": \"r.depth\""
+  same "uniform_alpha_filter_${m}_as_rgba" filter --method $m --radius 4 -- \
+    "{\"type\": \"filter\", \"params\": {\"filter\": \"$m\", \"radius\": 4}, \"inputs\": {\"color\": \"r.image\"$guides}}"
+done
+same uniform_alpha_dof_as_rgba dof --fstop 0.5 --focus-distance 0.5 -- \
+  "{\"type\": \"dof\", \"params\": {\"fstop\": 0.5, \"focus_distance\": 0.5}, \"inputs\": {\"color\": \"r.image\", \"depth\": \"r.depth\"}}"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
