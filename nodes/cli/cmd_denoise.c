@@ -458,8 +458,13 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     const int has_nd = in.normal && in.depth, has_n = in.normal != NULL, has_d = in.depth != NULL;
     char back_err[256] = "";
     int back = 0;
+    /* the features go back unchanged: from the input file at write time
+     * when it still holds them there, else the copies */
     for (int k = 0; k < nfp && back == 0; k++)
-        back = ewio_set_pass(j->f, layer, fp[k].pass, fp[k].comps, fp[k].data, back_err, sizeof back_err);
+        back = ewio_pass_in_source(j->f, layer, fp[k].pass, fp[k].comps)
+                   ? ewio_set_pass_from_source(j->f, layer, fp[k].pass, fp[k].comps, fp[k].pass, back_err,
+                                               sizeof back_err)
+                   : ewio_set_pass(j->f, layer, fp[k].pass, fp[k].comps, fp[k].data, back_err, sizeof back_err);
     ew_layer_data_free(&in);
     if (back != 0 && !bad) {
         free(orig);
@@ -629,7 +634,10 @@ int cmd_denoise(int argc, char **argv) {
          * motion vectors only for a method that reads them (else they stay
          * in the file, and are copied from it when the result is written) */
         lp.skip_vector = !method_takes(o.method, "vector");
-        const ewio_pass_ref used[] = {{layer, lp.color, lp.color_comps}, {layer, lp.albedo, "RGB"},
+        /* the colour's RGB only: the methods read no alpha, and the result
+         * goes into RGB, so an alpha stays in the file and is copied from
+         * it when the result is written */
+        const ewio_pass_ref used[] = {{layer, lp.color, "RGB"},          {layer, lp.albedo, "RGB"},
                                       {layer, lp.normal, "XYZ"},         {layer, lp.depth, "Z"},
                                       {layer, lp.skip_vector ? NULL : "Vector", "XY"}};
         const double t_load = cli_seconds();
