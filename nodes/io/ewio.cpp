@@ -439,21 +439,33 @@ struct TempGuard {
     std::string path;
     bool armed = false;
     int slot = -1;
-    /* The file at `path` now exists and is ours. */
-    void arm() {
-        armed = true;
-        if (path.size() >= sizeof g_temps[0].path) return;
+    /* A slot armed with the mkostemps template `name`, whose buffer mkostemps
+     * is then given: it writes each name it tries there before it creates
+     * the file, so a signal that comes at any moment after the file exists
+     * finds it (arming after mkostemps returned left a window in which the
+     * file existed unlisted: a SIGINT there left it behind). Before that the
+     * handler unlinks a name that does not exist yet. NULL when the name
+     * does not fit a slot or all are taken: the file is then removed by this
+     * guard only, not on a signal. */
+    char *claim(const std::string &name) {
+        if (name.size() >= sizeof g_temps[0].path) return nullptr;
         for (int i = 0; i < kTempSlots; i++) {
             int expected = 0;
             if (g_temps[i].state.compare_exchange_strong(expected, 1)) {
-                memcpy(g_temps[i].path, path.c_str(), path.size() + 1);
+                memcpy(g_temps[i].path, name.c_str(), name.size() + 1);
                 g_temps[i].state.store(2);
                 slot = i;
-                return;
+                return g_temps[i].path;
             }
         }
+        return nullptr;
     }
-    /* Renamed into place: nothing to remove any more. */
+    /* The file at `p` now exists and is ours. */
+    void arm(const char *p) {
+        path.assign(p);
+        armed = true;
+    }
+    /* Renamed into place (or never created): nothing to remove any more. */
     void release() {
         armed = false;
         if (slot >= 0) g_temps[slot].state.store(0);
@@ -493,10 +505,16 @@ int make_temp(TempGuard &guard, const std::string &dir, const std::string &base,
     std::string name = (dir == "/" ? std::string("/") : dir + "/") + "." + b + ".tmp-XXXXXX" + tail;
     std::vector<char> buf(name.begin(), name.end());
     buf.push_back('\0');
-    const int fd = mkostemps(buf.data(), int(tail.size()), O_CLOEXEC);
-    if (fd < 0) return -1;
-    guard.path.assign(buf.data());
-    guard.arm();
+    char *tmpl = guard.claim(name);
+    if (!tmpl) tmpl = buf.data();
+    const int fd = mkostemps(tmpl, int(tail.size()), O_CLOEXEC);
+    if (fd < 0) {
+        const int e = errno;
+        guard.release();
+        errno = e;
+        return -1;
+    }
+    guard.arm(tmpl);
     int mode = dst_mode;
     if (mode < 0) {
         const int mask = current_umask();
