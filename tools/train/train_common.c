@@ -188,6 +188,34 @@ int train_checkpoint_load(const char *path, size_t nparams, ew_weights *w, ew_ad
     return 0;
 }
 
+int train_run_option(int c, const char *v, train_run_opts *r, int *ok) {
+    long seed;
+    switch (c) {
+    case TRAIN_OPT_SEED:
+        *ok = train_parse_long("--seed", v, 0, LONG_MAX, &seed);
+        if (*ok) r->seed = (unsigned long)seed;
+        return 1;
+    case TRAIN_OPT_STEPS: *ok = train_parse_long("--steps", v, 1, 100000000, &r->steps); return 1;
+    case TRAIN_OPT_BATCH: *ok = train_parse_int("--batch", v, 1, 4096, &r->batch); return 1;
+    case TRAIN_OPT_PATCH: *ok = train_parse_int("--patch", v, 16, 4096, &r->patch); return 1;
+    case TRAIN_OPT_LR: *ok = train_parse_double("--lr", v, 0, 1, &r->lr); return 1;
+    case TRAIN_OPT_LR_FINAL: *ok = train_parse_double("--lr-final", v, 0, 1, &r->lr_final); return 1;
+    case TRAIN_OPT_CLIP: *ok = train_parse_double("--clip", v, 0, 1e9, &r->clip); return 1;
+    case TRAIN_OPT_THREADS: *ok = train_parse_int("--threads", v, 0, 1024, &r->threads); return 1;
+    case TRAIN_OPT_VAL_EVERY: *ok = train_parse_long("--val-every", v, 1, 100000000, &r->val_every); return 1;
+    case TRAIN_OPT_STOP_AFTER: *ok = train_parse_long("--stop-after", v, 1, 100000000, &r->stop_after); return 1;
+    case TRAIN_OPT_CHECKPOINT:
+        *ok = snprintf(r->checkpoint, sizeof r->checkpoint, "%s", v) < (int)sizeof r->checkpoint;
+        if (!*ok) fprintf(stderr, "%s: --checkpoint: the path is too long\n", train_prog);
+        return 1;
+    case TRAIN_OPT_CKPT_MINUTES:
+        *ok = train_parse_double("--checkpoint-minutes", v, 0, 1e6, &r->ckpt_minutes);
+        return 1;
+    case TRAIN_OPT_RESUME: r->resume = 1; return 1;
+    default: return 0;
+    }
+}
+
 int train_getopt_other(int c, const char *arg, const char *usage) {
     if (c == 'h') {
         fputs(usage, stdout);

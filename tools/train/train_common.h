@@ -45,6 +45,38 @@ int train_checkpoint_save(const char *path, const void *model, size_t model_size
  * or its optimiser state is not nparams long — another architecture's). */
 int train_checkpoint_load(const char *path, size_t nparams, ew_weights *w, ew_adam *adam, long *step);
 
+/* The options of an optimisation run, the same in both trainers: the
+ * schedule, the sampling, the threads and the checkpoints. Each program
+ * sets its defaults, lists TRAIN_RUN_LONG_OPTS in its getopt_long table
+ * and its own options from TRAIN_OPT_OWN on, and hands every answer to
+ * train_run_option first. */
+typedef struct train_run_opts {
+    unsigned long seed;
+    long steps, val_every, stop_after;
+    int batch, patch, threads, resume;
+    double lr, lr_final, clip, ckpt_minutes;
+    char checkpoint[1024];
+} train_run_opts;
+enum {
+    TRAIN_OPT_SEED = 256, TRAIN_OPT_STEPS, TRAIN_OPT_BATCH, TRAIN_OPT_PATCH, TRAIN_OPT_LR, TRAIN_OPT_LR_FINAL,
+    TRAIN_OPT_CLIP, TRAIN_OPT_THREADS, TRAIN_OPT_VAL_EVERY, TRAIN_OPT_STOP_AFTER, TRAIN_OPT_CHECKPOINT,
+    TRAIN_OPT_CKPT_MINUTES, TRAIN_OPT_RESUME,
+    TRAIN_OPT_OWN /* a program's own options from here */
+};
+#define TRAIN_RUN_LONG_OPTS                                                                                          \
+    {"seed", required_argument, NULL, TRAIN_OPT_SEED}, {"steps", required_argument, NULL, TRAIN_OPT_STEPS},          \
+        {"batch", required_argument, NULL, TRAIN_OPT_BATCH}, {"patch", required_argument, NULL, TRAIN_OPT_PATCH},    \
+        {"lr", required_argument, NULL, TRAIN_OPT_LR}, {"lr-final", required_argument, NULL, TRAIN_OPT_LR_FINAL},    \
+        {"clip", required_argument, NULL, TRAIN_OPT_CLIP}, {"threads", required_argument, NULL, TRAIN_OPT_THREADS}, \
+        {"val-every", required_argument, NULL, TRAIN_OPT_VAL_EVERY},                                                 \
+        {"stop-after", required_argument, NULL, TRAIN_OPT_STOP_AFTER},                                               \
+        {"checkpoint", required_argument, NULL, TRAIN_OPT_CHECKPOINT},                                               \
+        {"checkpoint-minutes", required_argument, NULL, TRAIN_OPT_CKPT_MINUTES},                                     \
+        {"resume", no_argument, NULL, TRAIN_OPT_RESUME}
+/* getopt_long's answer c with value v: 1 when it is one of the run's
+ * options, with *ok 0 on a bad value (printed); 0 when it is not. */
+int train_run_option(int c, const char *v, train_run_opts *r, int *ok);
+
 /* getopt_long's other answers (optstring ":h"): 'h' prints usage on stdout
  * and exits 0; a missing value (':') or an unknown option prints why and
  * returns 0. arg: argv[optind - 1], the option as given. */

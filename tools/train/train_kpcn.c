@@ -134,53 +134,44 @@ typedef struct {
     const char *arch, *out, *eval, *shared, *loss_name, *init, *scenes;
     const char *train[MAX_DIRS], *val[MAX_DIRS];
     int ntrain_dirs, nval_dirs;
-    char checkpoint[1024], csv[1024];
-    unsigned long seed;
-    long steps, val_every, stop_after;
-    int batch, patch, threads, resume, rescan, val_max, loss;
-    double lr, lr_final, clip, ckpt_minutes, time_limit;
+    char csv[1024];
+    train_run_opts run;
+    int rescan, val_max, loss;
+    double time_limit;
 } options;
 
 enum {
-    OPT_ARCH = 256, OPT_OUT, OPT_EVAL, OPT_INIT, OPT_TRAIN, OPT_VAL, OPT_SHARED, OPT_LOSS, OPT_SEED, OPT_STEPS,
-    OPT_BATCH, OPT_PATCH, OPT_LR, OPT_LR_FINAL, OPT_CLIP, OPT_THREADS, OPT_VAL_EVERY, OPT_VAL_MAX, OPT_CHECKPOINT,
-    OPT_CKPT_MINUTES, OPT_TIME_LIMIT, OPT_RESUME, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP, OPT_STOP_AFTER
+    OPT_ARCH = TRAIN_OPT_OWN, OPT_OUT, OPT_EVAL, OPT_INIT, OPT_TRAIN, OPT_VAL, OPT_SHARED, OPT_LOSS, OPT_VAL_MAX,
+    OPT_TIME_LIMIT, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP
 };
 static const struct option long_opts[] = {
+    TRAIN_RUN_LONG_OPTS,
     {"arch", required_argument, NULL, OPT_ARCH}, {"out", required_argument, NULL, OPT_OUT},
     {"eval", required_argument, NULL, OPT_EVAL}, {"init", required_argument, NULL, OPT_INIT},
     {"train", required_argument, NULL, OPT_TRAIN}, {"val", required_argument, NULL, OPT_VAL},
     {"shared", required_argument, NULL, OPT_SHARED}, {"loss", required_argument, NULL, OPT_LOSS},
-    {"seed", required_argument, NULL, OPT_SEED}, {"steps", required_argument, NULL, OPT_STEPS},
-    {"batch", required_argument, NULL, OPT_BATCH}, {"patch", required_argument, NULL, OPT_PATCH},
-    {"lr", required_argument, NULL, OPT_LR}, {"lr-final", required_argument, NULL, OPT_LR_FINAL},
-    {"clip", required_argument, NULL, OPT_CLIP}, {"threads", required_argument, NULL, OPT_THREADS},
-    {"val-every", required_argument, NULL, OPT_VAL_EVERY}, {"val-max", required_argument, NULL, OPT_VAL_MAX},
-    {"checkpoint", required_argument, NULL, OPT_CHECKPOINT},
-    {"checkpoint-minutes", required_argument, NULL, OPT_CKPT_MINUTES},
-    {"time-limit", required_argument, NULL, OPT_TIME_LIMIT}, {"resume", no_argument, NULL, OPT_RESUME},
+    {"val-max", required_argument, NULL, OPT_VAL_MAX}, {"time-limit", required_argument, NULL, OPT_TIME_LIMIT},
     {"rescan", no_argument, NULL, OPT_RESCAN}, {"holdout", required_argument, NULL, OPT_HOLDOUT},
     {"scenes", required_argument, NULL, OPT_SCENES}, {"train-spp", required_argument, NULL, OPT_TRAIN_SPP},
-    {"stop-after", required_argument, NULL, OPT_STOP_AFTER},
     {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
 
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
-    o->seed = 1;
-    o->steps = 6000;
-    o->batch = 8;
-    o->patch = 64;
-    o->lr = 1e-3;
-    o->lr_final = 5e-5;
-    o->clip = 1.0;
-    o->val_every = 250;
+    o->run.seed = 1;
+    o->run.steps = 6000;
+    o->run.batch = 8;
+    o->run.patch = 64;
+    o->run.lr = 1e-3;
+    o->run.lr_final = 5e-5;
+    o->run.clip = 1.0;
+    o->run.val_every = 250;
     o->val_max = 12;
-    o->ckpt_minutes = 3;
+    o->run.ckpt_minutes = 3;
     int c, ok = 1;
-    long seed = 1;
     opterr = 0;
     while (ok && (c = getopt_long(argc, argv, ":h", long_opts, NULL)) != -1) {
         const char *v = optarg, *a = argv[optind - 1];
+        if (train_run_option(c, v, &o->run, &ok)) continue;
         switch (c) {
         case OPT_ARCH: o->arch = v; break;
         case OPT_OUT: o->out = v; break;
@@ -196,26 +187,8 @@ static int parse(int argc, char **argv, options *o) {
             break;
         case OPT_SHARED: o->shared = v; break;
         case OPT_LOSS: o->loss_name = v; break;
-        case OPT_SEED: ok = train_parse_long("--seed", v, 0, LONG_MAX, &seed); break;
-        case OPT_STEPS: ok = train_parse_long("--steps", v, 1, 100000000, &o->steps); break;
-        case OPT_BATCH: ok = train_parse_int("--batch", v, 1, 4096, &o->batch); break;
-        case OPT_PATCH: ok = train_parse_int("--patch", v, 16, 4096, &o->patch); break;
-        case OPT_LR: ok = train_parse_double("--lr", v, 0, 1, &o->lr); break;
-        case OPT_LR_FINAL: ok = train_parse_double("--lr-final", v, 0, 1, &o->lr_final); break;
-        case OPT_CLIP: ok = train_parse_double("--clip", v, 0, 1e9, &o->clip); break;
-        case OPT_THREADS: ok = train_parse_int("--threads", v, 0, 1024, &o->threads); break;
-        case OPT_VAL_EVERY: ok = train_parse_long("--val-every", v, 1, 100000000, &o->val_every); break;
         case OPT_VAL_MAX: ok = train_parse_int("--val-max", v, 0, MAX_SCENES, &o->val_max); break;
-        case OPT_CHECKPOINT:
-            if (snprintf(o->checkpoint, sizeof o->checkpoint, "%s", v) >= (int)sizeof o->checkpoint) {
-                fprintf(stderr, "train_kpcn: --checkpoint: the path is too long\n");
-                ok = 0;
-            }
-            break;
-        case OPT_CKPT_MINUTES: ok = train_parse_double("--checkpoint-minutes", v, 0, 1e6, &o->ckpt_minutes); break;
         case OPT_TIME_LIMIT: ok = train_parse_double("--time-limit", v, 0, 1e6, &o->time_limit); break;
-        case OPT_STOP_AFTER: ok = train_parse_long("--stop-after", v, 1, 100000000, &o->stop_after); break;
-        case OPT_RESUME: o->resume = 1; break;
         case OPT_RESCAN: o->rescan = 1; break;
         case OPT_HOLDOUT: ok = train_parse_int("--holdout", v, 0, 1000, &holdout); break;
         case OPT_SCENES: o->scenes = v; break;
@@ -229,7 +202,6 @@ static int parse(int argc, char **argv, options *o) {
         }
     }
     if (!ok || !train_no_operands(argc, argv, usage)) return 0;
-    o->seed = (unsigned long)seed;
     o->loss = EW_KPCN_LOSS_TM;
     if (o->loss_name && !strcmp(o->loss_name, "log")) o->loss = EW_KPCN_LOSS_LOG;
     else if (o->loss_name && strcmp(o->loss_name, "tm") != 0) {
@@ -245,11 +217,11 @@ static int parse(int argc, char **argv, options *o) {
         fputs(usage, stderr);
         return 0;
     }
-    if (o->patch < 16 || o->patch % 4 || o->batch < 1 || o->steps < 1) {
+    if (o->run.patch < 16 || o->run.patch % 4 || o->run.batch < 1 || o->run.steps < 1) {
         fprintf(stderr, "train_kpcn: --patch a multiple of 4 >= 16, --batch >= 1, --steps >= 1\n");
         return 0;
     }
-    if (!o->checkpoint[0]) snprintf(o->checkpoint, sizeof o->checkpoint, "%s.ckpt", o->out);
+    if (!o->run.checkpoint[0]) snprintf(o->run.checkpoint, sizeof o->run.checkpoint, "%s.ckpt", o->out);
     snprintf(o->csv, sizeof o->csv, "%s.csv", o->out);
     return 1;
 }
@@ -799,16 +771,16 @@ static struct {
     float *params, *grad, *m, *v;
     ew_kpcn_trainer *tr;
     FILE *csv;
-} run;
+} held;
 
-static void run_free(void) {
-    free(run.params);
-    free(run.grad);
-    free(run.m);
-    free(run.v);
-    if (run.tr) ew_kpcn_trainer_destroy(run.tr);
-    if (run.csv) fclose(run.csv);
-    memset(&run, 0, sizeof run);
+static void held_free(void) {
+    free(held.params);
+    free(held.grad);
+    free(held.m);
+    free(held.v);
+    if (held.tr) ew_kpcn_trainer_destroy(held.tr);
+    if (held.csv) fclose(held.csv);
+    memset(&held, 0, sizeof held);
 }
 
 static int train(const options *opt, ew_device *dev) {
@@ -819,28 +791,28 @@ static int train(const options *opt, ew_device *dev) {
         fprintf(stderr, "train_kpcn: %s\n", err);
         return 2;
     }
-    if (o.patch % ew_kpcn_align(&net)) {
+    if (o.run.patch % ew_kpcn_align(&net)) {
         fprintf(stderr, "train_kpcn: --patch must be a multiple of %d for %s (its coarsest scale pools it %d times)\n",
                 ew_kpcn_align(&net), net.arch, net.scales - 1);
         return 2;
     }
-    float *params = run.params = (float *)malloc(sizeof(float) * net.nparams);
-    float *grad = run.grad = (float *)malloc(sizeof(float) * net.nparams);
-    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, run.m = (float *)calloc(net.nparams, sizeof(float)),
-                    run.v = (float *)calloc(net.nparams, sizeof(float))};
+    float *params = held.params = (float *)malloc(sizeof(float) * net.nparams);
+    float *grad = held.grad = (float *)malloc(sizeof(float) * net.nparams);
+    ew_adam adam = {o.run.lr, 0.9, 0.999, 1e-8, 0, held.m = (float *)calloc(net.nparams, sizeof(float)),
+                    held.v = (float *)calloc(net.nparams, sizeof(float))};
     if (!params || !grad || !adam.m || !adam.v) {
         fprintf(stderr, "train_kpcn: out of memory for %zu parameters\n", net.nparams);
         return 1;
     }
-    ew_kpcn_random(&net, o.seed, params);
+    ew_kpcn_random(&net, o.run.seed, params);
     long step = 0;
     int resumed = 0;
-    if (o.resume) {
-        int r = load_checkpoint(o.checkpoint, &net, params, &adam, &step);
+    if (o.run.resume) {
+        int r = load_checkpoint(o.run.checkpoint, &net, params, &adam, &step);
         if (r == 2) return 1;
         resumed = r == 0;
         printf(r == 0 ? "resumed from %s at step %ld\n" : "no checkpoint at %s: from scratch (step %ld)\n",
-               o.checkpoint, step);
+               o.run.checkpoint, step);
     }
     if (o.init && !resumed) {
         size_t size = 0;
@@ -874,16 +846,16 @@ static int train(const options *opt, ew_device *dev) {
         fprintf(stderr, "train_kpcn: no training scenes\n");
         return 1;
     }
-    ew_kpcn_trainer *tr = run.tr = ew_kpcn_trainer_create(dev, &net, o.batch, o.patch, o.loss);
+    ew_kpcn_trainer *tr = held.tr = ew_kpcn_trainer_create(dev, &net, o.run.batch, o.run.patch, o.loss);
     if (!tr) {
         fprintf(stderr, "train_kpcn: out of memory for the trainer\n");
         return 1;
     }
     printf("arch %s: %zu parameters, %.0f multiply-adds a pixel; seed %lu, %ld steps of %d patches of %d^2, "
            "lr %g -> %g, clip %g, loss %s, %d threads\n",
-           net.arch, net.nparams, ew_kpcn_macs_per_pixel(&net), o.seed, o.steps, o.batch, o.patch, o.lr, o.lr_final,
-           o.clip, o.loss == EW_KPCN_LOSS_LOG ? "log" : "tm", ew_device_get_num_threads(dev));
-    FILE *csv = run.csv = fopen(o.csv, step > 0 ? "a" : "w");
+           net.arch, net.nparams, ew_kpcn_macs_per_pixel(&net), o.run.seed, o.run.steps, o.run.batch, o.run.patch, o.run.lr, o.run.lr_final,
+           o.run.clip, o.loss == EW_KPCN_LOSS_LOG ? "log" : "tm", ew_device_get_num_threads(dev));
+    FILE *csv = held.csv = fopen(o.csv, step > 0 ? "a" : "w");
     if (!csv) {
         fprintf(stderr, "train_kpcn: cannot write '%s'\n", o.csv);
         return 1;
@@ -898,17 +870,17 @@ static int train(const options *opt, ew_device *dev) {
     double last_ckpt = start, loss_acc = 0, gn_acc = 0;
     int acc_n = 0;
     for (;;) {
-        const int last = step >= o.steps || (o.time_limit > 0 && train_now_s() - start > o.time_limit * 60.0);
-        if (!last && o.stop_after > 0 && step >= o.stop_after && step > step0) {
+        const int last = step >= o.run.steps || (o.time_limit > 0 && train_now_s() - start > o.time_limit * 60.0);
+        if (!last && o.run.stop_after > 0 && step >= o.run.stop_after && step > step0) {
             /* before this step's validation, which the resumed run does */
-            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0) {
-                fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.checkpoint);
+            if (save_checkpoint(o.run.checkpoint, &net, params, &adam, step) != 0) {
+                fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.run.checkpoint);
                 return 1;
             }
             printf("stopped at step %ld (--stop-after); --resume continues\n", step);
             break;
         }
-        if (step % o.val_every == 0 || last) {
+        if (step % o.run.val_every == 0 || last) {
             if (o.rescan && step > 0 && !last) {
                 scan_all(&o);
                 build_index();
@@ -944,22 +916,22 @@ static int train(const options *opt, ew_device *dev) {
             loss_acc = gn_acc = 0;
             acc_n = 0;
         }
-        if (last || train_now_s() - last_ckpt > o.ckpt_minutes * 60.0) {
-            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
-                fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.checkpoint);
+        if (last || train_now_s() - last_ckpt > o.run.ckpt_minutes * 60.0) {
+            if (save_checkpoint(o.run.checkpoint, &net, params, &adam, step) != 0)
+                fprintf(stderr, "train_kpcn: cannot write checkpoint '%s'\n", o.run.checkpoint);
             last_ckpt = train_now_s();
         }
         if (last) break;
         static ew_kpcn_patch patches[1024];
-        for (int b = 0; b < o.batch && b < 1024; b++) patches[b] = pick(o.seed, (uint64_t)step, b, o.patch);
+        for (int b = 0; b < o.run.batch && b < 1024; b++) patches[b] = pick(o.run.seed, (uint64_t)step, b, o.run.patch);
         /* cosine over --steps, or over --time-limit when that ends first */
-        double t = (double)step / (double)o.steps;
+        double t = (double)step / (double)o.run.steps;
         if (o.time_limit > 0) t = fmax(t, (train_now_s() - start) / (o.time_limit * 60.0));
         if (t > 1.0) t = 1.0;
-        adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979 * t));
+        adam.lr = o.run.lr_final + 0.5 * (o.run.lr - o.run.lr_final) * (1.0 + cos(3.14159265358979 * t));
         const double loss = ew_kpcn_trainer_gradient(tr, params, tframes, patches, grad);
         int clipped;
-        const double gn = ew_adam_step(&adam, params, grad, net.nparams, o.clip, &clipped);
+        const double gn = ew_adam_step(&adam, params, grad, net.nparams, o.run.clip, &clipped);
         loss_acc += loss;
         gn_acc += gn;
         acc_n++;
@@ -987,7 +959,7 @@ int main(int argc, char **argv) {
     }
     if (!parse(argc, argv, &o)) return 2;
     ew_device_desc dd = EW_DEVICE_DESC_INIT;
-    dd.num_threads = o.threads;
+    dd.num_threads = o.run.threads;
     ew_device *dev = NULL;
     if (ew_device_create(&dd, &dev) != EW_OK) {
         fprintf(stderr, "train_kpcn: cannot create the device\n");
@@ -999,7 +971,7 @@ int main(int argc, char **argv) {
         return 2;
     }
     const int rc = o.eval ? evaluate(&o, dev) : train(&o, dev);
-    run_free();
+    held_free();
     ew_device_destroy(dev);
     return rc;
 }

@@ -82,11 +82,9 @@ typedef struct {
     const char *data, *arch, *out, *eval, *emit_c, *init, *rates, *split, *models;
     const char *extra_train; /* more scenes, all for training (e.g. the project's generator's train split) */
     int bench, bench_w, bench_h;
-    char checkpoint[1024], csv[1024], svg[1024];
-    unsigned long seed;
-    long steps, val_every, stop_after;
-    int batch, patch, threads, resume, spp_mask;
-    double lr, lr_final, clip, ckpt_minutes;
+    char csv[1024], svg[1024];
+    train_run_opts run;
+    int spp_mask;
 } options;
 
 static int spp_bit(int spp) { return spp == 1 ? 1 : spp == 4 ? 2 : spp == 16 ? 4 : spp == 64 ? 8 : 0; }
@@ -105,27 +103,19 @@ static int parse_spp(const char *s, int *mask) {
 }
 
 enum {
-    OPT_DATA = 256, OPT_EXTRA_TRAIN, OPT_ARCH, OPT_OUT, OPT_EVAL, OPT_EMIT_C, OPT_INIT, OPT_RATES, OPT_SPLIT,
-    OPT_SEED, OPT_STEPS, OPT_VAL_EVERY, OPT_STOP_AFTER, OPT_BATCH, OPT_PATCH, OPT_THREADS, OPT_LR, OPT_LR_FINAL,
-    OPT_CLIP, OPT_CKPT_MINUTES, OPT_CHECKPOINT, OPT_CSV, OPT_SVG, OPT_SPP, OPT_RESUME, OPT_BENCH, OPT_MODELS,
-    OPT_SIZE
+    OPT_DATA = TRAIN_OPT_OWN, OPT_EXTRA_TRAIN, OPT_ARCH, OPT_OUT, OPT_EVAL, OPT_EMIT_C, OPT_INIT, OPT_RATES,
+    OPT_SPLIT, OPT_CSV, OPT_SVG, OPT_SPP, OPT_BENCH, OPT_MODELS, OPT_SIZE
 };
 static const struct option long_opts[] = {
+    TRAIN_RUN_LONG_OPTS,
     {"data", required_argument, NULL, OPT_DATA}, {"extra-train", required_argument, NULL, OPT_EXTRA_TRAIN},
     {"arch", required_argument, NULL, OPT_ARCH}, {"out", required_argument, NULL, OPT_OUT},
     {"eval", required_argument, NULL, OPT_EVAL}, {"emit-c", required_argument, NULL, OPT_EMIT_C},
     {"init", required_argument, NULL, OPT_INIT}, {"rates", required_argument, NULL, OPT_RATES},
-    {"split", required_argument, NULL, OPT_SPLIT}, {"seed", required_argument, NULL, OPT_SEED},
-    {"steps", required_argument, NULL, OPT_STEPS}, {"val-every", required_argument, NULL, OPT_VAL_EVERY},
-    {"stop-after", required_argument, NULL, OPT_STOP_AFTER}, {"batch", required_argument, NULL, OPT_BATCH},
-    {"patch", required_argument, NULL, OPT_PATCH}, {"threads", required_argument, NULL, OPT_THREADS},
-    {"lr", required_argument, NULL, OPT_LR}, {"lr-final", required_argument, NULL, OPT_LR_FINAL},
-    {"clip", required_argument, NULL, OPT_CLIP}, {"checkpoint-minutes", required_argument, NULL, OPT_CKPT_MINUTES},
-    {"checkpoint", required_argument, NULL, OPT_CHECKPOINT}, {"csv", required_argument, NULL, OPT_CSV},
+    {"split", required_argument, NULL, OPT_SPLIT}, {"csv", required_argument, NULL, OPT_CSV},
     {"svg", required_argument, NULL, OPT_SVG}, {"spp", required_argument, NULL, OPT_SPP},
-    {"resume", no_argument, NULL, OPT_RESUME}, {"bench", no_argument, NULL, OPT_BENCH},
-    {"models", required_argument, NULL, OPT_MODELS}, {"size", required_argument, NULL, OPT_SIZE},
-    {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+    {"bench", no_argument, NULL, OPT_BENCH}, {"models", required_argument, NULL, OPT_MODELS},
+    {"size", required_argument, NULL, OPT_SIZE}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
 
 /* a path option into a fixed buffer: too long is an error, not a cut path */
 static int set_path(const char *opt, const char *v, char *dst, size_t len) {
@@ -136,25 +126,25 @@ static int set_path(const char *opt, const char *v, char *dst, size_t len) {
 
 static int parse(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
-    o->seed = 1;
-    o->steps = 6000;
-    o->batch = 8;
-    o->patch = 128;
-    o->lr = 1e-3;
-    o->lr_final = 1e-4;
-    o->clip = 0.05;
-    o->val_every = 250;
-    o->ckpt_minutes = 5;
+    o->run.seed = 1;
+    o->run.steps = 6000;
+    o->run.batch = 8;
+    o->run.patch = 128;
+    o->run.lr = 1e-3;
+    o->run.lr_final = 1e-4;
+    o->run.clip = 0.05;
+    o->run.val_every = 250;
+    o->run.ckpt_minutes = 5;
     o->spp_mask = 15;
     o->split = "test";
     o->models = "models/nbg";
     o->bench_w = 1280;
     o->bench_h = 720;
     int c, ok = 1;
-    long seed = 1;
     opterr = 0;
     while (ok && (c = getopt_long(argc, argv, ":h", long_opts, NULL)) != -1) {
         const char *v = optarg, *a = argv[optind - 1];
+        if (train_run_option(c, v, &o->run, &ok)) continue;
         switch (c) {
         case OPT_DATA: o->data = v; break;
         case OPT_EXTRA_TRAIN: o->extra_train = v; break;
@@ -165,18 +155,6 @@ static int parse(int argc, char **argv, options *o) {
         case OPT_INIT: o->init = v; break;
         case OPT_RATES: o->rates = v; break;
         case OPT_SPLIT: o->split = v; break;
-        case OPT_SEED: ok = train_parse_long("--seed", v, 0, LONG_MAX, &seed); break;
-        case OPT_STEPS: ok = train_parse_long("--steps", v, 1, 100000000, &o->steps); break;
-        case OPT_VAL_EVERY: ok = train_parse_long("--val-every", v, 1, 100000000, &o->val_every); break;
-        case OPT_STOP_AFTER: ok = train_parse_long("--stop-after", v, 1, 100000000, &o->stop_after); break;
-        case OPT_BATCH: ok = train_parse_int("--batch", v, 1, 4096, &o->batch); break;
-        case OPT_PATCH: ok = train_parse_int("--patch", v, 16, 4096, &o->patch); break;
-        case OPT_THREADS: ok = train_parse_int("--threads", v, 0, 1024, &o->threads); break;
-        case OPT_LR: ok = train_parse_double("--lr", v, 0, 1, &o->lr); break;
-        case OPT_LR_FINAL: ok = train_parse_double("--lr-final", v, 0, 1, &o->lr_final); break;
-        case OPT_CLIP: ok = train_parse_double("--clip", v, 0, 1e9, &o->clip); break;
-        case OPT_CKPT_MINUTES: ok = train_parse_double("--checkpoint-minutes", v, 0, 1e6, &o->ckpt_minutes); break;
-        case OPT_CHECKPOINT: ok = set_path("--checkpoint", v, o->checkpoint, sizeof o->checkpoint); break;
         case OPT_CSV: ok = set_path("--csv", v, o->csv, sizeof o->csv); break;
         case OPT_SVG: ok = set_path("--svg", v, o->svg, sizeof o->svg); break;
         case OPT_SPP:
@@ -185,7 +163,6 @@ static int parse(int argc, char **argv, options *o) {
                 ok = 0;
             }
             break;
-        case OPT_RESUME: o->resume = 1; break;
         case OPT_BENCH: o->bench = 1; break;
         case OPT_MODELS: o->models = v; break;
         case OPT_SIZE: {
@@ -201,16 +178,15 @@ static int parse(int argc, char **argv, options *o) {
         }
     }
     if (!ok || !train_no_operands(argc, argv, usage)) return 0;
-    o->seed = (unsigned long)seed;
     if (o->emit_c || o->bench) return 1;
     if (!o->data) { fprintf(stderr, "train_nbg: --data DIR is required\n"); return 0; }
     if (o->eval) return 1;
     if (!o->arch || !o->out) { fprintf(stderr, "train_nbg: --arch and --out are required\n%s", usage); return 0; }
-    if (o->batch < 1 || o->patch < 16 || o->steps < 1 || o->val_every < 1) {
+    if (o->run.batch < 1 || o->run.patch < 16 || o->run.steps < 1 || o->run.val_every < 1) {
         fprintf(stderr, "train_nbg: --batch >= 1, --patch >= 16, --steps >= 1, --val-every >= 1\n");
         return 0;
     }
-    if (!o->checkpoint[0]) snprintf(o->checkpoint, sizeof o->checkpoint, "%s.ckpt", o->out);
+    if (!o->run.checkpoint[0]) snprintf(o->run.checkpoint, sizeof o->run.checkpoint, "%s.ckpt", o->out);
     if (!o->csv[0]) snprintf(o->csv, sizeof o->csv, "%s.csv", o->out);
     if (!o->svg[0]) snprintf(o->svg, sizeof o->svg, "%s.svg", o->out);
     return 1;
@@ -735,17 +711,17 @@ static struct {
     ew_patch_ref *refs;
     ew_trainer *tr;
     FILE *csv;
-} run;
+} held;
 
-static void run_free(void) {
-    free(run.params);
-    free(run.m);
-    free(run.v);
-    free(run.vout);
-    free(run.refs);
-    if (run.tr) ew_trainer_destroy(run.tr);
-    if (run.csv) fclose(run.csv);
-    memset(&run, 0, sizeof run);
+static void held_free(void) {
+    free(held.params);
+    free(held.m);
+    free(held.v);
+    free(held.vout);
+    free(held.refs);
+    if (held.tr) ew_trainer_destroy(held.tr);
+    if (held.csv) fclose(held.csv);
+    memset(&held, 0, sizeof held);
 }
 
 static int train(const options *opt, dataset *ds, ew_device *dev) {
@@ -772,14 +748,14 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
             if (*s == ',') s++;
         }
     }
-    float *params = run.params = (float *)malloc(sizeof(float) * net.nparams);
-    ew_adam adam = {o.lr, 0.9, 0.999, 1e-8, 0, run.m = (float *)calloc(net.nparams, sizeof(float)),
-                    run.v = (float *)calloc(net.nparams, sizeof(float))};
+    float *params = held.params = (float *)malloc(sizeof(float) * net.nparams);
+    ew_adam adam = {o.run.lr, 0.9, 0.999, 1e-8, 0, held.m = (float *)calloc(net.nparams, sizeof(float)),
+                    held.v = (float *)calloc(net.nparams, sizeof(float))};
     if (!params || !adam.m || !adam.v) {
         fprintf(stderr, "train_nbg: out of memory for %zu parameters\n", net.nparams);
         return 1;
     }
-    ew_guidenet_random(&net, o.seed, params);
+    ew_guidenet_random(&net, o.run.seed, params);
     if (o.init) {
         size_t size;
         void *b = train_read_file(o.init, &size);
@@ -797,11 +773,11 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
         ew_weights_free(&w);
     }
     long step = 0;
-    if (o.resume) {
-        int r = load_checkpoint(o.checkpoint, &net, params, &adam, &step);
+    if (o.run.resume) {
+        int r = load_checkpoint(o.run.checkpoint, &net, params, &adam, &step);
         if (r == 2) return 1;
-        if (r == 0) printf("resumed from %s at step %ld\n", o.checkpoint, step);
-        else printf("no checkpoint at %s: starting from scratch\n", o.checkpoint);
+        if (r == 0) printf("resumed from %s at step %ld\n", o.run.checkpoint, step);
+        else printf("no checkpoint at %s: starting from scratch\n", o.run.checkpoint);
     }
 
     /* data: train + validation scenes only */
@@ -819,8 +795,8 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
             nval++;
             continue;
         }
-        if (f->w < o.patch || f->h < o.patch) {
-            fprintf(stderr, "train_nbg: frame %dx%d is smaller than --patch %d\n", f->w, f->h, o.patch);
+        if (f->w < o.run.patch || f->h < o.run.patch) {
+            fprintf(stderr, "train_nbg: frame %dx%d is smaller than --patch %d\n", f->w, f->h, o.run.patch);
             return 1;
         }
         if (ew_train_frame_init(&tframes[ntrain], f->w, f->h, f->color, f->albedo, f->normal, f->depth, f->ref, 3.0f) != 0) {
@@ -845,7 +821,7 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
     size_t most = 0;
     for (int i = 0; i < ds->nframes; i++)
         if ((size_t)ds->frames[i].w * ds->frames[i].h > most) most = (size_t)ds->frames[i].w * ds->frames[i].h;
-    float *vout = run.vout = (float *)malloc(sizeof(float) * 3 * most);
+    float *vout = held.vout = (float *)malloc(sizeof(float) * 3 * most);
     if (!vout) {
         fprintf(stderr, "train_nbg: out of memory\n");
         return 1;
@@ -864,7 +840,7 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
     printf("validation baselines: input %.2f dB, bgrid %.2f dB (1 spp: %.2f / %.2f)\n", base_in.psnr, base_bg.psnr,
            base_in.psnr_spp[0], base_bg.psnr_spp[0]);
 
-    ew_trainer *tr = run.tr = ew_trainer_create(dev, &net, o.batch, o.patch);
+    ew_trainer *tr = held.tr = ew_trainer_create(dev, &net, o.run.batch, o.run.patch);
     if (!tr) {
         fprintf(stderr, "train_nbg: out of memory for the trainer\n");
         return 1;
@@ -872,14 +848,14 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
     printf("arch %s: %zu parameters, %.0f multiply-adds a pixel, grids", net.arch, net.nparams,
            ew_guidenet_macs_per_pixel(&net));
     for (int g = 0; g < net.ngrids; g++) printf(" (%g, %g)", (double)net.rate_s[g], (double)net.rate_d[g]);
-    printf("; seed %lu, %ld steps of %d patches of %d^2, lr %g -> %g, clip %g, %d threads\n", o.seed, o.steps, o.batch,
-           o.patch, o.lr, o.lr_final, o.clip, ew_device_get_num_threads(dev));
+    printf("; seed %lu, %ld steps of %d patches of %d^2, lr %g -> %g, clip %g, %d threads\n", o.run.seed, o.run.steps, o.run.batch,
+           o.run.patch, o.run.lr, o.run.lr_final, o.run.clip, ew_device_get_num_threads(dev));
     fflush(stdout);
 
     /* the curve so far (a resumed run appends to its CSV) */
     static curve_point pts[100000];
     int npts = 0;
-    FILE *csv = run.csv = fopen(o.csv, step > 0 ? "a" : "w");
+    FILE *csv = held.csv = fopen(o.csv, step > 0 ? "a" : "w");
     if (!csv) {
         fprintf(stderr, "train_nbg: cannot write '%s'\n", o.csv);
         return 1;
@@ -904,14 +880,14 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
     double t0 = train_now_s(), last_ckpt = t0, loss_sum = 0, norm_sum = 0, norm_max = 0;
     int nsum = 0, nclipped = 0;
     const int np = (int)net.nparams;
-    ew_patch_ref *refs = run.refs = (ew_patch_ref *)malloc(sizeof(ew_patch_ref) * (size_t)o.batch);
+    ew_patch_ref *refs = held.refs = (ew_patch_ref *)malloc(sizeof(ew_patch_ref) * (size_t)o.run.batch);
     if (!refs) return 1;
-    while (step < o.steps) {
+    while (step < o.run.steps) {
         /* cosine schedule, a function of the step alone */
-        adam.lr = o.lr_final + 0.5 * (o.lr - o.lr_final) * (1.0 + cos(3.14159265358979323846 * (double)step / (double)o.steps));
-        for (int b = 0; b < o.batch; b++) refs[b] = ew_train_pick(o.seed, (uint64_t)step, b, tframes, pick_frame, &pk, o.patch);
+        adam.lr = o.run.lr_final + 0.5 * (o.run.lr - o.run.lr_final) * (1.0 + cos(3.14159265358979323846 * (double)step / (double)o.run.steps));
+        for (int b = 0; b < o.run.batch; b++) refs[b] = ew_train_pick(o.run.seed, (uint64_t)step, b, tframes, pick_frame, &pk, o.run.patch);
         ew_train_step_stats st;
-        ew_trainer_step(tr, params, &adam, tframes, refs, o.clip, &st);
+        ew_trainer_step(tr, params, &adam, tframes, refs, o.run.clip, &st);
         step++;
         if (!isfinite(st.loss) || !isfinite(st.grad_norm)) {
             fprintf(stderr, "train_nbg: step %ld: loss %g, gradient norm %g: stopping (the last checkpoint is intact)\n",
@@ -926,9 +902,9 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
             nclipped++;
             /* logged, never silently dropped: the step still happens, scaled */
             if (nclipped <= 3)
-                printf("  step %ld: gradient norm %.4g clipped to %.4g\n", step, st.grad_norm, o.clip);
+                printf("  step %ld: gradient norm %.4g clipped to %.4g\n", step, st.grad_norm, o.run.clip);
         }
-        if (step % o.val_every == 0 || step == o.steps) {
+        if (step % o.run.val_every == 0 || step == o.run.steps) {
             void *wb;
             size_t ws;
             ew_guidenet_save(&net, params, &wb, &ws);
@@ -958,16 +934,16 @@ static int train(const options *opt, dataset *ds, ew_device *dev) {
                 pts[npts++] = p;
             }
             char title[160];
-            snprintf(title, sizeof title, "nbg %s, seed %lu: validation scenes (%d frames)", net.arch, o.seed, nval);
+            snprintf(title, sizeof title, "nbg %s, seed %lu: validation scenes (%d frames)", net.arch, o.run.seed, nval);
             write_svg(o.svg, pts, npts, title);
             fflush(stdout);
             loss_sum = norm_sum = norm_max = 0;
             nsum = nclipped = 0;
         }
-        const int stop = o.stop_after > 0 && step >= o.stop_after;
-        if (train_now_s() - last_ckpt > 60.0 * o.ckpt_minutes || step == o.steps || stop) {
-            if (save_checkpoint(o.checkpoint, &net, params, &adam, step) != 0)
-                fprintf(stderr, "train_nbg: could not write the checkpoint '%s'\n", o.checkpoint);
+        const int stop = o.run.stop_after > 0 && step >= o.run.stop_after;
+        if (train_now_s() - last_ckpt > 60.0 * o.run.ckpt_minutes || step == o.run.steps || stop) {
+            if (save_checkpoint(o.run.checkpoint, &net, params, &adam, step) != 0)
+                fprintf(stderr, "train_nbg: could not write the checkpoint '%s'\n", o.run.checkpoint);
             last_ckpt = train_now_s();
         }
         if (stop) {
@@ -999,7 +975,7 @@ int main(int argc, char **argv) {
     if (o.emit_c) return emit_c(o.emit_c);
     if (o.bench) {
         ew_device_desc bd = EW_DEVICE_DESC_INIT;
-        bd.num_threads = o.threads;
+        bd.num_threads = o.run.threads;
         ew_device *bdev = NULL;
         if (ew_device_create(&bd, &bdev) != EW_OK) return 1;
         int rc = bench(&o, bdev);
@@ -1021,14 +997,14 @@ int main(int argc, char **argv) {
         ds.nscenes += k;
     }
     ew_device_desc dd = EW_DEVICE_DESC_INIT;
-    dd.num_threads = o.threads;
+    dd.num_threads = o.run.threads;
     ew_device *dev = NULL;
     if (ew_device_create(&dd, &dev) != EW_OK) {
         fprintf(stderr, "train_nbg: cannot create the device\n");
         return 1;
     }
     const int rc = o.eval ? evaluate(&o, &ds, dev) : train(&o, &ds, dev);
-    run_free();
+    held_free();
     ew_device_destroy(dev);
     return rc;
 }
