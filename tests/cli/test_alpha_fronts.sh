@@ -6,10 +6,7 @@
 # Usage: test_alpha_fronts.sh EDGEWISE_BIN MAKE_FIXTURES_BIN
 set -u
 EW="$1"; FIX="$2"
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+. "$(dirname "$0")/../lib/harness.sh"
 # check NAME FILE LAYER PASS: no colour above alpha, some soft alpha, all finite
 check() {
   local got; got=$("$FIX" --premultiplied "$2" "$3" "$4")
@@ -75,5 +72,4 @@ done
 same uniform_alpha_dof_as_rgba dof --fstop 0.5 --focus-distance 0.5 -- \
   "{\"type\": \"dof\", \"params\": {\"fstop\": 0.5, \"focus_distance\": 0.5}, \"inputs\": {\"color\": \"r.image\", \"depth\": \"r.depth\"}}"
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -4,22 +4,8 @@
 # Prints "N passed, N failed" and exits non-zero on any failure.
 set -u
 EW="$1"; FIX="$2"; SAMPLE="$3"
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+. "$(dirname "$0")/../lib/harness.sh"
 
-# expect NAME EXIT_CODE STDERR_SUBSTRING -- ARGS...   (one line on stderr for errors)
-expect() {
-  local name="$1" code="$2" want="$3"; shift 4
-  "$EW" "$@" >"$T/out" 2>"$T/err"; local got=$?
-  if [ "$got" -ne "$code" ]; then bad "$name (exit $got, expected $code)"; return; fi
-  if [ -n "$want" ] && ! grep -qF -- "$want" "$T/err"; then bad "$name (stderr lacks '$want')"; return; fi
-  if [ "$code" -ne 0 ] && [ "$(wc -l <"$T/err")" -ne 1 ]; then bad "$name (expected one line on stderr)"; return; fi
-  ok "$name"
-}
-no_file() { if [ -e "$1" ]; then bad "$2: $1 exists"; else ok "$2"; fi; }
-no_temps() { if ls -A "$1" | grep -q 'tmp'; then bad "$2: temporary left in $1"; else ok "$2"; fi; }
 
 "$FIX" "$T" || { echo "0 passed, 1 failed"; exit 1; }
 
@@ -27,20 +13,20 @@ no_temps() { if ls -A "$1" | grep -q 'tmp'; then bad "$2: temporary left in $1";
 "$EW" --help | grep -q "denoise IN -o OUT" && ok help || bad help
 "$EW" denoise --help | grep -q -- "--layer NAME" && ok denoise_help || bad denoise_help
 "$EW" --version | grep -Eq '^edgewise [0-9]+\.[0-9]+\.[0-9]+$' && ok version || bad version
-expect usage_no_args 2 "needs an input" -- denoise
-expect usage_no_output 2 "-o OUT" -- denoise "$T/two_layers.exr"
-expect usage_bad_option 2 "unknown option '--frobnicate'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --frobnicate
-expect usage_bad_threads 2 "--threads expects an integer" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --threads -3
-expect usage_bad_rate 2 "--spatial-rate expects a number" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --spatial-rate 0
-expect usage_bad_method 2 "unknown method 'oidn'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --method oidn
-expect unknown_command 2 "unknown command" -- frobnicate
+expect usage_no_args 2 "needs an input" -- "$EW" denoise
+expect usage_no_output 2 "-o OUT" -- "$EW" denoise "$T/two_layers.exr"
+expect usage_bad_option 2 "unknown option '--frobnicate'" -- "$EW" denoise "$T/two_layers.exr" -o "$T/o.exr" --frobnicate
+expect usage_bad_threads 2 "--threads expects an integer" -- "$EW" denoise "$T/two_layers.exr" -o "$T/o.exr" --threads -3
+expect usage_bad_rate 2 "--spatial-rate expects a number" -- "$EW" denoise "$T/two_layers.exr" -o "$T/o.exr" --spatial-rate 0
+expect usage_bad_method 2 "unknown method 'oidn'" -- "$EW" denoise "$T/two_layers.exr" -o "$T/o.exr" --method oidn
+expect unknown_command 2 "unknown command" -- "$EW" frobnicate
 # a bad value is a usage error (2) found before the input is read: the
 # input here does not exist, so a later check would say exit 1
-expect usage_param_of_another_method 2 "denoiser 'auto' has no parameter --firefly-k" -- denoise "$T/nope.exr" -o "$T/o.exr" --method auto --firefly-k 3
-expect usage_param_underscore 2 "unknown option '--spatial_rate'" -- denoise "$T/nope.exr" -o "$T/o.exr" --spatial_rate 12
-expect usage_firefly_range 2 "--firefly-k expects a number in [0, 100]" -- denoise "$T/nope.exr" -o "$T/o.exr" --firefly-k 101
-expect usage_firefly_nan 2 "--firefly-k expects a number" -- denoise "$T/nope.exr" -o "$T/o.exr" --firefly-k nan
-expect output_checked_first 1 "unsupported extension" -- denoise "$T/nope.exr" -o "$T/o.bmp"
+expect usage_param_of_another_method 2 "denoiser 'auto' has no parameter --firefly-k" -- "$EW" denoise "$T/nope.exr" -o "$T/o.exr" --method auto --firefly-k 3
+expect usage_param_underscore 2 "unknown option '--spatial_rate'" -- "$EW" denoise "$T/nope.exr" -o "$T/o.exr" --spatial_rate 12
+expect usage_firefly_range 2 "--firefly-k expects a number in [0, 100]" -- "$EW" denoise "$T/nope.exr" -o "$T/o.exr" --firefly-k 101
+expect usage_firefly_nan 2 "--firefly-k expects a number" -- "$EW" denoise "$T/nope.exr" -o "$T/o.exr" --firefly-k nan
+expect output_checked_first 1 "unsupported extension" -- "$EW" denoise "$T/nope.exr" -o "$T/o.bmp"
 no_file "$T/o.exr" usage_errors_write_nothing
 # the top-level help lists every command and format
 "$EW" --help | grep -q "graph check FILE" && ok help_lists_graph_check || bad help_lists_graph_check
@@ -48,50 +34,50 @@ no_file "$T/o.exr" usage_errors_write_nothing
   && ok help_lists_jpeg || bad help_lists_jpeg
 
 # ---- bad input files
-expect missing_file 1 "no such file" -- denoise "$T/nope.exr" -o "$T/o.exr"
+expect missing_file 1 "no such file" -- "$EW" denoise "$T/nope.exr" -o "$T/o.exr"
 echo "this is not an image" >"$T/text.exr"
-expect not_an_image 1 "cannot read '$T/text.exr'" -- denoise "$T/text.exr" -o "$T/o.exr"
+expect not_an_image 1 "cannot read '$T/text.exr'" -- "$EW" denoise "$T/text.exr" -o "$T/o.exr"
 head -c 2000 "$T/two_layers.exr" >"$T/truncated.exr"
-expect truncated_exr 1 "cannot read '$T/truncated.exr'" -- denoise "$T/truncated.exr" -o "$T/o.exr"
-expect no_colour_pass 1 "no colour pass" -- denoise "$T/depth_only.exr" -o "$T/o.exr"
-expect no_colour_lists_layers 1 "'ViewLayer'" -- denoise "$T/depth_only.exr" -o "$T/o.exr"
-expect missing_albedo 1 "has no albedo pass" -- denoise "$T/no_albedo.exr" -o "$T/o.exr" --method bgrid
-expect missing_albedo_names_layers 1 "layers found: 'Main'" -- denoise "$T/no_albedo.exr" -o "$T/o.exr" --method bgrid
-expect unknown_layer 1 "'Back Plate'" -- denoise "$T/two_layers.exr" -o "$T/o.exr" --layer Nope
+expect truncated_exr 1 "cannot read '$T/truncated.exr'" -- "$EW" denoise "$T/truncated.exr" -o "$T/o.exr"
+expect no_colour_pass 1 "no colour pass" -- "$EW" denoise "$T/depth_only.exr" -o "$T/o.exr"
+expect no_colour_lists_layers 1 "'ViewLayer'" -- "$EW" denoise "$T/depth_only.exr" -o "$T/o.exr"
+expect missing_albedo 1 "has no albedo pass" -- "$EW" denoise "$T/no_albedo.exr" -o "$T/o.exr" --method bgrid
+expect missing_albedo_names_layers 1 "layers found: 'Main'" -- "$EW" denoise "$T/no_albedo.exr" -o "$T/o.exr" --method bgrid
+expect unknown_layer 1 "'Back Plate'" -- "$EW" denoise "$T/two_layers.exr" -o "$T/o.exr" --layer Nope
 if command -v oiiotool >/dev/null; then
   oiiotool --create 70000x1 3 -o "$T/wide.exr" 2>/dev/null
-  expect huge_image 1 "cannot read" -- denoise "$T/wide.exr" -o "$T/o.exr"
+  expect huge_image 1 "cannot read" -- "$EW" denoise "$T/wide.exr" -o "$T/o.exr"
 fi
 no_file "$T/o.exr" bad_inputs_write_nothing
 
 # ---- output safety
 cp "$T/two_layers.exr" "$T/in.exr"; sum=$(md5sum <"$T/in.exr")
-expect output_is_input 1 "refusing to write the output over the input" -- denoise "$T/in.exr" -o "$T/in.exr"
+expect output_is_input 1 "refusing to write the output over the input" -- "$EW" denoise "$T/in.exr" -o "$T/in.exr"
 ln -s "$T/in.exr" "$T/link.exr"
-expect output_is_input_via_link 1 "refusing" -- denoise "$T/in.exr" -o "$T/link.exr"
+expect output_is_input_via_link 1 "refusing" -- "$EW" denoise "$T/in.exr" -o "$T/link.exr"
 [ "$(md5sum <"$T/in.exr")" = "$sum" ] && ok input_untouched || bad input_untouched
 mkdir -p "$T/ro"; chmod 555 "$T/ro"
 if [ "$(id -u)" -ne 0 ]; then
-  expect unwritable_output 1 "cannot write" -- denoise "$T/in.exr" -o "$T/ro/o.exr"
+  expect unwritable_output 1 "cannot write" -- "$EW" denoise "$T/in.exr" -o "$T/ro/o.exr"
 fi
-expect missing_output_dir 1 "cannot write" -- denoise "$T/in.exr" -o "$T/no/such/dir/o.exr"
+expect missing_output_dir 1 "cannot write" -- "$EW" denoise "$T/in.exr" -o "$T/no/such/dir/o.exr"
 echo "precious" >"$T/keep.exr"
-expect failed_write_keeps_old_file 1 "" -- denoise "$T/truncated.exr" -o "$T/keep.exr"
+expect failed_write_keeps_old_file 1 "" -- "$EW" denoise "$T/truncated.exr" -o "$T/keep.exr"
 grep -q precious "$T/keep.exr" && ok old_output_kept || bad old_output_kept
 no_temps "$T" no_temporaries_left
 
 # ---- good input
-expect two_layers 0 "layer 'Back Plate'" -- denoise "$T/two_layers.exr" -o "$T/two_out.exr"
+expect two_layers 0 "layer 'Back Plate'" -- "$EW" denoise "$T/two_layers.exr" -o "$T/two_out.exr"
 "$EW" info "$T/two_out.exr" >"$T/info" 2>&1
 grep -q "layer 'ViewLayer': colour 'Combined' (denoise reads 'Noisy Image')" "$T/info" && grep -q "layer 'Back Plate'" "$T/info" \
   && ok both_layers_written_with_noisy_kept || bad both_layers_written_with_noisy_kept
 grep -q "ViewLayer.Denoising Albedo.R" "$T/info" && ok other_passes_kept || bad other_passes_kept
-expect bad_samples 0 "" -- denoise "$T/bad_samples.exr" -o "$T/bs.exr" --float
+expect bad_samples 0 "" -- "$EW" denoise "$T/bad_samples.exr" -o "$T/bs.exr" --float
 "$EW" compare "$T/bs.exr" "$T/two_layers.exr" >"$T/cmp" 2>&1 && grep -q "PSNR" "$T/cmp" && ! grep -qi "nan\|inf" "$T/cmp" \
   && ok bad_samples_output_finite || bad bad_samples_output_finite
-expect colour_only_png 0 "" -- denoise "$T/no_albedo.exr" -o "$T/o.png"
+expect colour_only_png 0 "" -- "$EW" denoise "$T/no_albedo.exr" -o "$T/o.png"
 [ -s "$T/o.png" ] && ok png_written || bad png_written
-expect reads_png 0 "" -- denoise "$T/o.png" -o "$T/o2.tif"
+expect reads_png 0 "" -- "$EW" denoise "$T/o.png" -o "$T/o2.tif"
 [ -s "$T/o2.tif" ] && ok tiff_written || bad tiff_written
 
 # ---- the bundled sample: denoising 1 spp must raise PSNR by at least 6 dB
@@ -127,7 +113,7 @@ picks model_implies_nbg "nbg 2layer-1grid" "$SAMPLE/cornell/f0001_spp0004.exr" -
 picks model_file "nbg $SAMPLE/../models/nbg/2layer-1grid.ewm" "$SAMPLE/cornell/f0001_spp0004.exr" \
   --model "$SAMPLE/../models/nbg/2layer-1grid.ewm"
 rm -f "$T/bad_model_out.exr"
-expect model_file_not_weights 1 "not an Edgewise weights file" -- denoise "$SAMPLE/cornell/f0001_spp0004.exr" \
+expect model_file_not_weights 1 "not an Edgewise weights file" -- "$EW" denoise "$SAMPLE/cornell/f0001_spp0004.exr" \
   -o "$T/bad_model_out.exr" --model "$T/text.exr"
 [ ! -e "$T/bad_model_out.exr" ] && ok model_file_not_weights_writes_nothing || bad model_file_not_weights_writes_nothing
 
@@ -135,7 +121,7 @@ expect model_file_not_weights 1 "not an Edgewise weights file" -- denoise "$SAMP
 # 64x64 render, seen as four scenes so the split has training, validation and test scenes; the
 # model it writes is one `denoise --model` takes
 "$EW" train --help | grep -q -- "--arch" && ok train_help || bad train_help
-expect train_needs_data 2 "--data DIR is required" -- train --arch 2layer-1grid --out "$T/m.ewm"
+expect train_needs_data 2 "--data DIR is required" -- "$EW" train --arch 2layer-1grid --out "$T/m.ewm"
 STAB="$(cd "$(dirname "$0")/../data/stability" && pwd)/i_volume_1_64x64"
 mkdir -p "$T/train_data"
 for s in 1 2 3 4; do ln -s "$STAB" "$T/train_data/i_volume_${s}_64x64"; done
@@ -144,5 +130,4 @@ if "$EW" train --data "$T/train_data" --arch 2layer-1grid --steps 3 --batch 2 --
    "$EW" denoise "$STAB/f0001_spp0001.exr" -o "$T/trained.exr" --model "$T/m.ewm" 2>"$T/err" &&
    grep -q "nbg $T/m.ewm" "$T/err"; then ok train_writes_a_model_denoise_takes; else bad train_writes_a_model_denoise_takes; fi
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -4,10 +4,7 @@
 # Usage: test_display_output.sh EDGEWISE_BIN MAKE_FIXTURES_BIN
 set -u
 EW="$1"; FIX="$2"
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+. "$(dirname "$0")/../lib/harness.sh"
 psnr() { "$EW" compare "$1" "$2" 2>&1 | sed -n 's/^PSNR \([0-9.inf]*\) dB.*/\1/p'; }
 
 "$FIX" "$T" || { echo "0 passed, 1 failed"; exit 1; }
@@ -72,5 +69,4 @@ EOF
 "$EW" denoise "$IN" -o "$T/x.png" --raw --view Raw >"$T/out" 2>"$T/err"; rc=$?
 [ $rc -eq 2 ] && ok raw_with_view_refused || bad "raw_with_view_refused (exit $rc)"
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

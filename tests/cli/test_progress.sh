@@ -4,10 +4,7 @@
 # Usage: test_progress.sh EDGEWISE_BIN SAMPLE_DIR
 set -u
 EW="$1"; SAMPLE=$(cd "$2" && pwd)
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; }
+. "$(dirname "$0")/../lib/harness.sh"
 if ! command -v script >/dev/null; then echo "skipped: no 'script' to run under a terminal"; exit 77; fi
 IN="$SAMPLE/cornell/f0001_spp0004.exr"
 
@@ -43,5 +40,4 @@ on_tty "$T/q.tty" "'$EW' denoise '$IN' -o '$T/q.exr' -q"
 "$EW" graph run "$T/g.json" 2>"$T/g.err" >/dev/null
 ! grep -q '\[#' "$T/g.err" && ok graph_no_bar_when_not_a_tty || bad graph_no_bar_when_not_a_tty
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -5,10 +5,7 @@
 # Usage: test_read_colour.sh EDGEWISE_BIN MAKE_FIXTURES_BIN
 set -u
 EW="$1"; FIX="$2"
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; }
+. "$(dirname "$0")/../lib/harness.sh"
 
 "$FIX" "$T" || { echo "0 passed, 1 failed"; exit 1; }
 
@@ -77,5 +74,4 @@ else
   bad "graph_read_runs: $(cat "$T/err")"
 fi
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

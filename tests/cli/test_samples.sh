@@ -5,10 +5,7 @@
 # Usage: test_samples.sh EDGEWISE_BIN SAMPLE_DIR
 set -u
 EW="$1"; SAMPLE=$(cd "$2" && pwd)
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; }
+. "$(dirname "$0")/../lib/harness.sh"
 
 # what "auto" picked: the CLI's line, the graph's summary
 cli_choice() {
@@ -55,5 +52,4 @@ else
   echo "skip: no oiiotool for the 1024-spp copy"
 fi
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

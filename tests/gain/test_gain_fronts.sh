@@ -8,10 +8,7 @@
 # (the front shows gain), then that it works (runs it, shows its enum names).
 set -u
 LIB="$1"; EW="$2"; FIX="$3"; OFX="$4"; PY="$5"; PY3="${6:-}"; SRC="$7"; GUIDE="$8"
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     /' "$T/err" | head -20; }
+. "$(dirname "$0")/../lib/harness.sh"
 
 # ---- the example is the files the guide counts: kernel, op file, test (the
 # rest of tests/gain is this harness: its CMakeLists.txt and this script)
@@ -84,5 +81,4 @@ if [ -x "$OFX" ]; then
   EW_EXPECT_PLUGIN=org.edgewise.filter.gain "$OFX" >"$T/err" 2>&1 && ok ofx_describe_with_gain || bad ofx_describe_with_gain
 fi
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -8,10 +8,7 @@ set -u
 FLOOR=$1; HEADER=$2; CC=$3; shift 3
 command -v objdump >/dev/null || { echo "skipped: no objdump"; exit 77; }
 ldd --version 2>&1 | head -1 | grep -qi "glibc\|gnu libc" || { echo "skipped: not glibc"; exit 77; }
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; }
+. "$(dirname "$0")/../lib/harness.sh"
 newer() { # A > B as versions
   [ "$(printf '%s\n%s\n' "$1" "$2" | sort -V | tail -1)" = "$1" ] && [ "$1" != "$2" ]
 }
@@ -68,5 +65,4 @@ if "$CC" -O1 -o "$T/plain" "$T/p.c" -lm -lpthread -ldl 2>"$T/err" && \
 else
   bad "cannot build the pinning check: $(cat "$T/err")"
 fi
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -4,20 +4,8 @@
 # Prints "N passed, N failed" and exits non-zero on any failure.
 set -u
 EW="$1"; SAMPLE=$(cd "$2" && pwd); EXAMPLES=$(cd "$3" && pwd)
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+. "$(dirname "$0")/../lib/harness.sh"
 
-# expect NAME EXIT_CODE STDERR_SUBSTRING -- ARGS...   (one line on stderr for errors)
-expect() {
-  local name="$1" code="$2" want="$3"; shift 4
-  "$EW" "$@" >"$T/out" 2>"$T/err"; local got=$?
-  if [ "$got" -ne "$code" ]; then bad "$name (exit $got, expected $code)"; return; fi
-  if [ -n "$want" ] && ! grep -qF -- "$want" "$T/err"; then bad "$name (stderr lacks '$want')"; return; fi
-  if [ "$code" -ne 0 ] && [ "$(wc -l <"$T/err")" -ne 1 ]; then bad "$name (expected one line on stderr)"; return; fi
-  ok "$name"
-}
 graph() { printf '%s' "$2" >"$T/$1"; }
 
 IN="$SAMPLE/cornell/f0001_spp0004.exr"
@@ -38,32 +26,32 @@ grep -q "spatial_rate.*float = 8 \[1, 256\]" "$T/nodes" && ok nodes_lists_librar
 "$EW" nodes --json >"$T/nodes.json" && python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert 'methods' in d['denoise'] and d['bilateral']['params']" "$T/nodes.json" \
   && ok nodes_json || bad nodes_json
 "$EW" nodes bilateral | grep -q "sigma_range" && ok nodes_one_type || bad nodes_one_type
-expect nodes_unknown_type 2 "unknown node type 'blur'" -- nodes blur
+expect nodes_unknown_type 2 "unknown node type 'blur'" -- "$EW" nodes blur
 
 # ---- usage errors (exit 2)
-expect usage_no_subcommand 2 "needs a subcommand" -- graph
-expect usage_no_file 2 "needs a graph file" -- graph run
-expect usage_bad_frames 2 "--frames expects" -- graph run x.json --frames 3-1
-expect usage_bad_set 2 "--set expects NODE.PARAM=VALUE" -- graph run x.json --set radius=3
+expect usage_no_subcommand 2 "needs a subcommand" -- "$EW" graph
+expect usage_no_file 2 "needs a graph file" -- "$EW" graph run
+expect usage_bad_frames 2 "--frames expects" -- "$EW" graph run x.json --frames 3-1
+expect usage_bad_set 2 "--set expects NODE.PARAM=VALUE" -- "$EW" graph run x.json --set radius=3
 
 # ---- a good graph: the example, outputs redirected
-expect example_runs 0 "" -- graph run "$EXAMPLES/denoise_dof_display.json" \
+expect example_runs 0 "" -- "$EW" graph run "$EXAMPLES/denoise_dof_display.json" \
   --set preview.path="$T/p.png" --set pixels.path="$T/p.exr" --report "$T/report.json"
 [ -s "$T/p.png" ] && [ -s "$T/p.exr" ] && ok example_outputs_written || bad example_outputs_written
 grep -q "PSNR" "$T/out" && ok summary_has_metrics || bad summary_has_metrics
 python3 -c "import json,sys; r=json.load(open(sys.argv[1])); assert r['ok'] and r['frames'][0]['metrics']['quality']['psnr'] > 20" "$T/report.json" \
   && ok report_json || bad report_json
-expect check_only 0 "" -- graph check "$EXAMPLES/denoise_dof_display.json" --set preview.path="$T/c.png" --set pixels.path="$T/c.exr"
+expect check_only 0 "" -- "$EW" graph check "$EXAMPLES/denoise_dof_display.json" --set preview.path="$T/c.png" --set pixels.path="$T/c.exr"
 grep -q "valid" "$T/out" && [ ! -e "$T/c.png" ] && ok check_writes_nothing || bad check_writes_nothing
-expect set_bad_value 1 "node 'denoised' parameter 'spatial_rate' = 0 is outside [1, 256]" -- graph run "$EXAMPLES/denoise_dof_display.json" --set denoised.spatial_rate=0
-expect set_unknown_param 1 "node 'lens': unknown parameter 'blades'" -- graph run "$EXAMPLES/denoise_dof_display.json" --set lens.blades=6
-expect set_unknown_node 2 "no node 'nope'" -- graph run "$EXAMPLES/denoise_dof_display.json" --set nope.x=1
+expect set_bad_value 1 "node 'denoised' parameter 'spatial_rate' = 0 is outside [1, 256]" -- "$EW" graph run "$EXAMPLES/denoise_dof_display.json" --set denoised.spatial_rate=0
+expect set_unknown_param 1 "node 'lens': unknown parameter 'blades'" -- "$EW" graph run "$EXAMPLES/denoise_dof_display.json" --set lens.blades=6
+expect set_unknown_node 2 "no node 'nope'" -- "$EW" graph run "$EXAMPLES/denoise_dof_display.json" --set nope.x=1
 # enum parameters by name, as the CLI takes them (the example gives "weights": "analytic")
 grep -q '"weights": "analytic"' "$EXAMPLES/denoise_dof_display.json" && ok example_enum_by_name || bad example_enum_by_name
-expect enum_by_name 0 "" -- graph check "$EXAMPLES/denoise_dof_display.json" --set lens.method=separable --set lens.weights=trained --set preview.path="$T/c.png" --set pixels.path="$T/c.exr"
-expect enum_unknown_name 1 "unknown value 'exact-ish' (one of: pyramid, bilateral, separable)" -- graph check "$EXAMPLES/denoise_dof_display.json" --set lens.method=exact-ish
+expect enum_by_name 0 "" -- "$EW" graph check "$EXAMPLES/denoise_dof_display.json" --set lens.method=separable --set lens.weights=trained --set preview.path="$T/c.png" --set pixels.path="$T/c.exr"
+expect enum_unknown_name 1 "unknown value 'exact-ish' (one of: pyramid, bilateral, separable)" -- "$EW" graph check "$EXAMPLES/denoise_dof_display.json" --set lens.method=exact-ish
 # outputs are checked before any work: an unwritable write path fails the check
-expect check_unwritable_output 1 "directory '$T/none' does not exist" -- graph run "$EXAMPLES/denoise_dof_display.json" --set preview.path="$T/none/p.png" --set pixels.path="$T/p2.exr"
+expect check_unwritable_output 1 "directory '$T/none' does not exist" -- "$EW" graph run "$EXAMPLES/denoise_dof_display.json" --set preview.path="$T/none/p.png" --set pixels.path="$T/p2.exr"
 [ ! -e "$T/p2.exr" ] && ok unwritable_output_writes_nothing || bad unwritable_output_writes_nothing
 
 # ---- sequences
@@ -72,37 +60,37 @@ graph seq.json '{"edgewise_graph": 1, "nodes": {
   "f": {"type": "outlier", "params": {"k": 2}, "inputs": {"color": "r.color"}},
   "w": {"type": "write", "params": {"path": "seqout/out_####.png"}, "inputs": {"image": "f"}}}}'
 mkdir -p "$T/seqout"
-expect sequence_all_frames 0 "" -- graph run "$T/seq.json"
+expect sequence_all_frames 0 "" -- "$EW" graph run "$T/seq.json"
 [ -s "$T/seqout/out_0001.png" ] && [ -s "$T/seqout/out_0003.png" ] && ok sequence_outputs || bad sequence_outputs
 rm -f "$T"/seqout/*
-expect sequence_frames_option 0 "" -- graph run "$T/seq.json" --frames 2-3
+expect sequence_frames_option 0 "" -- "$EW" graph run "$T/seq.json" --frames 2-3
 [ ! -e "$T/seqout/out_0001.png" ] && [ -s "$T/seqout/out_0002.png" ] && [ -s "$T/seqout/out_0003.png" ] \
   && ok frames_option_limits || bad frames_option_limits
-expect frame_missing 1 "frame 4 of" -- graph run "$T/seq.json" --frames 3-4
+expect frame_missing 1 "frame 4 of" -- "$EW" graph run "$T/seq.json" --frames 3-4
 graph nomatch.json '{"edgewise_graph": 1, "nodes": {
   "r": {"type": "read", "params": {"path": "seq/shot_####.exr"}},
   "w": {"type": "write", "params": {"path": "x_####.png"}, "inputs": {"image": "r.color"}}}}'
-expect pattern_matches_nothing 1 "the frame pattern" -- graph run "$T/nomatch.json"
+expect pattern_matches_nothing 1 "the frame pattern" -- "$EW" graph run "$T/nomatch.json"
 grep -q "matches no file" "$T/err" && ok pattern_message || bad pattern_message
 
 # ---- bad graph files
 graph syntax.json '{"edgewise_graph": 1,
   "nodes": {"a": {"type": "add" "inputs": {}}}}'
-expect malformed_json 1 "syntax.json:2:" -- graph run "$T/syntax.json"
-expect missing_graph 1 "cannot read graph" -- graph run "$T/nope.json"
+expect malformed_json 1 "syntax.json:2:" -- "$EW" graph run "$T/syntax.json"
+expect missing_graph 1 "cannot read graph" -- "$EW" graph run "$T/nope.json"
 graph typeerr.json "{\"edgewise_graph\": 1, \"nodes\": {
   \"r\": {\"type\": \"read\", \"params\": {\"path\": \"$IN\"}},
   \"d\": {\"type\": \"denoise\", \"inputs\": {\"color\": \"r.color\", \"albedo\": \"r.normal\"}},
   \"w\": {\"type\": \"write\", \"params\": {\"path\": \"t.exr\"}, \"inputs\": {\"image\": \"d\"}}}}"
-expect type_error 1 "node 'd' input 'albedo': type error" -- graph run "$T/typeerr.json"
+expect type_error 1 "node 'd' input 'albedo': type error" -- "$EW" graph run "$T/typeerr.json"
 graph unknownpass.json "{\"edgewise_graph\": 1, \"nodes\": {
   \"r\": {\"type\": \"read\", \"params\": {\"path\": \"$IN\", \"pass\": \"Emit\"}},
   \"w\": {\"type\": \"write\", \"params\": {\"path\": \"t.exr\"}, \"inputs\": {\"image\": \"r.image\"}}}}"
-expect unknown_pass 1 "no pass 'Emit' in layer 'ViewLayer'" -- graph run "$T/unknownpass.json"
+expect unknown_pass 1 "no pass 'Emit' in layer 'ViewLayer'" -- "$EW" graph run "$T/unknownpass.json"
 graph novector.json "{\"edgewise_graph\": 1, \"nodes\": {
   \"r\": {\"type\": \"read\", \"params\": {\"path\": \"$SAMPLE/cornell/f0001_ref1024.exr\"}},
   \"w\": {\"type\": \"write\", \"params\": {\"path\": \"t.exr\"}, \"inputs\": {\"image\": \"r.albedo\"}}}}"
-expect missing_feature_pass 1 "has no albedo pass" -- graph run "$T/novector.json"
+expect missing_feature_pass 1 "has no albedo pass" -- "$EW" graph run "$T/novector.json"
 [ ! -e "$T/t.exr" ] && ok bad_graphs_write_nothing || bad bad_graphs_write_nothing
 
 # ---- output safety
@@ -111,18 +99,17 @@ graph overwrite.json '{"edgewise_graph": 1, "nodes": {
   "r": {"type": "read", "params": {"path": "in.exr"}},
   "d": {"type": "outlier", "inputs": {"color": "r.color"}},
   "w": {"type": "write", "params": {"path": "in.exr"}, "inputs": {"image": "d"}}}}'
-expect overwrite_input_refused 1 "refusing to write" -- graph run "$T/overwrite.json"
+expect overwrite_input_refused 1 "refusing to write" -- "$EW" graph run "$T/overwrite.json"
 ln -s in.exr "$T/alias.exr"
-expect overwrite_via_link_refused 1 "it is an input of the graph" -- graph run "$T/overwrite.json" --set w.path="$T/alias.exr"
+expect overwrite_via_link_refused 1 "it is an input of the graph" -- "$EW" graph run "$T/overwrite.json" --set w.path="$T/alias.exr"
 [ "$(md5sum <"$T/in.exr")" = "$sum" ] && ok input_untouched || bad input_untouched
-expect missing_output_dir 1 "does not exist" -- graph run "$T/overwrite.json" --set w.path="$T/no/dir/o.exr"
+expect missing_output_dir 1 "does not exist" -- "$EW" graph run "$T/overwrite.json" --set w.path="$T/no/dir/o.exr"
 mkdir -p "$T/mid"; mkdir "$T/mid/out_0002.png"   # frame 2's output cannot be written
 graph mid.json '{"edgewise_graph": 1, "nodes": {
   "r": {"type": "read", "params": {"path": "seq/render_####.exr"}},
   "w": {"type": "write", "params": {"path": "mid/out_####.png"}, "inputs": {"image": "r.color"}}}}'
-expect unwritable_mid_sequence 1 "node 'w': frame 2:" -- graph run "$T/mid.json"
+expect unwritable_mid_sequence 1 "node 'w': frame 2:" -- "$EW" graph run "$T/mid.json"
 [ -s "$T/mid/out_0001.png" ] && [ ! -e "$T/mid/out_0003.png" ] && ok earlier_frames_kept || bad earlier_frames_kept
 if ls -A "$T/mid" | grep -q tmp; then bad no_temporaries_left; else ok no_temporaries_left; fi
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

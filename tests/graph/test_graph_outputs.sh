@@ -4,11 +4,8 @@
 # any work. Usage: test_graph_outputs.sh EDGEWISE_BIN SAMPLE_DIR
 set -u
 EW="$1"; SAMPLE=$(cd "$2" && pwd)
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
-expect() { # NAME EXIT STDERR_SUBSTRING GRAPH_FILE
+. "$(dirname "$0")/../lib/harness.sh"
+expect_graph() { # NAME EXIT STDERR_SUBSTRING GRAPH_FILE
   "$EW" graph run "$4" -q >"$T/so" 2>"$T/err"; local got=$?
   if [ "$got" -ne "$2" ]; then bad "$1 (exit $got, expected $2)"; return; fi
   if [ -n "$3" ] && ! grep -qF -- "$3" "$T/err"; then bad "$1 (stderr lacks '$3')"; return; fi
@@ -29,26 +26,26 @@ EOF
 
 # printf-style patterns read and write frame sequences
 graph "$T/pct.json" "$T/seq/render_%04d.exr" "$T/out/pct_%04d.exr"
-expect percent_pattern_runs 0 "" "$T/pct.json"
+expect_graph percent_pattern_runs 0 "" "$T/pct.json"
 [ -f "$T/out/pct_0001.exr" ] && [ -f "$T/out/pct_0003.exr" ] && [ ! -e "$T/out/pct_%04d.exr" ] \
   && ok percent_pattern_one_file_a_frame || bad "percent_pattern_one_file_a_frame ($(ls "$T/out"))"
 graph "$T/d.json" "$T/seq/render_####.exr" "$T/out/plain_%d.exr"
-expect percent_d_runs 0 "" "$T/d.json"
+expect_graph percent_d_runs 0 "" "$T/d.json"
 [ -f "$T/out/plain_1.exr" ] && [ -f "$T/out/plain_3.exr" ] && ok percent_d_unpadded || bad percent_d_unpadded
 graph "$T/hash.json" "$T/seq/render_####.exr" "$T/out/hash_####.exr"
-expect hash_pattern_runs 0 "" "$T/hash.json"
+expect_graph hash_pattern_runs 0 "" "$T/hash.json"
 [ -f "$T/out/hash_0002.exr" ] && ok hash_pattern_one_file_a_frame || bad hash_pattern_one_file_a_frame
 
 # collisions, refused before anything is written
 rm -rf "$T/out"; mkdir -p "$T/out"
 graph "$T/same.json" "$T/seq/render_0001.exr" "$T/out/a.exr" "$T/out/a.exr"
-expect two_writes_one_file 1 "nodes 'w' and 'w2' would both write" "$T/same.json"
+expect_graph two_writes_one_file 1 "nodes 'w' and 'w2' would both write" "$T/same.json"
 graph "$T/spell.json" "$T/seq/render_0001.exr" "$T/out/a.exr" "$T/out/../out/./a.exr"
-expect two_spellings_one_file 1 "would both write" "$T/spell.json"
+expect_graph two_spellings_one_file 1 "would both write" "$T/spell.json"
 graph "$T/seq1.json" "$T/seq/render_####.exr" "$T/out/every.exr"
-expect every_frame_one_file 1 "frames 1 and 2 would both be written to" "$T/seq1.json"
+expect_graph every_frame_one_file 1 "frames 1 and 2 would both be written to" "$T/seq1.json"
 graph "$T/seq2.json" "$T/seq/render_####.exr" "$T/out/x_####.exr" "$T/out/x_%04d.exr"
-expect two_patterns_same_files 1 "would both write" "$T/seq2.json"
+expect_graph two_patterns_same_files 1 "would both write" "$T/seq2.json"
 [ -z "$(ls -A "$T/out")" ] && ok collisions_write_nothing || bad "collisions_write_nothing ($(ls "$T/out"))"
 "$EW" graph check "$T/same.json" >/dev/null 2>&1 && bad check_finds_collisions || ok check_finds_collisions
 
@@ -62,7 +59,7 @@ cat >"$T/keep.json" <<EOF
   "w": {"type": "write", "params": {"path": "$T/keep.exr", "keep_source": true, "original": "Noisy Image"},
         "inputs": {"image": "d"}}}}
 EOF
-expect keep_source_runs 0 "" "$T/keep.json"
+expect_graph keep_source_runs 0 "" "$T/keep.json"
 channels() { "$EW" info "$1" | sed -n 's/^channels: //p' | tr ',' '\n' | sed 's/^ //' | sort; }
 channels "$IN" >"$T/in.ch"; channels "$T/keep.exr" >"$T/keep.ch"
 "$EW" info "$T/keep.exr" >"$T/keep.info"
@@ -75,5 +72,4 @@ grep -q "samples: 4" "$T/keep.info" && ok keep_source_keeps_header || bad keep_s
 [ "$("$EW" compare "$T/keep.exr" "$T/cli.exr" | sed -n 's/^PSNR \([0-9.inf]*\) dB.*/\1/p')" = inf ] \
   && ok keep_source_combined_is_the_result || bad keep_source_combined_is_the_result
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

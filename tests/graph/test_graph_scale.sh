@@ -7,10 +7,7 @@
 #   test_graph_scale.sh EDGEWISE_BIN SAMPLE_DIR
 set -u
 EW="$1"; SAMPLE=$(cd "$2" && pwd)
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
+. "$(dirname "$0")/../lib/harness.sh"
 cp "$SAMPLE/cornell/f0001_spp0004.exr" "$T/in.exr"
 
 N=40000
@@ -36,5 +33,4 @@ else bad "frame_range_without_pattern_refused (exit $rc)"; fi
 "$EW" graph run "$T/noframes.json" --frames 7 >"$T/out" 2>"$T/err" && [ -s "$T/same.exr" ] \
   && ok single_frame_without_pattern_runs || bad single_frame_without_pattern_runs
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

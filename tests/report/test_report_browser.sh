@@ -27,11 +27,7 @@ if [ -z "$PY" ] || ! "$PY" -c "import matplotlib" >/dev/null 2>&1; then
   echo "skipped: no python3 with matplotlib (Debian package python3-matplotlib)"; exit 77
 fi
 
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; }
-finish() { echo "$pass passed, $fail failed"; [ "$fail" -eq 0 ]; exit $?; }
+. "$(dirname "$0")/../lib/harness.sh"
 
 "$EW" bench "$DATA" -o "$T/out" --scenes "$SCENE" --spp 1 --methods "$METHODS" --repeat 1 --images \
   >"$T/bench.log" 2>&1 && ok bench || { bad bench; cat "$T/bench.log"; finish; }

@@ -8,10 +8,7 @@ set -u
 # (tools/test.sh exports EW_BUILD_DIR, e.g. build-asan in CI)
 unset EW_BUILD_DIR
 RUN_ALL=$1
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; sed 's/^/     /' "$T/err" | head -20; }
+. "$(dirname "$0")/../lib/harness.sh"
 
 # a copied checkout: the script, and a build directory configured elsewhere
 mkdir -p "$T/copy/bench" "$T/copy/build/bin" "$T/data" "$T/original"
@@ -38,5 +35,4 @@ echo "CMAKE_HOME_DIRECTORY:INTERNAL=$T/copy" >"$T/copy/build/CMakeCache.txt"
 sh "$T/copy/bench/run_all.sh" -n -d "$T/data" -o "$T/out" >/dev/null 2>"$T/err"
 grep -q "'cmake' '--build'" "$T/err" && ! grep -q "'cmake' '-S'" "$T/err" && ok own_build_updated || bad own_build_updated
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -8,19 +8,8 @@
 # nothing else. Prints "N passed, N failed" and exits non-zero on any failure.
 set -u
 KPCN="$1"; NBG="$2"; STAB="$3"
-T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
-pass=0; fail=0
-ok()  { pass=$((pass+1)); echo "ok   $1"; }
-bad() { fail=$((fail+1)); echo "FAIL $1"; [ -f "$T/err" ] && sed 's/^/     stderr: /' "$T/err"; }
-
-# expect NAME EXIT_CODE STDERR_SUBSTRING -- PROGRAM ARGS...
-expect() {
-  local name="$1" code="$2" want="$3"; shift 4
-  "$@" >"$T/out" 2>"$T/err"; local got=$?
-  if [ "$got" -ne "$code" ]; then bad "$name (exit $got, expected $code)"; return; fi
-  if [ -n "$want" ] && ! grep -qF -- "$want" "$T/err"; then bad "$name (stderr lacks '$want')"; return; fi
-  ok "$name"
-}
+. "$(dirname "$0")/../lib/harness.sh"
+EXPECT_ONE_LINE=0
 
 # train_kpcn: render_cache.sh's layout (a folder of scene folders), validation apart
 mkdir -p "$T/train" "$T/val" "$T/nbg"
@@ -78,5 +67,4 @@ expect nbg_checkpoint_of_another_arch 1 "not one of this architecture's" -- \
 expect nbg_bad_size 2 "--size WxH" -- "$NBG" --bench --size 640x480x3
 expect nbg_bad_clip 2 "--clip takes a number" -- "$NBG" "${N[@]}" --out "$T/y.ewm" --clip -1
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish
