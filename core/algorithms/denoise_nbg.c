@@ -66,6 +66,7 @@ typedef struct {
     ew_net_model *builtin;          /* host: the built-in model parsed at commit, or NULL */
     const ew_net_model *m;          /* the model in use */
     const float *fcolor, *falbedo, *fnormal, *fdepth; /* device: the frame's packed inputs */
+    const float *color;             /* the colour an execute reads: the view in place, else fcolor */
     ew_tiling tiling;
     ew_denoise_buffers buf;  /* device: one region's buffers (the frame's inputs when untiled) */
     float *params, *clamped, *outputs, *removed, *band, *grid;
@@ -283,7 +284,7 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
     b->width = t->rw;
     b->height = t->rh;
     if (tiled) {
-        r = copy_rect(dev, (float *)b->color, t->rw, 0, 0, s->fcolor, W, t->rx, t->ry, t->rw, t->rh, 3);
+        r = copy_rect(dev, (float *)b->color, t->rw, 0, 0, s->color, W, t->rx, t->ry, t->rw, t->rh, 3);
         if (r == EW_OK) r = copy_rect(dev, (float *)b->albedo, t->rw, 0, 0, s->falbedo, W, t->rx, t->ry, t->rw, t->rh, 3);
         if (r == EW_OK) r = copy_rect(dev, (float *)b->normal, t->rw, 0, 0, s->fnormal, W, t->rx, t->ry, t->rw, t->rh, 3);
         if (r == EW_OK) r = copy_rect(dev, (float *)b->depth, t->rw, 0, 0, s->fdepth, W, t->rx, t->ry, t->rw, t->rh, 1);
@@ -358,7 +359,18 @@ static ew_result execute(ew_op *op) {
     ew_denoise_buffers *b = &s->buf;
     const int W = s->tiling.width, H = s->tiling.height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
-    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)s->fcolor, s->stage);
+    /* the colour is read where it is when that is packed RGB (on the CPU;
+     * the do-no-harm stage hands its clamped colour so): fcolor's pages are
+     * then never touched. Not when the output overlaps it: tiles write
+     * their cores while later tiles still read it. */
+    const ew_image *cv = ew_op_image(op, "color");
+    s->color = ew_dev_view_in_place(dev, cv, 3, ew_op_image(op, "output"));
+    ew_result r = EW_OK;
+    if (!s->color) {
+        s->color = s->fcolor;
+        r = ew_dev_put_view(dev, cv, 3, (float *)s->fcolor, s->stage);
+    }
+    if (s->tiling.nx * s->tiling.ny == 1) b->color = s->color;
     if (r == EW_OK && s->falbedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)s->falbedo, s->stage);
     if (r == EW_OK && s->fnormal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)s->fnormal, s->stage);
     if (r == EW_OK && s->fdepth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)s->fdepth, s->stage);

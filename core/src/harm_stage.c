@@ -395,10 +395,18 @@ ew_result ew_harm_execute(ew_op *op) {
     op->images[ci] = saved;
     if (r != EW_OK) return r;
     const ew_image *out = ew_op_image(op, "output");
-    ha.out = s->a;
+    /* an output view packed as the stage's RGB is blended and given its
+     * light in place: no second frame of the result beside the statistics
+     * (nothing the stage reads after the method overlaps it: the colour,
+     * albedo and normal are read in place only where they do not) */
+    float *res = (float *)ew_dev_view_in_place(dev, out, 3, NULL);
+    if (!res) {
+        res = s->a;
+        r = ew_dev_put_view(dev, out, 3, res, s->stage);
+        if (r != EW_OK) return r;
+    }
+    ha.out = res;
     ha.stats = s->b;
-    r = ew_dev_put_view(dev, out, 3, s->a, s->stage);
-    if (r != EW_OK) return r;
     ha.give = s->removed;
     if (ew_op_param(op, "do_no_harm") != 0.0f) {
         dev->backend->harm(dev, EW_HARM_STATS, &ha);
@@ -414,7 +422,7 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.give_radius = HARM_GIVE_RADIUS;
     ha.give_cap = HARM_GIVE_CAP;
     double out_mean, given;
-    r = frame_mean(s, dev, s->a, &out_mean);
+    r = frame_mean(s, dev, res, &out_mean);
     if (r != EW_OK) return r;
     ha.give_limit = (float)(HARM_GIVE_LIMIT * out_mean);
     ha.take_limit = (float)(HARM_TAKE_LIMIT * out_mean);
@@ -425,10 +433,10 @@ ew_result ew_harm_execute(ew_op *op) {
     dev->backend->harm(dev, EW_HARM_SPREAD_H, &ha);
     dev->backend->harm(dev, EW_HARM_SPREAD_V, &ha);
     dev->backend->harm(dev, EW_HARM_TAKE, &ha);
-    r = frame_mean(s, dev, s->a, &out_mean);
+    r = frame_mean(s, dev, res, &out_mean);
     if (r == EW_OK) r = frame_mean(s, dev, s->removed, &given);
     if (r != EW_OK) return r;
     ha.gain = out_mean > 0.0 ? (float)(given / out_mean < HARM_TAKE_GAIN ? given / out_mean : HARM_TAKE_GAIN) : 0.0f;
     dev->backend->harm(dev, EW_HARM_SCALE, &ha);
-    return ew_dev_get_view(dev, s->a, 3, out, s->stage);
+    return res == s->a ? ew_dev_get_view(dev, res, 3, out, s->stage) : dev->backend->sync(dev, 0);
 }
