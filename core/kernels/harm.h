@@ -73,7 +73,8 @@ enum {
     EW_HARM_SPREAD_H = 7, /* ... summed over each window (rows) */
     EW_HARM_SPREAD_V = 8, /* ... (columns), and the output scaled by it */
     EW_HARM_TAKE = 9,     /* what the rejection took that comes back, as a grey of that luminance */
-    EW_HARM_SCALE = 10    /* the output scaled by 1 + the frame's gain */
+    EW_HARM_SCALE = 10,   /* the output scaled by 1 + the frame's gain */
+    EW_HARM_STATS_BLEND = 11 /* STATS and BLEND in bands of rows (a backend with harm_bands only) */
 };
 #define EW_HARM_STATS_FLOATS 6
 
@@ -109,6 +110,7 @@ typedef struct ew_harm_args {
     float give_gain;        /* SPREAD_V: no pixel is scaled by more than 1 + give_gain */
     float take_limit;       /* TAKE: of what the rejection took, a pixel gives back at most this luminance */
     float gain;             /* SCALE: every pixel of the output is scaled by 1 + gain */
+    int band_rows;          /* STATS_BLEND: rows a band; 0: the backend's choice */
 } ew_harm_args;
 
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }

@@ -409,8 +409,15 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.stats = s->b;
     ha.give = s->removed;
     if (ew_op_param(op, "do_no_harm") != 0.0f) {
-        dev->backend->harm(dev, EW_HARM_STATS, &ha);
-        dev->backend->harm(dev, EW_HARM_BLEND, &ha);
+        /* a backend that blends in bands of rows keeps their statistics
+         * itself: only the first 3 floats a pixel of b (the energy return's
+         * box sums) are touched after the method */
+        if (dev->backend->harm_bands) {
+            dev->backend->harm(dev, EW_HARM_STATS_BLEND, &ha);
+        } else {
+            dev->backend->harm(dev, EW_HARM_STATS, &ha);
+            dev->backend->harm(dev, EW_HARM_BLEND, &ha);
+        }
     }
     /* the light the clamps took (kernels/harm.h): the method's clamp's back
      * where it was taken, the rejection's to the whole frame as one gain.

@@ -463,6 +463,157 @@ static void harm_stats_rows(const ew_harm_args *a, int64_t begin, int64_t end, f
     }
 }
 
+/* ---- STATS and BLEND in bands of rows (EW_HARM_STATS_BLEND) ----------
+ * The blend of row y reads the statistics of rows y - r .. y + r, and the
+ * statistics of row s read the output's rows s and s + 1 (s - 1 at the last
+ * row), which the blend rewrites in place. So each band first computes the
+ * statistics of its rows that read another band's output — the r rows above
+ * it, its last row and the r below (its edges, 2 r + 1 rows) — every band
+ * before any blends; then it goes down its rows, computing its own rows'
+ * statistics r rows ahead into a ring of 2 r + 1 rows and blending each row
+ * from them. The per-pixel functions and the order of every sum are STATS'
+ * and BLEND's (the same bits): the statistics held are a ring and the edges
+ * of each band instead of a frame of 6 floats a pixel. */
+
+/* Two rows of residuals (T and linear, 3 w floats each) kept between
+ * consecutive rows of statistics, which share one. */
+typedef struct {
+    float *t[2], *l[2], *rgb;
+    int row[2];
+} harm_res_rows;
+
+/* the slot holding row y's residuals, computed unless held; never the
+ * slot holding row keep */
+static int harm_res_get(const ew_harm_args *a, harm_res_rows *c, int y, int keep) {
+    for (int i = 0; i < 2; i++)
+        if (c->row[i] == y) return i;
+    const int i = c->row[0] == keep ? 1 : 0;
+    harm_residual_row(a, y, c->t[i], c->l[i], c->rgb);
+    c->row[i] = y;
+    return i;
+}
+
+/* The statistics of row y into dst (EW_HARM_STATS_FLOATS w floats), as
+ * harm_stats_rows writes them */
+static void harm_stats_row_into(const ew_harm_args *a, int y, float *dst, harm_res_rows *c) {
+    const int w = a->width, h = a->height;
+    const int last = y + 1 >= h, other = last ? y - 1 : y + 1;
+    const int i0 = harm_res_get(a, c, y, INT_MIN);
+    const float *t0 = c->t[i0], *l0 = c->l[i0], *t1 = NULL, *l1 = NULL;
+    if (other >= 0) {
+        const int i1 = harm_res_get(a, c, other, y);
+        t1 = c->t[i1];
+        l1 = c->l[i1];
+    }
+    ew_harm_args ad = *a;
+    ad.stats = dst;
+    const float *bt0 = last ? t1 : t0, *bt1 = last ? t0 : t1, *bl0 = last ? l1 : l0, *bl1 = last ? l0 : l1;
+    for (int x = 0; x < w; x++) {
+        const int bx = x + 1 < w ? x : x - 1, block = bx >= 0 && other >= 0;
+        const float *tb[4], *lb[4];
+        if (block) {
+            tb[0] = bt0 + 3 * bx; tb[1] = bt0 + 3 * (bx + 1); tb[2] = bt1 + 3 * bx; tb[3] = bt1 + 3 * (bx + 1);
+            lb[0] = bl0 + 3 * bx; lb[1] = bl0 + 3 * (bx + 1); lb[2] = bl1 + 3 * bx; lb[3] = bl1 + 3 * (bx + 1);
+        }
+        ew_harm_stats_from((long)x, &ad, t0 + 3 * x, x + 1 < w ? t0 + 3 * (x + 1) : NULL, last ? NULL : t1 + 3 * x,
+                           block ? tb : NULL, block ? lb : NULL, l0 + 3 * x);
+    }
+}
+
+typedef struct {
+    const ew_harm_args *a;
+    int rows;     /* rows a band (the last may have fewer) */
+    float *edges; /* a band's 2 r + 1 edge rows of statistics, band after band */
+    float *work;  /* a band's ring (2 r + 1 rows), column and window sums, residual rows */
+} harm_band_job;
+
+static size_t harm_band_work_floats(int w, int r) {
+    return ((size_t)(2 * r + 1) + 2) * EW_HARM_STATS_FLOATS * (size_t)w + 15 * (size_t)w;
+}
+
+/* band k's rows [y0, y1) */
+static void harm_band_rows(const harm_band_job *j, int k, int *y0, int *y1) {
+    *y0 = k * j->rows;
+    *y1 = ew_mini(*y0 + j->rows, j->a->height);
+}
+
+/* band k's edge row of statistics s (above it or from its last row on), or
+ * NULL for the rows it computes itself */
+static float *harm_band_edge(const harm_band_job *j, int k, int s) {
+    const int r = j->a->radius, w = j->a->width;
+    int y0, y1;
+    harm_band_rows(j, k, &y0, &y1);
+    const size_t row = (size_t)EW_HARM_STATS_FLOATS * (size_t)w, base = (size_t)k * (size_t)(2 * r + 1);
+    if (s < y0) return j->edges + (base + (size_t)(s - (y0 - r))) * row;
+    if (s >= y1 - 1) return j->edges + (base + (size_t)r + (size_t)(s - (y1 - 1))) * row;
+    return NULL;
+}
+
+static harm_res_rows harm_band_res(const harm_band_job *j, int k) {
+    const int r = j->a->radius;
+    const size_t w = (size_t)j->a->width;
+    float *p = j->work + harm_band_work_floats((int)w, r) * (size_t)k + ((size_t)(2 * r + 1) + 2) * EW_HARM_STATS_FLOATS * w;
+    harm_res_rows c = {{p, p + 6 * w}, {p + 3 * w, p + 9 * w}, p + 12 * w, {INT_MIN, INT_MIN}};
+    return c;
+}
+
+static void harm_band_edges(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const harm_band_job *j = (const harm_band_job *)ctx;
+    const int r = j->a->radius, h = j->a->height;
+    for (int64_t k = begin; k < end; k++) {
+        int y0, y1;
+        harm_band_rows(j, (int)k, &y0, &y1);
+        harm_res_rows c = harm_band_res(j, (int)k);
+        for (int s = ew_maxi(y0 - r, 0); s < y0; s++) harm_stats_row_into(j->a, s, harm_band_edge(j, (int)k, s), &c);
+        for (int s = y1 - 1; s <= ew_mini(y1 - 1 + r, h - 1); s++)
+            harm_stats_row_into(j->a, s, harm_band_edge(j, (int)k, s), &c);
+    }
+}
+
+static void harm_band_blend(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const harm_band_job *j = (const harm_band_job *)ctx;
+    const ew_harm_args *a = j->a;
+    const int r = a->radius, h = a->height, w = a->width, n = 2 * r + 1;
+    const size_t k6 = EW_HARM_STATS_FLOATS, row = k6 * (size_t)w;
+    for (int64_t k = begin; k < end; k++) {
+        int y0, y1;
+        harm_band_rows(j, (int)k, &y0, &y1);
+        float *ring = j->work + harm_band_work_floats(w, r) * (size_t)k, *col = ring + (size_t)n * row, *acc = col + row;
+        harm_res_rows c = harm_band_res(j, (int)k);
+        int next = y0; /* the next of the band's own rows of statistics, y0 .. y1 - 2 */
+        for (int y = y0; y < y1; y++) {
+            for (; next <= ew_mini(y + r, y1 - 2); next++)
+                harm_stats_row_into(a, next, ring + (size_t)(next % n) * row, &c);
+            /* as BLEND: the window's columns (its rows in order), then along the row */
+            memset(col, 0, row * sizeof(float));
+            for (int yy = ew_maxi(y - r, 0); yy <= ew_mini(y + r, h - 1); yy++) {
+                const float *st = harm_band_edge(j, (int)k, yy);
+                harm_add_shifted(col, st ? st : ring + (size_t)(yy % n) * row, 0, (long)row, 0);
+            }
+            harm_row_window(acc, col, w, r, (int)k6);
+            for (int x = 0; x < w; x++) ew_harm_blend_apply((long)y * w + x, a, acc + (size_t)x * k6);
+        }
+    }
+}
+
+/* STATS then BLEND in bands; 0 when out of memory (nothing done) */
+static int harm_stats_blend_bands(ew_device *dev, const ew_harm_args *a) {
+    const int threads = ew_pool_threads(dev->pool), r = a->radius, w = a->width, h = a->height;
+    int rows = a->band_rows > 0 ? a->band_rows : (h + 2 * threads - 1) / (2 * threads);
+    rows = ew_maxi(ew_mini(rows, h), 1);
+    const int bands = (h + rows - 1) / rows;
+    const size_t edges = (size_t)bands * (size_t)(2 * r + 1) * EW_HARM_STATS_FLOATS * (size_t)w;
+    float *mem = (float *)malloc((edges + (size_t)bands * harm_band_work_floats(w, r)) * sizeof(float));
+    if (!mem) return 0;
+    harm_band_job j = {a, rows, mem, mem + edges};
+    ew_pool_run(dev->pool, bands, 1, harm_band_edges, &j);
+    ew_pool_run(dev->pool, bands, 1, harm_band_blend, &j);
+    free(mem);
+    return 1;
+}
+
 static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const harm_job *h = (const harm_job *)ctx;
@@ -565,6 +716,14 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
 }
 
 static void cpu_harm(ew_device *dev, int step, const ew_harm_args *a) {
+    if (step == EW_HARM_STATS_BLEND) {
+        /* out of memory for the bands: the two steps over the frame's statistics */
+        if (!harm_stats_blend_bands(dev, a)) {
+            cpu_harm(dev, EW_HARM_STATS, a);
+            cpu_harm(dev, EW_HARM_BLEND, a);
+        }
+        return;
+    }
     harm_job h = {step, a};
     /* the column box sums fill their ring of blocks anew at the start of
      * each run of rows: a few long runs, not the pool's many short ones */
@@ -651,6 +810,7 @@ const ew_backend ew_cpu_backend = {
     .pyr_down = ew_cpu_pyr_down,
     .pyr_up = ew_cpu_pyr_up,
     .pyr_row_hooks = 1,
+    .harm_bands = 1,
     .dof_attributes = ew_cpu_dof_attributes,
     /* neural bilateral grid (the convolution: cpu_conv.c) */
     .conv5 = ew_cpu_conv5,

@@ -1,0 +1,106 @@
+/* The do-no-harm blend in bands of rows on the CPU (EW_HARM_STATS_BLEND):
+ * the statistics of each band's rows and edges and the blend from them give,
+ * bit for bit, STATS then BLEND over a frame of statistics — band sizes of
+ * one row, odd sizes that leave a short last band, bands shorter than the
+ * window, one band, the backend's own choice; 1 and 3 threads; an RGBA
+ * input with NaN/Inf and fireflies, with and without the share given back. */
+#include "ew_test.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "edgewise/edgewise.h"
+#include "kernels/harm.h"
+#include "src/backend.h"
+#include "src/internal.h"
+
+enum { W = 37, H = 29, N = W * H };
+
+static float urand(unsigned *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (float)(*s >> 8) / 16777216.0f;
+}
+
+static float *field(size_t n, float lo, float hi, unsigned seed, int holes) {
+    float *p = (float *)malloc(n * sizeof(float));
+    unsigned s = seed;
+    for (size_t i = 0; i < n; i++) p[i] = lo + (hi - lo) * urand(&s);
+    if (holes)
+        for (size_t i = 5; i < n; i += 53) p[i] = i % 2 ? NAN : INFINITY;
+    for (size_t i = 17; i < n; i += 97) p[i] = 400.0f;
+    return p;
+}
+
+static int same_bits(const float *a, const float *b, size_t n) {
+    return memcmp(a, b, n * sizeof(float)) == 0;
+}
+
+TEST(bands_give_the_frames_bits) {
+    const int threads[] = {1, 3};
+    const int rows[] = {1, 2, 3, 5, 7, 11, 29, 0};
+    float *clamped = field((size_t)N * 4, 0.0f, 2.0f, 3, 1), *out0 = field((size_t)N * 3, 0.0f, 2.0f, 7, 1);
+    float *give0 = field((size_t)N * 3, 0.0f, 1.0f, 11, 0);
+    float *out = malloc((size_t)N * 3 * sizeof(float)), *ref = malloc((size_t)N * 3 * sizeof(float));
+    float *give = malloc((size_t)N * 3 * sizeof(float)), *gref = malloc((size_t)N * 3 * sizeof(float));
+    float *stats = malloc((size_t)N * EW_HARM_STATS_FLOATS * sizeof(float));
+    for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
+        ew_device_desc desc = EW_DEVICE_DESC_INIT;
+        desc.num_threads = threads[t];
+        ew_device *dev = NULL;
+        CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_OK);
+        if (!dev) continue;
+        CHECK(dev->backend->harm_bands);
+        for (int radius = 3; radius <= 4; radius++)
+            for (int with_give = 0; with_give < 2; with_give++) {
+                ew_harm_args a;
+                memset(&a, 0, sizeof a);
+                a.width = W;
+                a.height = H;
+                a.channels = 4;
+                a.clamped = clamped;
+                a.stats = stats;
+                a.radius = radius;
+                a.strength = 2.0f;
+                a.z = 1.0f;
+                a.theta = 0.1f;
+                a.kappa = 0.9f;
+                a.theta_n = 0.05f;
+                a.tone_share = 0.5f;
+                /* the frame: STATS then BLEND */
+                memcpy(ref, out0, (size_t)N * 3 * sizeof(float));
+                memcpy(gref, give0, (size_t)N * 3 * sizeof(float));
+                a.out = ref;
+                a.give = with_give ? gref : NULL;
+                dev->backend->harm(dev, EW_HARM_STATS, &a);
+                dev->backend->harm(dev, EW_HARM_BLEND, &a);
+                int blended = 0;
+                for (int i = 0; i < N * 3; i++) blended += memcmp(&ref[i], &out0[i], sizeof(float)) != 0;
+                CHECK(blended > N / 4); /* the blend does something here */
+                for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
+                    memcpy(out, out0, (size_t)N * 3 * sizeof(float));
+                    memcpy(give, give0, (size_t)N * 3 * sizeof(float));
+                    for (size_t i = 0; i < (size_t)N * EW_HARM_STATS_FLOATS; i++) stats[i] = NAN;
+                    a.out = out;
+                    a.give = with_give ? give : NULL;
+                    a.stats = NULL; /* the bands hold their own */
+                    a.band_rows = rows[k];
+                    dev->backend->harm(dev, EW_HARM_STATS_BLEND, &a);
+                    a.stats = stats;
+                    a.band_rows = 0;
+                    if (!same_bits(out, ref, (size_t)N * 3) || (with_give && !same_bits(give, gref, (size_t)N * 3)))
+                        FAIL_AT("threads %d, radius %d, give %d, band rows %d: not the frame's bits", threads[t], radius,
+                                with_give, rows[k]);
+                }
+            }
+        ew_device_destroy(dev);
+    }
+    free(clamped);
+    free(out0);
+    free(give0);
+    free(out);
+    free(ref);
+    free(give);
+    free(gref);
+    free(stats);
+}
