@@ -601,7 +601,11 @@ static void harm_band_blend(void *ctx, int64_t begin, int64_t end, int tid) {
 /* STATS then BLEND in bands; 0 when out of memory (nothing done) */
 static int harm_stats_blend_bands(ew_device *dev, const ew_harm_args *a) {
     const int threads = ew_pool_threads(dev->pool), r = a->radius, w = a->width, h = a->height;
-    int rows = a->band_rows > 0 ? a->band_rows : (h + 2 * threads - 1) / (2 * threads);
+    /* two bands a thread, of at least 8 windows' rows: a band holds about
+     * 22 rows' worth of statistics (ring, edges, sums), so with many threads
+     * the bands stay under a third of the frame's, and the edges' rows
+     * computed twice under an eighth of the statistics */
+    int rows = a->band_rows > 0 ? a->band_rows : ew_maxi((h + 2 * threads - 1) / (2 * threads), 8 * (2 * r + 1));
     rows = ew_maxi(ew_mini(rows, h), 1);
     const int bands = (h + rows - 1) / rows;
     const size_t edges = (size_t)bands * (size_t)(2 * r + 1) * EW_HARM_STATS_FLOATS * (size_t)w;
