@@ -259,36 +259,61 @@ EW_HD void ew_harm_stats_px(int x, int y, const ew_harm_args *a) {
                        block ? lb : 0, l);
 }
 
-/* BLEND at pixel j from the window sums of its statistics (sums[k]: the
- * sum of stats[k] over the window, in raster order). */
-EW_HD void ew_harm_blend_apply(long j, const ew_harm_args *a, const float *sums) {
-    const float sq = sums[0], cross = sums[1], cross2 = sums[2], hh2 = sums[3], lin2 = sums[4], th2 = sums[5];
+/* a where m is all ones, b where it is 0: a select on the bits, which a
+ * row loop vectorises (a float select keeps it scalar) */
+EW_HD float ew_harm_sel(int m, float a, float b) {
+    return ew_bits_to_float((ew_float_to_bits(a) & m) | (ew_float_to_bits(b) & ~m));
+}
+/* ew_maxf's, ew_minf's and ew_clampf(v, 0, 1)'s values (NaN included) as selects */
+EW_HD float ew_harm_max(float a, float b) { return ew_harm_sel(-(a > b), a, b); }
+EW_HD float ew_harm_min(float a, float b) { return ew_harm_sel(-(a < b), a, b); }
+EW_HD float ew_harm_clamp01(float v) { return ew_harm_sel(-(v < 0.0f), 0.0f, ew_harm_sel(-(v > 1.0f), 1.0f, v)); }
+
+/* BLEND's alpha from the window sums of the statistics (sq, cross, cross2,
+ * hh2, lin2, th2: ew_harm_args.stats' six), the other arguments those of
+ * ew_harm_args. Written as selects between values computed for every
+ * pixel (a division by 0 in the value not taken is harmless), so that a
+ * row of them vectorises; the value is that of the tests it stands for. */
+EW_HD float ew_harm_alpha(float sq, float cross, float cross2, float hh2, float lin2, float th2, float z,
+                          float strength, float theta, float kappa, float theta_n, float tone_share) {
     /* C is a sum of products of noisy residuals: only what stands z of its
      * own standard deviations above 0 counts as structure (at 1-4 spp the
      * products of pure noise would otherwise pull alpha below 1 at random) */
-    const float excess = ew_maxf(cross - a->z * sqrtf(cross2), 0.0f);
-    const float q = sq > 0.0f ? a->strength * excess / sq : 0.0f;
-    float alpha = ew_clampf(1.0f - ew_maxf(q - a->theta, 0.0f) / (1.0f - a->theta), 0.0f, 1.0f);
+    const float excess = ew_harm_max(cross - z * sqrtf(cross2), 0.0f);
+    const float q = ew_harm_sel(-(sq > 0.0f), strength * excess / sq, 0.0f);
+    const float alpha = ew_harm_clamp01(1.0f - ew_harm_max(q - theta, 0.0f) / (1.0f - theta));
     /* Second estimate, in linear units: the residual's diagonal Haar detail
      * H (see above) keeps its noise and drops what is smooth at the scale
      * of one pixel, so R_lin - kappa H is what the method removed of the
      * image. Unlike C it needs no threshold against chance, so it also
-     * catches a converged frame's error where C's z test hides it. */
-    if (a->kappa > 0.0f && lin2 > 0.0f) {
-        float qn = ew_maxf(lin2 - a->kappa * hh2, 0.0f) / lin2;
-        if (a->tone_share > 0.0f && sq > 0.0f)
-            qn += a->tone_share * (ew_maxf(sq - a->kappa * th2, 0.0f) / sq - qn);
-        alpha = ew_minf(alpha, ew_clampf(1.0f - ew_maxf(qn - a->theta_n, 0.0f) / (1.0f - a->theta_n), 0.0f, 1.0f));
-    }
+     * catches a converged frame's error where C's z test hides it. Taken
+     * where kappa > 0 and lin2 > 0; its share in T where tone_share > 0
+     * and sq > 0. */
+    const float ql = ew_harm_max(lin2 - kappa * hh2, 0.0f) / lin2;
+    const float qt = ql + tone_share * (ew_harm_max(sq - kappa * th2, 0.0f) / sq - ql);
+    const float qn = ew_harm_sel(-((tone_share > 0.0f) & (sq > 0.0f)), qt, ql);
+    const float an = ew_harm_min(alpha, ew_harm_clamp01(1.0f - ew_harm_max(qn - theta_n, 0.0f) / (1.0f - theta_n)));
+    return ew_harm_sel(-((kappa > 0.0f) & (lin2 > 0.0f)), an, alpha);
+}
+
+/* BLEND's mix at pixel j for its alpha: alpha 1, the method's output
+ * exactly; a missing sample, the method's reconstruction */
+EW_HD void ew_harm_blend_mix(long j, const ew_harm_args *a, float alpha) {
     const float *in = a->clamped + j * a->channels;
     float *o = a->out + j * 3;
-    /* alpha 1: the method's output exactly; a missing sample: the method's reconstruction */
     if (alpha >= 1.0f || !ew_harm_finite3(in)) return;
     /* the blend gives the pixel 1 - alpha of the input back, and with it
      * that share of what the method's own clamp took there */
     if (a->give)
         for (int c = 0; c < 3; c++) a->give[j * 3 + c] *= alpha;
     for (int c = 0; c < 3; c++) o[c] = in[c] + alpha * (o[c] - in[c]);
+}
+
+/* BLEND at pixel j from the window sums of its statistics (sums[k]: the
+ * sum of stats[k] over the window, in raster order). */
+EW_HD void ew_harm_blend_apply(long j, const ew_harm_args *a, const float *sums) {
+    ew_harm_blend_mix(j, a, ew_harm_alpha(sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], a->z, a->strength,
+                                          a->theta, a->kappa, a->theta_n, a->tone_share));
 }
 
 /* The window sums in a separable order: each column of the window summed

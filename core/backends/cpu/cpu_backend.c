@@ -463,6 +463,72 @@ static void harm_stats_rows(const ew_harm_args *a, int64_t begin, int64_t end, f
     }
 }
 
+/* ew_harm_stats_from's statistics for the pixels x in [0, n) of a row with
+ * a row below it and a pixel right of each (so every neighbour and the
+ * block at (x, y) exist) into s0..s5 (six planes of the row): t0/l0 the
+ * row's residuals, t1/l1 the next row's (3 floats a pixel). Each statistic
+ * adds the same terms in the same order as ew_harm_stats_from, without its
+ * tests for the neighbours, so that the loop vectorises: the same bits. */
+static EW_MULTIVERSION void harm_stats_span(float *EW_RESTRICT s0, float *EW_RESTRICT s1, float *EW_RESTRICT s2,
+                                            float *EW_RESTRICT s3, float *EW_RESTRICT s4, float *EW_RESTRICT s5,
+                                            const float *EW_RESTRICT t0, const float *EW_RESTRICT t1,
+                                            const float *EW_RESTRICT l0, const float *EW_RESTRICT l1, long n) {
+    for (long x = 0; x < n; x++) {
+        float sq = 0.0f, cross = 0.0f, hh2 = 0.0f, lin2 = 0.0f, th2 = 0.0f;
+        for (int c = 0; c < 3; c++) {
+            const long i = 3 * x + c;
+            const float r = t0[i];
+            sq += r * r;
+            cross += r * t0[i + 3];
+            cross += r * t1[i];
+            const float hh = 0.5f * (l0[i] - l0[i + 3] - l1[i] + l1[i + 3]);
+            hh2 += hh * hh;
+            const float th = 0.5f * (t0[i] - t0[i + 3] - t1[i] + t1[i + 3]);
+            th2 += th * th;
+            const float d = l0[i];
+            lin2 += d * d;
+        }
+        cross = cross / 2.0f;
+        s0[x] = sq;
+        s1[x] = cross;
+        s2[x] = cross * cross;
+        s3[x] = hh2;
+        s4[x] = lin2;
+        s5[x] = th2;
+    }
+}
+
+/* alpha[x] = ew_harm_alpha of the window sums for x in [0, w): sums holds
+ * them as six planes of w floats */
+static EW_MULTIVERSION void harm_alpha_span(float *EW_RESTRICT alpha, const float *EW_RESTRICT sums, long w,
+                                            const ew_harm_args *a) {
+    /* the parameters as locals: a store to alpha cannot change them */
+    const float z = a->z, strength = a->strength, theta = a->theta, kappa = a->kappa, theta_n = a->theta_n,
+                tone_share = a->tone_share;
+    const float *EW_RESTRICT p0 = sums, *EW_RESTRICT p1 = sums + w, *EW_RESTRICT p2 = sums + 2 * w;
+    const float *EW_RESTRICT p3 = sums + 3 * w, *EW_RESTRICT p4 = sums + 4 * w, *EW_RESTRICT p5 = sums + 5 * w;
+    for (long x = 0; x < w; x++)
+        alpha[x] = ew_harm_alpha(p0[x], p1[x], p2[x], p3[x], p4[x], p5[x], z, strength, theta, kappa, theta_n,
+                                 tone_share);
+}
+
+/* ew_harm_blend_mix for w pixels of RGB (colour of 3 channels, give set):
+ * the pixels it leaves alone selected by masks, the others mixed, so that
+ * the loop vectorises; the same bits */
+static EW_MULTIVERSION void harm_mix_span(float *EW_RESTRICT out, float *EW_RESTRICT give,
+                                          const float *EW_RESTRICT in, const float *EW_RESTRICT alpha, long w) {
+    for (long x = 0; x < w; x++) {
+        const float al = alpha[x];
+        const int mix = -((!(al >= 1.0f)) & ew_harm_finite_bits(in[3 * x]) & ew_harm_finite_bits(in[3 * x + 1]) &
+                          ew_harm_finite_bits(in[3 * x + 2]));
+        for (int c = 0; c < 3; c++) {
+            const long i = 3 * x + c;
+            give[i] = ew_harm_sel(mix, give[i] * al, give[i]);
+            out[i] = ew_harm_sel(mix, in[i] + al * (out[i] - in[i]), out[i]);
+        }
+    }
+}
+
 /* ---- STATS and BLEND in bands of rows (EW_HARM_STATS_BLEND) ----------
  * The blend of row y reads the statistics of rows y - r .. y + r, and the
  * statistics of row s read the output's rows s and s + 1 (s - 1 at the last
@@ -493,8 +559,9 @@ static int harm_res_get(const ew_harm_args *a, harm_res_rows *c, int y, int keep
     return i;
 }
 
-/* The statistics of row y into dst (EW_HARM_STATS_FLOATS w floats), as
- * harm_stats_rows writes them */
+/* The statistics of row y into dst as EW_HARM_STATS_FLOATS planes of w
+ * floats (statistic k of pixel x at dst[k w + x]: the blend's loops read
+ * each contiguously), the values harm_stats_rows writes */
 static void harm_stats_row_into(const ew_harm_args *a, int y, float *dst, harm_res_rows *c) {
     const int w = a->width, h = a->height;
     const int last = y + 1 >= h, other = last ? y - 1 : y + 1;
@@ -505,18 +572,28 @@ static void harm_stats_row_into(const ew_harm_args *a, int y, float *dst, harm_r
         t1 = c->t[i1];
         l1 = c->l[i1];
     }
+    const size_t wz = (size_t)w;
+    int x = 0;
+    if (!last && w > 1) { /* every neighbour there: the vectorised row */
+        harm_stats_span(dst, dst + wz, dst + 2 * wz, dst + 3 * wz, dst + 4 * wz, dst + 5 * wz, t0, t1, l0, l1, w - 1);
+        x = w - 1;
+    }
+    /* the last column (the last row: every pixel) through the per-pixel
+     * function, one pixel's statistics at a time */
+    float px[EW_HARM_STATS_FLOATS];
     ew_harm_args ad = *a;
-    ad.stats = dst;
+    ad.stats = px;
     const float *bt0 = last ? t1 : t0, *bt1 = last ? t0 : t1, *bl0 = last ? l1 : l0, *bl1 = last ? l0 : l1;
-    for (int x = 0; x < w; x++) {
+    for (; x < w; x++) {
         const int bx = x + 1 < w ? x : x - 1, block = bx >= 0 && other >= 0;
         const float *tb[4], *lb[4];
         if (block) {
             tb[0] = bt0 + 3 * bx; tb[1] = bt0 + 3 * (bx + 1); tb[2] = bt1 + 3 * bx; tb[3] = bt1 + 3 * (bx + 1);
             lb[0] = bl0 + 3 * bx; lb[1] = bl0 + 3 * (bx + 1); lb[2] = bl1 + 3 * bx; lb[3] = bl1 + 3 * (bx + 1);
         }
-        ew_harm_stats_from((long)x, &ad, t0 + 3 * x, x + 1 < w ? t0 + 3 * (x + 1) : NULL, last ? NULL : t1 + 3 * x,
+        ew_harm_stats_from(0, &ad, t0 + 3 * x, x + 1 < w ? t0 + 3 * (x + 1) : NULL, last ? NULL : t1 + 3 * x,
                            block ? tb : NULL, block ? lb : NULL, l0 + 3 * x);
+        for (int k = 0; k < EW_HARM_STATS_FLOATS; k++) dst[(size_t)k * wz + (size_t)x] = px[k];
     }
 }
 
@@ -592,8 +669,14 @@ static void harm_band_blend(void *ctx, int64_t begin, int64_t end, int tid) {
                 const float *st = harm_band_edge(j, (int)k, yy);
                 harm_add_shifted(col, st ? st : ring + (size_t)(yy % n) * row, 0, (long)row, 0);
             }
-            harm_row_window(acc, col, w, r, (int)k6);
-            for (int x = 0; x < w; x++) ew_harm_blend_apply((long)y * w + x, a, acc + (size_t)x * k6);
+            for (size_t i = 0; i < k6; i++) harm_row_window(acc + i * (size_t)w, col + i * (size_t)w, w, r, 1);
+            /* alpha of the whole row (vectorised) into the column sums' place, then the mix */
+            harm_alpha_span(col, acc, w, a);
+            const long j0 = (long)y * w;
+            if (a->channels == 3 && a->give)
+                harm_mix_span(a->out + j0 * 3, a->give + j0 * 3, a->clamped + j0 * 3, col, w);
+            else
+                for (int x = 0; x < w; x++) ew_harm_blend_mix(j0 + x, a, col[x]);
         }
     }
 }
