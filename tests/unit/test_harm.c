@@ -18,11 +18,22 @@ static float color[N * 3], albedo[N * 3], normal[N * 3], depth[N], ref[N * 3], o
 
 static float lum(const float *p) { return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2]; }
 
-/* Denoiser `name` on the frame; stage: -1 the defaults, 0 off, 1 on. */
-static int run(ew_device *dev, const char *name, int stage, float *dst) {
+/* Denoiser `name` on the frame; stage: -1 the defaults, 0 off, 1 on;
+ * strided: the colour and output as views of 4 floats a pixel (copied in
+ * and out here) instead of packed RGB. */
+static int run_views(ew_device *dev, const char *name, int stage, int strided, float *dst) {
+    static float c4[N * 4], o4[N * 4];
     ew_denoiser *d = NULL;
     if (ew_denoiser_create(dev, name, &d) != EW_OK) return 0;
     ew_image c = ew_image_packed(color, W, H, 3), o = ew_image_packed(dst, W, H, 3);
+    if (strided) {
+        for (int i = 0; i < N; i++)
+            for (int k = 0; k < 4; k++) c4[i * 4 + k] = k < 3 ? color[i * 3 + k] : -1.0f;
+        c = ew_image_packed(c4, W, H, 3);
+        o = ew_image_packed(o4, W, H, 3);
+        c.pixel_stride = o.pixel_stride = 4 * sizeof(float);
+        c.row_stride = o.row_stride = (int64_t)W * 4 * sizeof(float);
+    }
     ew_image a = ew_image_packed(albedo, W, H, 3), n = ew_image_packed(normal, W, H, 3);
     ew_image z = ew_image_packed(depth, W, H, 1);
     int ok = ew_denoiser_set_image(d, "color", &c) == EW_OK && ew_denoiser_set_image(d, "output", &o) == EW_OK &&
@@ -33,7 +44,14 @@ static int run(ew_device *dev, const char *name, int stage, float *dst) {
              ew_denoiser_set_float(d, "outlier_k", stage ? 8.0f : 0.0f) == EW_OK;
     ok = ok && ew_denoiser_commit(d) == EW_OK && ew_denoiser_execute(d) == EW_OK;
     ew_denoiser_destroy(d);
+    if (ok && strided)
+        for (int i = 0; i < N; i++)
+            for (int k = 0; k < 3; k++) dst[i * 3 + k] = o4[i * 4 + k];
     return ok;
+}
+
+static int run(ew_device *dev, const char *name, int stage, float *dst) {
+    return run_views(dev, name, stage, 0, dst);
 }
 
 /* One flat material facing the camera, a ramp of light across it. */
@@ -270,35 +288,6 @@ TEST(stage_off_is_the_method_alone_and_in_place_works) {
  * nbg reads a packed colour (the stage's clamped colour, or the caller's
  * with the stage off) where it is. A frame with fireflies, so that the
  * rejection, the blend and the energy return all act. */
-static int run_views(ew_device *dev, const char *name, int stage, int strided, float *dst) {
-    static float c4[N * 4], o4[N * 4];
-    ew_denoiser *d = NULL;
-    if (ew_denoiser_create(dev, name, &d) != EW_OK) return 0;
-    ew_image c = ew_image_packed(color, W, H, 3), o = ew_image_packed(dst, W, H, 3);
-    if (strided) {
-        for (int i = 0; i < N; i++)
-            for (int k = 0; k < 4; k++) c4[i * 4 + k] = k < 3 ? color[i * 3 + k] : -1.0f;
-        c = ew_image_packed(c4, W, H, 3);
-        o = ew_image_packed(o4, W, H, 3);
-        c.pixel_stride = o.pixel_stride = 4 * sizeof(float);
-        c.row_stride = o.row_stride = (int64_t)W * 4 * sizeof(float);
-    }
-    ew_image a = ew_image_packed(albedo, W, H, 3), n = ew_image_packed(normal, W, H, 3);
-    ew_image z = ew_image_packed(depth, W, H, 1);
-    int ok = ew_denoiser_set_image(d, "color", &c) == EW_OK && ew_denoiser_set_image(d, "output", &o) == EW_OK &&
-             ew_denoiser_set_image(d, "albedo", &a) == EW_OK && ew_denoiser_set_image(d, "normal", &n) == EW_OK &&
-             ew_denoiser_set_image(d, "depth", &z) == EW_OK;
-    if (ok && stage >= 0)
-        ok = ew_denoiser_set_int(d, "do_no_harm", stage) == EW_OK &&
-             ew_denoiser_set_float(d, "outlier_k", stage ? 8.0f : 0.0f) == EW_OK;
-    ok = ok && ew_denoiser_commit(d) == EW_OK && ew_denoiser_execute(d) == EW_OK;
-    ew_denoiser_destroy(d);
-    if (ok && strided)
-        for (int i = 0; i < N; i++)
-            for (int k = 0; k < 3; k++) dst[i * 3 + k] = o4[i * 4 + k];
-    return ok;
-}
-
 TEST(views_in_place_and_copied_give_the_same_bits) {
     ew_device *dev;
     CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
