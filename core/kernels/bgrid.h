@@ -17,6 +17,15 @@
  * A cell is empty when its weight sum is 0. The paper tests "value != 0"
  * instead, which would also drop cells of genuinely black radiance; testing
  * the weight is what the paper means and stays correct for black regions.
+ *
+ * Bands: the image may be rows band_y .. band_y + height - 1 of a taller
+ * frame and the grid rows band_v .. band_v + gh - 1 of the frame's grid.
+ * Positions and tents are computed in the frame's rows and cells (the same
+ * float operations on the same values as for the whole frame), a column
+ * gathers the rows of its support that the band holds, and a pixel reads
+ * the cells the band's grid holds. A cell whose support lies inside the
+ * band, and a pixel whose cells the band's grid holds, are therefore the
+ * same bits as in one whole-frame pass. Both are 0 for a whole frame.
  */
 #ifndef EW_KERNELS_BGRID_H
 #define EW_KERNELS_BGRID_H
@@ -32,6 +41,8 @@ typedef struct ew_bgrid_params {
     float rate_s;        /* spatial sampling rate (eta_h = eta_w) in pixels per cell */
     float rate_d;        /* range sampling rate in guide units per cell */
     int channels;        /* value channels, 1..EW_BGRID_MAX_CHANNELS */
+    int band_y;          /* the image's first row in the frame (0: the whole frame) */
+    int band_v;          /* the grid's first row of cells in the frame's grid (0: the whole grid) */
 } ew_bgrid_params;
 
 EW_HD float ew_tent(float a) { return ew_maxf(1.0f - sqrtf(a * a + EW_TENT_EPS), 0.0f); }
@@ -46,6 +57,14 @@ EW_HD void ew_bgrid_pixel_span(int u, float rate_s, int n, int *x0, int *x1) {
     int b = (int)ceilf((float)u * rate_s + 1.5f * rate_s - 0.5f);
     *x0 = ew_maxi(a, 0);
     *x1 = ew_mini(b, n - 1);
+}
+
+/* Frame rows that can touch grid row v (the band's, 0-based) and that the
+ * band holds, as the band's rows; *y0 > *y1 when there are none. */
+EW_HD void ew_bgrid_band_rows(int v, const ew_bgrid_params *p, int *y0, int *y1) {
+    ew_bgrid_pixel_span(v + p->band_v, p->rate_s, p->band_y + p->height, y0, y1);
+    *y0 = ew_maxi(*y0, p->band_y) - p->band_y;
+    *y1 -= p->band_y;
 }
 
 /*
@@ -65,9 +84,9 @@ EW_HD void ew_bgrid_splat_column(int u, int v, const ew_bgrid_params *p,
 
     int x0, x1, y0, y1;
     ew_bgrid_pixel_span(u, p->rate_s, p->width, &x0, &x1);
-    ew_bgrid_pixel_span(v, p->rate_s, p->height, &y0, &y1);
+    ew_bgrid_band_rows(v, p, &y0, &y1);
     for (int y = y0; y <= y1; y++) {
-        float wy = ew_tent(ew_bgrid_pos_s((float)y, p->rate_s) - (float)v);
+        float wy = ew_tent(ew_bgrid_pos_s((float)(y + p->band_y), p->rate_s) - (float)(v + p->band_v));
         if (wy <= 0.0f) continue;
         for (int x = x0; x <= x1; x++) {
             float wx = ew_tent(ew_bgrid_pos_s((float)x, p->rate_s) - (float)u);
@@ -110,16 +129,17 @@ EW_HD void ew_bgrid_slice_px(int x, int y, const ew_bgrid_params *p,
                              float *EW_RESTRICT out) {
     const int C = p->channels, S = C + 1;
     float px = ew_bgrid_pos_s((float)x, p->rate_s);
-    float py = ew_bgrid_pos_s((float)y, p->rate_s);
+    float py = ew_bgrid_pos_s((float)(y + p->band_y), p->rate_s);
     float g = guide[(long)y * p->width + x];
     float pz = ew_bgrid_pos_d(ew_finitef(g) ? g : 0.0f, p->rate_d);
-    int u0 = (int)floorf(px), v0 = (int)floorf(py), z0 = (int)floorf(pz);
+    /* v0: the band grid's row of the frame's cell row floor(py) */
+    int u0 = (int)floorf(px), v0 = (int)floorf(py) - p->band_v, z0 = (int)floorf(pz);
     float acc[EW_BGRID_MAX_CHANNELS + 1];
     for (int c = 0; c <= C; c++) acc[c] = 0.0f;
 
     for (int v = v0; v <= v0 + 1; v++) {
         if (v < 0 || v >= p->gh) continue;
-        float wy = ew_tent(py - (float)v);
+        float wy = ew_tent(py - (float)(v + p->band_v));
         for (int u = u0; u <= u0 + 1; u++) {
             if (u < 0 || u >= p->gw) continue;
             float wxy = ew_tent(px - (float)u) * wy;
@@ -140,7 +160,7 @@ EW_HD void ew_bgrid_slice_px(int x, int y, const ew_bgrid_params *p,
             if (v < 0 || v >= p->gh) continue;
             for (int u = u0; u <= u0 + 1; u++) {
                 if (u < 0 || u >= p->gw) continue;
-                float wxy = ew_maxf(ew_tent(px - (float)u) * ew_tent(py - (float)v), 1e-6f);
+                float wxy = ew_maxf(ew_tent(px - (float)u) * ew_tent(py - (float)(v + p->band_v)), 1e-6f);
                 const float *col = grid + ((long)v * p->gw + u) * p->gd * S;
                 for (int z = 0; z < p->gd; z++) {
                     const float *cell = col + (long)z * S;

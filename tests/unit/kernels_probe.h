@@ -63,6 +63,8 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     bp.gh = 3;
     bp.gd = 4;
     bp.channels = 3;
+    bp.band_y = 0;
+    bp.band_v = 0;
     float *image = scratch, *guide = scratch + 256, *grid = scratch + 512, *sliced = scratch + 1024;
     for (int i = 0; i < EW_PN * 3; i++) image[i] = in[100 + i] * 2.0f;
     for (int i = 0; i < EW_PN; i++) guide[i] = in[400 + i] * 255.0f;

@@ -232,6 +232,38 @@ TEST(bgrid_splat_and_slice) {
     CHECK_NO_MISUSE();
 }
 
+/* A band of rows (kernels/bgrid.h: rows 7..22 of the frame, the grid rows
+ * they read): the kernels' bodies take the band's origin as the CPU does,
+ * and the band's middle rows slice what the whole frame's do. */
+TEST(bgrid_splat_and_slice_in_a_band) {
+    OPEN_PAIR(p, 0);
+    ew_bgrid_params f, g;
+    CHECK(ew_bgrid_params_init(&f, W, H, 2.5f, 16.0f, 3));
+    const int y0 = 7, rows = 16;
+    ew_bgrid_params_band(&f, y0, rows, &g);
+    CHECK(g.band_y == y0 && g.band_v > 0 && g.gh < f.gh);
+    const size_t gf = ew_bgrid_floats(&g), ff = ew_bgrid_floats(&f), bn = (size_t)W * rows;
+    float *image = hrand(N * 3, 0.0f, 2.0f, 43), *guide = hrand(N, 0.0f, 255.0f, 57);
+    const float *bimage = image + (size_t)y0 * W * 3, *bguide = guide + (size_t)y0 * W;
+    float *grid = hnan(gf), *out = hnan(bn * 3), *fgrid = hnan(ff), *fout = hnan(N * 3);
+    ew_cpu_backend.bgrid_splat(p.cpu, &g, bimage, bguide, grid);
+    float *dgrid = dnan(p.dut, gf);
+    p.dut->backend->bgrid_splat(p.dut, &g, dup_to(p.dut, bimage, bn * 3), dup_to(p.dut, bguide, bn), dgrid);
+    int ok = match(back(p.dut, dgrid, gf), grid, gf, "band's grid");
+    ew_cpu_backend.bgrid_slice(p.cpu, &g, grid, bguide, out);
+    float *dout = dnan(p.dut, bn * 3);
+    p.dut->backend->bgrid_slice(p.dut, &g, dup_to(p.dut, grid, gf), dup_to(p.dut, bguide, bn), dout);
+    ok = ok && match(back(p.dut, dout, bn * 3), out, bn * 3, "band's slice");
+    ew_cpu_backend.bgrid_splat(p.cpu, &f, image, guide, fgrid);
+    ew_cpu_backend.bgrid_slice(p.cpu, &f, fgrid, guide, fout);
+    const int reach = ew_bgrid_reach(f.rate_s); /* rows 12..17 have every row they read in the band */
+    ok = ok && same(out + (size_t)reach * W * 3, fout + (size_t)(y0 + reach) * W * 3,
+                    (size_t)(rows - 2 * reach) * W * 3, "band's middle rows against the frame's");
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
 static ew_denoise_buffers denoise_host(int features) {
     ew_denoise_buffers b;
     memset(&b, 0, sizeof b);

@@ -176,9 +176,9 @@ static void splat_row3(const splat_job *j, int v, run_weights *r) {
     float *row = j->grid + (long)v * gw * colf;
     memset(row, 0, sizeof(float) * (size_t)gw * (size_t)colf);
     int y0, y1;
-    ew_bgrid_pixel_span(v, p->rate_s, p->height, &y0, &y1);
+    ew_bgrid_band_rows(v, p, &y0, &y1); /* in the band's rows; positions in the frame's (kernels/bgrid.h) */
     for (int y = y0; y <= y1; y++) {
-        const float wy = ew_tent(ew_bgrid_pos_s((float)y, p->rate_s) - (float)v);
+        const float wy = ew_tent(ew_bgrid_pos_s((float)(y + p->band_y), p->rate_s) - (float)(v + p->band_v));
         if (wy <= 0.0f) continue;
         const float *grow = j->guide + (long)y * W;
         const float *irow = j->image + (long)y * W * 3;
@@ -273,9 +273,10 @@ static void slice_row3(const slice_job *j, int y, run_weights *r) {
     const ew_bgrid_params *p = j->p;
     const int W = p->width, gw = p->gw, gh = p->gh, gd = p->gd;
     const long colf = (long)gd * 4;
-    const float py = ew_bgrid_pos_s((float)y, p->rate_s);
-    const int v0 = (int)floorf(py);
-    const float wy[2] = {ew_tent(py - (float)v0), ew_tent(py - (float)(v0 + 1))};
+    /* the frame's row and cells (kernels/bgrid.h, bands); v0 in the band's grid */
+    const float py = ew_bgrid_pos_s((float)(y + p->band_y), p->rate_s);
+    const int fv0 = (int)floorf(py), v0 = fv0 - p->band_v;
+    const float wy[2] = {ew_tent(py - (float)fv0), ew_tent(py - (float)(fv0 + 1))};
     const int hv[2] = {v0 >= 0 && v0 < gh, v0 + 1 >= 0 && v0 + 1 < gh};
     const long rows[2] = {(long)v0 * gw * colf, (long)(v0 + 1) * gw * colf}; /* offsets of grid rows v0, v0 + 1 */
     const float *grow = j->guide + (long)y * W;
