@@ -193,6 +193,9 @@ ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst
  * op decides at commit and allocates only the buffers it needs. */
 const float *ew_dev_view_in_place(const ew_device *dev, const ew_image *img, int c, const ew_image *written);
 ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage);
+/* Do the memory spans of two views (first to last pixel) overlap? 0 when
+ * either is NULL or has no data. */
+int ew_images_overlap(const ew_image *a, const ew_image *b);
 /* Launch kernel NAME of EW_KERNEL_LIST with *a, its argument struct (any
  * other struct is a compile error, and the loader refuses a CUDA module
  * built with another list, so callers need not check the result). */

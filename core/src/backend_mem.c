@@ -107,6 +107,14 @@ static void view_span(const ew_image *img, const char **lo, const char **hi) {
     *hi = (const char *)img->data + b + (int64_t)img->channels * (int64_t)sizeof(float);
 }
 
+int ew_images_overlap(const ew_image *a, const ew_image *b) {
+    if (!a || !b || !a->data || !b->data) return 0;
+    const char *a0, *a1, *b0, *b1;
+    view_span(a, &a0, &a1);
+    view_span(b, &b0, &b1);
+    return a0 < b1 && b0 < a1;
+}
+
 const float *ew_dev_view_in_place(const ew_device *dev, const ew_image *img, int c, const ew_image *written) {
     if (!img || !img->data || (dev->device_memory && !dev->device_images)) return NULL;
     if (img->format != EW_FORMAT_FLOAT || img->channels != c || !ew__image_packed_as(img, c)) return NULL;

@@ -3,7 +3,10 @@
  * biased coordinates. */
 #include "ew_test.h"
 
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "algorithms/bgrid.h"
 #include "src/internal.h"
@@ -268,4 +271,145 @@ TEST(cpu_rows_are_the_kernels_bits) {
     CHECK(same_bits_as_kernels(33, 40, 3, 255, 2, 25)); /* one depth cell */
     CHECK(same_bits_as_kernels(9, 7, 1, 32, 2, 26));
     CHECK(same_bits_as_kernels(260, 12, 32, 32, 2, 27));
+}
+
+/* ---- the denoiser in bands of rows ----------------------------------------- */
+typedef struct {
+    int w, h, stride; /* stride: floats a pixel of the colour, albedo and normal views (3: packed) */
+    float *color, *albedo, *normal, *depth, *out;
+} frame;
+
+/* An odd-sized frame with edges across the bands (a lit region whose
+ * albedo and normal change at x = w / 2 and at y = h / 3), a far
+ * background (depth 1e10) in one corner, fireflies near band seams and a
+ * NaN sample. */
+static void frame_make(frame *f, int w, int h, int stride, unsigned seed) {
+    const long n = (long)w * h;
+    f->w = w;
+    f->h = h;
+    f->stride = stride;
+    f->color = calloc((size_t)n * stride, sizeof(float));
+    f->albedo = calloc((size_t)n * stride, sizeof(float));
+    f->normal = calloc((size_t)n * stride, sizeof(float));
+    f->depth = calloc((size_t)n * (stride > 3 ? 2 : 1), sizeof(float));
+    f->out = calloc((size_t)n * 3, sizeof(float));
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const long j = (long)y * w + x;
+            const int right = x > w / 2, low = y > h / 3;
+            for (int k = 0; k < 3; k++) {
+                const float alb = right ? 0.2f + 0.2f * k : 0.8f - 0.1f * k;
+                const float light = (low ? 0.3f : 1.5f) + 0.7f * (float)y / (float)h;
+                f->albedo[j * stride + k] = alb;
+                f->color[j * stride + k] = alb * light * (0.2f + 1.6f * urand(&seed));
+            }
+            f->normal[j * stride + 0] = right ? 1.0f : 0.0f;
+            f->normal[j * stride + 1] = low ? 0.3f : 0.0f;
+            f->normal[j * stride + 2] = right ? 0.0f : 1.0f;
+            f->depth[j * (stride > 3 ? 2 : 1)] = x < 60 && y < 50 ? 1e10f : 2.0f + (right ? 1.0f : 0.0f) + 0.001f * y;
+        }
+    f->color[(100L * w + 150) * stride + 1] = 800.0f;
+    f->color[(257L * w + 40) * stride] = 300.0f;
+    f->color[(33L * w + 300) * stride + 2] = NAN;
+}
+
+static void frame_free(frame *f) {
+    if (f->out != f->color) free(f->out);
+    free(f->color); free(f->albedo); free(f->normal); free(f->depth);
+}
+
+static ew_image view_of(float *data, const frame *f, int channels, int stride) {
+    ew_image v = ew_image_packed(data, f->w, f->h, channels);
+    v.pixel_stride = (int64_t)stride * (int64_t)sizeof(float);
+    v.row_stride = v.pixel_stride * f->w;
+    return v;
+}
+
+/* One denoise of f under a budget; what it ran (ew_denoiser_describe). */
+static ew_result run_bgrid(ew_device *dev, frame *f, int features, const float rates[4], float k, int stage,
+                           int budget_mb, char *what, size_t len) {
+    ew_denoiser *d = NULL;
+    const int s = f->stride;
+    ew_image c = view_of(f->color, f, s, s), a = view_of(f->albedo, f, s, s), n = view_of(f->normal, f, s, s);
+    ew_image z = view_of(f->depth, f, s > 3 ? 2 : 1, s > 3 ? 2 : 1);
+    ew_image o = f->out == f->color ? c : ew_image_packed(f->out, f->w, f->h, 3);
+    ew_result r = ew_denoiser_create(dev, "bgrid", &d);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
+    if (r == EW_OK && features) r = ew_denoiser_set_image(d, "albedo", &a);
+    if (r == EW_OK && features) r = ew_denoiser_set_image(d, "normal", &n);
+    if (r == EW_OK && features) r = ew_denoiser_set_image(d, "depth", &z);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
+    if (r == EW_OK) r = ew_denoiser_set_float(d, "spatial_rate", rates[0]);
+    if (r == EW_OK) r = ew_denoiser_set_float(d, "range_rate", rates[1]);
+    if (r == EW_OK) r = ew_denoiser_set_float(d, "prepass_rate", rates[2]);
+    if (r == EW_OK) r = ew_denoiser_set_float(d, "color_weight", rates[3]);
+    if (r == EW_OK) r = ew_denoiser_set_float(d, "firefly_k", k);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
+    if (r == EW_OK && !stage) r = ew_denoiser_set_float(d, "outlier_k", 0.0f); /* the method reads the caller's colour */
+    if (r == EW_OK && !stage) r = ew_denoiser_set_int(d, "do_no_harm", 0);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    const char *dsc = r == EW_OK ? ew_denoiser_describe(d) : NULL;
+    snprintf(what, len, "%s", dsc ? dsc : "");
+    ew_denoiser_destroy(d);
+    return r;
+}
+
+/* A frame in bands of rows (the smallest: 16-row cores, so dozens of seams,
+ * every one with its halo clipped differently from its neighbours') gives
+ * the same bits as in one pass: the halo covers what a core row's two
+ * grids and the clamp read, the depth scale and the first pass's mean come
+ * from every row, and the stage's removed light from each band's core.
+ * Features or none, both passes or one, fractional rates, views packed
+ * (read in place) or of 4 floats a pixel (packed band by band), and the
+ * output written over the colour view. */
+static void bands_case(const char *name, int stride, int features, const float rates[4], float k, int alias,
+                       int stage) {
+    frame f;
+    frame_make(&f, 613, 587, stride, 31);
+    const long n3 = 613L * 587 * 3;
+    const size_t cbytes = sizeof(float) * (size_t)613 * 587 * stride;
+    float *color0 = malloc(cbytes), *whole = malloc(sizeof(float) * n3);
+    memcpy(color0, f.color, cbytes);
+    if (alias) {
+        CHECK(stride == 3);
+        free(f.out);
+        f.out = f.color;
+    }
+    ew_device *dev = make_device(2);
+    char what_whole[96], what_bands[96];
+    CHECK_EQ_INT(run_bgrid(dev, &f, features, rates, k, stage, 1024, what_whole, sizeof what_whole), EW_OK);
+    memcpy(whole, f.out, sizeof(float) * n3);
+    memcpy(f.color, color0, cbytes);
+    CHECK_EQ_INT(run_bgrid(dev, &f, features, rates, k, stage, 1, what_bands, sizeof what_bands), EW_OK);
+    fprintf(stderr, "  %s: whole '%s', in bands '%s'\n", name, what_whole, what_bands);
+    CHECK(strstr(what_whole, "bands") == NULL);
+    CHECK_STR_CONTAINS(what_bands, "bands");
+    long differ = 0, first = 0;
+    for (long i = 0; i < n3; i++)
+        if (memcmp(&whole[i], &f.out[i], sizeof(float)) != 0 && differ++ == 0) first = i;
+    if (differ)
+        fprintf(stderr, "  %ld values differ, first at pixel (%ld, %ld): %.9g in bands vs %.9g\n", differ,
+                first / 3 % 613, first / 3 / 613, (double)f.out[first], (double)whole[first]);
+    CHECK(differ == 0);
+    frame_free(&f);
+    free(color0);
+    free(whole);
+    ew_device_destroy(dev);
+}
+
+TEST(bands_give_the_whole_frame_output) {
+    const float defaults[4] = {8.0f, 8.0f, 8.0f, 0.7f}, finest[4] = {2.0f, 4.0f, 4.0f, 0.9f};
+    const float fractional[4] = {2.5f, 5.5f, 3.3f, 0.5f}, one_pass[4] = {4.0f, 16.0f, 8.0f, 0.0f};
+    bands_case("defaults, features", 3, 1, defaults, 3.0f, 0, 1);
+    bands_case("auto's finest grid, features", 3, 1, finest, 3.0f, 0, 1);
+    bands_case("fractional rates, no features, no clamp", 3, 0, fractional, 0.0f, 0, 1);
+    bands_case("one pass, 4-float views", 4, 1, one_pass, 3.0f, 0, 1);
+    bands_case("auto's finest grid, 4-float views", 4, 1, finest, 3.0f, 0, 1);
+    bands_case("defaults, output over the colour", 3, 1, defaults, 3.0f, 1, 1);
+    bands_case("no features, output over the colour", 3, 0, finest, 3.0f, 1, 1);
+    /* without the stage the method reads the caller's colour itself */
+    bands_case("no stage, packed views", 3, 1, finest, 3.0f, 0, 0);
+    bands_case("no stage, 4-float views", 4, 1, defaults, 3.0f, 0, 0);
+    bands_case("no stage, output over the colour", 3, 1, finest, 3.0f, 1, 0);
 }

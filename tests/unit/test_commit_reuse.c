@@ -142,7 +142,7 @@ static int run_against_reference(ew_op *op, int k, float *out, const float *ref,
  * after a release, gives the output of a device that keeps them. The frame
  * spans many pages, holds fireflies (the stage's rejection and the
  * methods' clamps take light that must come back) and, for nbg at a 1 MiB
- * budget, several tiles. */
+ * budget, several tiles (bgrid: bands). */
 static void release_scratch_keeps_output(const char *method, int max_memory_mb) {
     ew_device *dev[2];
     CHECK(make_release_pair(dev));
@@ -188,6 +188,7 @@ TEST(kpcn_release_scratch_keeps_output) { release_scratch_keeps_output("kpcn", 0
 TEST(kpcn_tiled_release_scratch_keeps_output) { release_scratch_keeps_output("kpcn", 16); }
 TEST(auto_release_scratch_keeps_output) { release_scratch_keeps_output("auto", 0); }
 TEST(bgrid_release_scratch_keeps_output) { release_scratch_keeps_output("bgrid", 0); }
+TEST(bgrid_bands_release_scratch_keeps_output) { release_scratch_keeps_output("bgrid", 1); }
 
 /* The pyramid's filters with release_scratch hand back the coarse levels'
  * pages that the upsampling of a finer level no longer reads: every execute
