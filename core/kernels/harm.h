@@ -36,7 +36,12 @@
  * over the 2x2 blocks, in linear units. Noise independent from pixel to
  * pixel passes into it whole (E[H] = N), while what the method removed of
  * the image, smooth at the scale of one pixel, cancels in it. So D = R_lin -
- * kappa H and alpha = 1 - D / R_lin. On a converged frame C's z test, needed
+ * kappa H and alpha = 1 - D / R_lin, R_lin the mean square of the same
+ * blocks' four residuals: a pixel counts in R_lin as often as in H (once
+ * per block of the window holding it, fewer on the window's edge), so a
+ * lone bright sample gives H = R_lin wherever it lies (with each pixel's
+ * own square, one on the window's top or left edge read as 1/2 to 3/4
+ * structure). On a converged frame C's z test, needed
  * against chance at 1-4 spp, hides much of a smooth error that this
  * estimate sees (64 spp: bgrid on a motion-blur scene -3.9 dB with C alone,
  * -0.8 dB with both). Linear, because in T the residual of a good method
@@ -89,7 +94,7 @@ typedef struct ew_harm_args {
     float *out;             /* 3 per pixel: the method's output; BLEND rewrites it in place */
     float *stats;           /* EW_HARM_STATS_FLOATS per pixel: STATS writes r^2, the neighbour product, its
                                square, and in linear units the residual's diagonal Haar detail squared
-                               and the residual squared */
+                               and the mean square of the same block's four residuals */
     int radius;             /* BLEND window */
     float strength;         /* BLEND: alpha = 1 - strength * max(C - z sd(C), 0) / R */
     float z;
@@ -98,6 +103,7 @@ typedef struct ew_harm_args {
                                detail); 0: off */
     float theta_n;          /* ... and alpha stays 1 while D / R_lin <= theta_n */
     float tone_share;       /* ... D / R taken this share in T, the rest in linear units */
+    float fade;             /* BLEND: alpha + fade (1 - alpha): 0 the blend as estimated, 1 none */
     /* energy return (SUM_H, SUM_V, GIVE, SPREAD_H, SPREAD_V; TAKE, SCALE): */
     float *give;            /* 3 per pixel: in, the RGB the method's own clamp took (demodulated, as
                                ew_outlier_buffers.removed); GIVE writes each pixel's share into its first,
@@ -212,9 +218,11 @@ EW_HD void ew_harm_stats_from(long j, const ew_harm_args *a, const float *t, con
             hh2 += hh * hh;
             const float th = 0.5f * (tb[0][c] - tb[1][c] - tb[2][c] + tb[3][c]);
             th2 += th * th;
+            lin2 += 0.25f * (lb[0][c] * lb[0][c] + lb[1][c] * lb[1][c] + lb[2][c] * lb[2][c] + lb[3][c] * lb[3][c]);
+        } else {
+            const float d = l[c];
+            lin2 += d * d;
         }
-        const float d = l[c];
-        lin2 += d * d;
     }
     const int pairs = (tr != 0) + (td != 0);
     cross = pairs ? cross / (float)pairs : 0.0f;
@@ -275,7 +283,7 @@ EW_HD float ew_harm_clamp01(float v) { return ew_harm_sel(-(v < 0.0f), 0.0f, ew_
  * pixel (a division by 0 in the value not taken is harmless), so that a
  * row of them vectorises; the value is that of the tests it stands for. */
 EW_HD float ew_harm_alpha(float sq, float cross, float cross2, float hh2, float lin2, float th2, float z,
-                          float strength, float theta, float kappa, float theta_n, float tone_share) {
+                          float strength, float theta, float kappa, float theta_n, float tone_share, float fade) {
     /* C is a sum of products of noisy residuals: only what stands z of its
      * own standard deviations above 0 counts as structure (at 1-4 spp the
      * products of pure noise would otherwise pull alpha below 1 at random) */
@@ -293,7 +301,8 @@ EW_HD float ew_harm_alpha(float sq, float cross, float cross2, float hh2, float 
     const float qt = ql + tone_share * (ew_harm_max(sq - kappa * th2, 0.0f) / sq - ql);
     const float qn = ew_harm_sel(-((tone_share > 0.0f) & (sq > 0.0f)), qt, ql);
     const float an = ew_harm_min(alpha, ew_harm_clamp01(1.0f - ew_harm_max(qn - theta_n, 0.0f) / (1.0f - theta_n)));
-    return ew_harm_sel(-((kappa > 0.0f) & (lin2 > 0.0f)), an, alpha);
+    const float est = ew_harm_sel(-((kappa > 0.0f) & (lin2 > 0.0f)), an, alpha);
+    return est + fade * (1.0f - est);
 }
 
 /* BLEND's mix at pixel j for its alpha: alpha 1, the method's output
@@ -313,7 +322,7 @@ EW_HD void ew_harm_blend_mix(long j, const ew_harm_args *a, float alpha) {
  * sum of stats[k] over the window, in raster order). */
 EW_HD void ew_harm_blend_apply(long j, const ew_harm_args *a, const float *sums) {
     ew_harm_blend_mix(j, a, ew_harm_alpha(sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], a->z, a->strength,
-                                          a->theta, a->kappa, a->theta_n, a->tone_share));
+                                          a->theta, a->kappa, a->theta_n, a->tone_share, a->fade));
 }
 
 /* The window sums in a separable order: each column of the window summed

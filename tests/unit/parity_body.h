@@ -443,6 +443,7 @@ TEST(harm_stage_steps) {
     h.theta = 0.4f;
     h.kappa = 1.0f;
     h.theta_n = 0.2f;
+    h.fade = 0.25f; /* the blend a quarter faded, as on a noisy frame */
     h.give = hrand(N * 3, 0.0f, 1.0f, 41); /* what a method's clamp took */
     h.spread = hnan(N * 3);
     h.give_radius = 7; /* 15 taps: 5 blocks of 3 (kernels/harm.h), windows past every edge */

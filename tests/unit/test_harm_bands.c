@@ -1,9 +1,10 @@
-/* The do-no-harm blend in bands of rows on the CPU (EW_HARM_STATS_BLEND):
+/* The do-no-harm blend's statistics on the CPU. In bands of rows (EW_HARM_STATS_BLEND):
  * the statistics of each band's rows and edges and the blend from them give,
  * bit for bit, STATS then BLEND over a frame of statistics — band sizes of
  * one row, odd sizes that leave a short last band, bands shorter than the
  * window, one band, the backend's own choice; 1 and 3 threads; an RGBA
- * input with NaN/Inf and fireflies, with and without the share given back. */
+ * input with NaN/Inf and fireflies, with and without the share given back.
+ * And a lone bright sample in the residual reads as noise. */
 #include "ew_test.h"
 
 #include <math.h>
@@ -67,6 +68,7 @@ TEST(bands_give_the_frames_bits) {
                 a.kappa = 0.9f;
                 a.theta_n = 0.05f;
                 a.tone_share = 0.5f;
+                a.fade = radius == 4 ? 0.25f : 0.0f;
                 /* the frame: STATS then BLEND */
                 memcpy(ref, out0, (size_t)N * 3 * sizeof(float));
                 memcpy(gref, give0, (size_t)N * 3 * sizeof(float));
@@ -102,5 +104,53 @@ TEST(bands_give_the_frames_bits) {
     free(ref);
     free(give);
     free(gref);
+    free(stats);
+}
+
+/* The blend's second estimate counts a pixel in R_lin as often as in the
+ * Haar detail H (kernels/harm.h), so one bright sample alone in the
+ * residual reads as noise (D = 0, alpha 1) wherever it lies in a window:
+ * with each pixel's own square in R_lin, the windows holding it on their
+ * top or left edge read half of it or more as structure. Alpha is seen in
+ * the share of the clamps' light each pixel keeps (give, scaled by alpha
+ * where the blend acts; the output itself equals the input but at the
+ * sample). The frame and the bands alike. */
+TEST(a_lone_sample_reads_as_noise_anywhere_in_the_window) {
+    float *clamped = calloc((size_t)N * 3, sizeof(float)), *out = calloc((size_t)N * 3, sizeof(float));
+    float *give = malloc((size_t)N * 3 * sizeof(float));
+    float *stats = malloc((size_t)N * EW_HARM_STATS_FLOATS * sizeof(float));
+    for (int c = 0; c < 3; c++) clamped[(14 * W + 18) * 3 + c] = 5.0f;
+    ew_device *dev = NULL;
+    CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
+    for (int banded = 0; dev && banded < 2; banded++) {
+        for (int i = 0; i < N * 3; i++) give[i] = 1.0f;
+        ew_harm_args a;
+        memset(&a, 0, sizeof a);
+        a.width = W;
+        a.height = H;
+        a.channels = 3;
+        a.clamped = clamped;
+        a.out = out;
+        a.give = give;
+        a.stats = banded ? NULL : stats;
+        a.radius = 4;
+        a.z = 1.0f;
+        a.theta = 0.4f; /* strength 0: the first estimate says nothing */
+        a.kappa = 1.0f;
+        a.theta_n = 0.0f;
+        if (banded) {
+            dev->backend->harm(dev, EW_HARM_STATS_BLEND, &a);
+        } else {
+            dev->backend->harm(dev, EW_HARM_STATS, &a);
+            dev->backend->harm(dev, EW_HARM_BLEND, &a);
+        }
+        int blended = 0;
+        for (int i = 0; i < N * 3; i++) blended += give[i] != 1.0f;
+        if (blended) FAIL_AT("%s: %d pixels' alpha below 1 around a lone sample", banded ? "bands" : "frame", blended / 3);
+    }
+    ew_device_destroy(dev);
+    free(clamped);
+    free(out);
+    free(give);
     free(stats);
 }

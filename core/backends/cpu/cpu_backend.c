@@ -485,8 +485,7 @@ static EW_MULTIVERSION void harm_stats_span(float *EW_RESTRICT s0, float *EW_RES
             hh2 += hh * hh;
             const float th = 0.5f * (t0[i] - t0[i + 3] - t1[i] + t1[i + 3]);
             th2 += th * th;
-            const float d = l0[i];
-            lin2 += d * d;
+            lin2 += 0.25f * (l0[i] * l0[i] + l0[i + 3] * l0[i + 3] + l1[i] * l1[i] + l1[i + 3] * l1[i + 3]);
         }
         cross = cross / 2.0f;
         s0[x] = sq;
@@ -504,12 +503,12 @@ static EW_MULTIVERSION void harm_alpha_span(float *EW_RESTRICT alpha, const floa
                                             const ew_harm_args *a) {
     /* the parameters as locals: a store to alpha cannot change them */
     const float z = a->z, strength = a->strength, theta = a->theta, kappa = a->kappa, theta_n = a->theta_n,
-                tone_share = a->tone_share;
+                tone_share = a->tone_share, fade = a->fade;
     const float *EW_RESTRICT p0 = sums, *EW_RESTRICT p1 = sums + w, *EW_RESTRICT p2 = sums + 2 * w;
     const float *EW_RESTRICT p3 = sums + 3 * w, *EW_RESTRICT p4 = sums + 4 * w, *EW_RESTRICT p5 = sums + 5 * w;
     for (long x = 0; x < w; x++)
         alpha[x] = ew_harm_alpha(p0[x], p1[x], p2[x], p3[x], p4[x], p5[x], z, strength, theta, kappa, theta_n,
-                                 tone_share);
+                                 tone_share, fade);
 }
 
 /* ew_harm_blend_mix for w pixels of RGB (colour of 3 channels, give set):
