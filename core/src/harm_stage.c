@@ -269,6 +269,13 @@ static ew_result frame_noise(ew_harm_state *s, ew_device *dev, const float *buf,
     return r;
 }
 
+/* 0 at a noise level of `from`, 1 at `to`, a straight line between and
+ * clamped beyond (to < from: a ramp down) */
+static float noise_ramp(double noise, double from, double to) {
+    const double t = (noise - from) / (to - from);
+    return (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
+}
+
 /* How quiet a frame of this noise level is: 1 up to HARM_QUIET_NOISE, 0
  * from HARM_NOISY_NOISE, a ramp between. The blend's second estimate has
  * the threshold theta_n x (1 - quiet) and takes a share quiet of its ratio
@@ -282,10 +289,7 @@ static ew_result frame_noise(ew_harm_state *s, ew_device *dev, const float *buf,
  * method's error at the scale of one pixel (an edge it moved) passes into
  * it too, so D is R - kappa H with kappa 0.85 there (0.7 cost kpcn 0.24 dB
  * at 64 spp; 0.85 lifts bgrid's worst training scene 0.5 dB for 0.05). */
-static float quietness(double noise) {
-    const double t = (HARM_NOISY_NOISE - noise) / (HARM_NOISY_NOISE - HARM_QUIET_NOISE);
-    return (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
-}
+static float quietness(double noise) { return noise_ramp(noise, HARM_NOISY_NOISE, HARM_QUIET_NOISE); }
 
 /* How far the blend fades on a frame of this noise level: 0 up to
  * HARM_FADE_NOISE, 1 (no blend) from HARM_OFF_NOISE, a ramp between. On a
@@ -301,10 +305,7 @@ static float quietness(double noise) {
  * without the blend: nothing converged to keep. Below 0.025 (106 frames)
  * the blend is what keeps the grids above their input (bgrid +3.8, nbg
  * +2.7 on average; up to 15 dB below the input without it). */
-static float fade_of(double noise) {
-    const double t = (noise - HARM_FADE_NOISE) / (HARM_OFF_NOISE - HARM_FADE_NOISE);
-    return (float)(t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t);
-}
+static float fade_of(double noise) { return noise_ramp(noise, HARM_FADE_NOISE, HARM_OFF_NOISE); }
 
 /* Step 1 into s->clamped (s->a holds the demodulated radiance). The floor of the spread is the frame's mean
  * radiance; when the rejection itself took more than a quarter of it, that
@@ -430,7 +431,9 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.out = res;
     ha.stats = s->b;
     ha.give = s->removed;
-    if (ew_op_param(op, "do_no_harm") != 0.0f) {
+    /* faded out (a noisy frame), the blend would keep every pixel of the
+     * method's output: its statistics are not computed at all */
+    if (ew_op_param(op, "do_no_harm") != 0.0f && ha.fade < 1.0f) {
         /* a backend that blends in bands of rows keeps their statistics
          * itself: only the first 3 floats a pixel of b (the energy return's
          * box sums) are touched after the method */

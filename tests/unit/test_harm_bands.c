@@ -37,6 +37,19 @@ static int same_bits(const float *a, const float *b, size_t n) {
     return memcmp(a, b, n * sizeof(float)) == 0;
 }
 
+/* the blend's arguments over the W x H frame that both tests share */
+static ew_harm_args frame_args(int channels, float *clamped, int radius) {
+    ew_harm_args a;
+    memset(&a, 0, sizeof a);
+    a.width = W;
+    a.height = H;
+    a.channels = channels;
+    a.clamped = clamped;
+    a.radius = radius;
+    a.z = 1.0f;
+    return a;
+}
+
 TEST(bands_give_the_frames_bits) {
     const int threads[] = {1, 3};
     const int rows[] = {1, 2, 3, 5, 7, 11, 29, 0};
@@ -54,16 +67,9 @@ TEST(bands_give_the_frames_bits) {
         CHECK(dev->backend->harm_bands);
         for (int radius = 3; radius <= 4; radius++)
             for (int with_give = 0; with_give < 2; with_give++) {
-                ew_harm_args a;
-                memset(&a, 0, sizeof a);
-                a.width = W;
-                a.height = H;
-                a.channels = 4;
-                a.clamped = clamped;
+                ew_harm_args a = frame_args(4, clamped, radius);
                 a.stats = stats;
-                a.radius = radius;
                 a.strength = 2.0f;
-                a.z = 1.0f;
                 a.theta = 0.1f;
                 a.kappa = 0.9f;
                 a.theta_n = 0.05f;
@@ -124,17 +130,10 @@ TEST(a_lone_sample_reads_as_noise_anywhere_in_the_window) {
     CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
     for (int banded = 0; dev && banded < 2; banded++) {
         for (int i = 0; i < N * 3; i++) give[i] = 1.0f;
-        ew_harm_args a;
-        memset(&a, 0, sizeof a);
-        a.width = W;
-        a.height = H;
-        a.channels = 3;
-        a.clamped = clamped;
+        ew_harm_args a = frame_args(3, clamped, 4);
         a.out = out;
         a.give = give;
         a.stats = banded ? NULL : stats;
-        a.radius = 4;
-        a.z = 1.0f;
         a.theta = 0.4f; /* strength 0: the first estimate says nothing */
         a.kappa = 1.0f;
         a.theta_n = 0.0f;
