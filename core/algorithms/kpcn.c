@@ -654,6 +654,7 @@ static ew_kpcn_filter_args remod_args(const ew_kpcn_net *net, ew_kpcn_scratch *s
     return a;
 }
 
+/* the curve the loss compares colours on: the metrics' tone curve, or log(1 + x) */
 static float loss_curve(float x, int loss) { return loss == EW_KPCN_LOSS_LOG ? logf(1.0f + ew_maxf(x, 0.0f)) : ew_nbg_tm(x); }
 static float loss_slope(float x, int loss) {
     return loss == EW_KPCN_LOSS_LOG ? (x > 0.0f ? 1.0f / (1.0f + x) : 0.0f) : ew_nbg_tm_grad(x);
@@ -704,7 +705,7 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
             for (int c = 0; c < 3; c++) s->m[c * np + q] = net->remod ? mq[c] : ew_albedo_factor(s->albedo[c * np + q]);
         }
     /* remodulate, loss; dout0 holds dL/d colour until the backward pass */
-    double sum = 0.0;
+    double sum = 0.0, sq = 0.0;
     const float scale = 1.0f / (float)(np * 3);
     for (int c = 0; c < 3; c++)
         for (long q = 0; q < np; q++) {
@@ -713,9 +714,19 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
             if (out_rgb) out_rgb[q * 3 + c] = o;
             const float d = loss_curve(o, loss) - loss_curve(s->ref[i], loss);
             sum += fabs((double)d);
-            s->dout[0][i] = (d > 0.0f ? 1.0f : (d < 0.0f ? -1.0f : 0.0f)) * loss_slope(o, loss) * scale;
+            sq += (double)d * d;
+            /* the L1's slope; the PSNR loss's needs the patch's MSE first */
+            s->dout[0][i] = loss == EW_KPCN_LOSS_PSNR ? d * loss_slope(o, loss)
+                                                      : (d > 0.0f ? 1.0f : (d < 0.0f ? -1.0f : 0.0f)) * loss_slope(o, loss) * scale;
         }
-    if (!grad) return sum / (double)(np * 3);
+    const double mse = sq / (double)(np * 3);
+    const double value = loss == EW_KPCN_LOSS_PSNR ? 10.0 * log10(mse + EW_KPCN_PSNR_EPS) : sum / (double)(np * 3);
+    if (!grad) return value;
+    if (loss == EW_KPCN_LOSS_PSNR) {
+        /* d/dd of 10 log10(mean d^2 + eps): 20 d / (ln 10 (mse + eps) n) */
+        const float w = (float)(20.0 / (log(10.0) * (mse + EW_KPCN_PSNR_EPS) * (double)(np * 3)));
+        for (long i = 0; i < 3 * np; i++) s->dout[0][i] *= w;
+    }
 
     for (int k = 0; k < S; k++) {
         const ew_gn_planes *d = &s->dbuf[k];
@@ -762,7 +773,7 @@ double ew_kpcn_train_patch(const ew_kpcn_model *m, const ew_kpcn_frame *frames, 
         pool_planes_bwd(&s->dbuf[k - 1], net->h[k - 1], &s->dbuf[k], net->in[k], C);
         conv_bwd(m, net->enc[k - 1], s->buf, s->dbuf, grad);
     }
-    return sum / (double)(np * 3);
+    return value;
 }
 
 /* ---- batches ------------------------------------------------------------------ */

@@ -180,6 +180,12 @@ void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_flo
 /* ---- training (host) ---------------------------------------------------- */
 #define EW_KPCN_LOSS_TM 0  /* L1 of the metrics' tone curve (kernels/guidenet.h ew_nbg_tm) */
 #define EW_KPCN_LOSS_LOG 1 /* L1 of log(1 + x) */
+/* 10 log10(MSE + EW_KPCN_PSNR_EPS) of the tone curve over each patch: minus
+ * the patch's PSNR, so that a 64-spp patch's last tenth of a dB weighs as
+ * much as a 1-spp patch's, as in the benchmark's mean PSNR per sample
+ * count (an L1 or MSE over the batch is ruled by the 1-spp errors) */
+#define EW_KPCN_LOSS_PSNR 2
+#define EW_KPCN_PSNR_EPS 1e-5 /* 50 dB: flatter patches weigh no more than one there */
 
 /* One frame, preprocessed as the op preprocesses it. */
 typedef struct ew_kpcn_frame {
@@ -216,7 +222,8 @@ typedef struct ew_kpcn_patch {
 
 /*
  * Forward and backward of one patch (size a multiple of ew_kpcn_align): returns the
- * mean L1 loss over pixels and channels and adds the gradient to grad
+ * loss (the mean L1 over pixels and channels; EW_KPCN_LOSS_PSNR: minus the
+ * patch's PSNR in dB) and adds the gradient to grad
  * (NULL: forward only). out_rgb (size^2 * 3, may be NULL): the denoised
  * colour. ref_override (size^2 * 3 linear colour, may be NULL) replaces the
  * reference (tests).

@@ -280,7 +280,7 @@ static void scene_free(scene *s) {
     free(s->color); free(s->albedo); free(s->normal); free(s->depth); free(s->ref);
 }
 
-static void patch_gradient_case(const char *arch) {
+static void patch_gradient_case_loss(const char *arch, int loss) {
     ew_kpcn_net net;
     char err[128];
     CHECK(ew_kpcn_init(&net, arch, err, sizeof err) == 0);
@@ -307,7 +307,7 @@ static void patch_gradient_case(const char *arch) {
     CHECK(s != NULL);
     const ew_kpcn_patch p = {0, 5, 3, 5};
     ew_kpcn_model_prepare(&m, params);
-    ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, grad, NULL, ref);
+    ew_kpcn_train_patch(&m, &f, &p, P, loss, s, grad, NULL, ref);
     double errs[4 * EW_KPCN_MAX_LAYERS];
     int checked = 0, layers_ok = 0;
     for (int l = 0; l < net.nlayers; l++) {
@@ -328,10 +328,10 @@ static void patch_gradient_case(const char *arch) {
             const float keep = params[i], h = 2e-3f * (fabsf(keep) > 0.1f ? fabsf(keep) * 10.0f : 1.0f);
             params[i] = keep + h;
             ew_kpcn_model_prepare(&m, params);
-            double lp = ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, NULL, NULL, ref);
+            double lp = ew_kpcn_train_patch(&m, &f, &p, P, loss, s, NULL, NULL, ref);
             params[i] = keep - h;
             ew_kpcn_model_prepare(&m, params);
-            double lm = ew_kpcn_train_patch(&m, &f, &p, P, EW_KPCN_LOSS_TM, s, NULL, NULL, ref);
+            double lm = ew_kpcn_train_patch(&m, &f, &p, P, loss, s, NULL, NULL, ref);
             params[i] = keep;
             const double fd = (lp - lm) / (2.0 * h), an = grad[i];
             const double e = fabs(fd - an) / (fabs(fd) + fabs(an) + 1e-6);
@@ -360,11 +360,13 @@ static void patch_gradient_case(const char *arch) {
                 errs[i] = errs[j];
                 errs[j] = t;
             }
-    fprintf(stderr, "  %s: median relative error %.1e, layers with >= 3 of 4 within 10%%: %d of %d\n", arch,
-            errs[checked / 2], layers_ok, net.nlayers);
+    fprintf(stderr, "  %s, loss %d: median relative error %.1e, layers with >= 3 of 4 within 10%%: %d of %d\n", arch,
+            loss, errs[checked / 2], layers_ok, net.nlayers);
     CHECK_EQ_INT(layers_ok, net.nlayers);
     CHECK(errs[checked / 2] < 0.01);
 }
+
+static void patch_gradient_case(const char *arch) { patch_gradient_case_loss(arch, EW_KPCN_LOSS_TM); }
 
 TEST(patch_gradient_matches_finite_differences) { patch_gradient_case("kpcn-c4"); }
 
@@ -380,6 +382,12 @@ TEST(patch_gradient_matches_finite_differences_4_scales) { patch_gradient_case("
  * loss lose the signal (remod_backward_matches_finite_differences checks
  * its derivative with wild logits on its own). */
 TEST(patch_gradient_matches_finite_differences_remodulation) { patch_gradient_case("kpcn-c4-ra"); }
+
+/* The PSNR loss (minus the patch's PSNR on the tone curve): every pixel's
+ * slope is scaled by the patch's own MSE, through the whole net. */
+TEST(patch_gradient_matches_finite_differences_psnr_loss) {
+    patch_gradient_case_loss("kpcn-c4-ra", EW_KPCN_LOSS_PSNR);
+}
 
 /* The output stays within [min, max] of the demodulated radiance times the
  * albedo factor: kernels and blends are convex. */

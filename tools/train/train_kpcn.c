@@ -112,7 +112,8 @@ static const char usage[] =
     "  --patch N             patch side, a multiple of 2^(scales - 1) (default 64)\n"
     "  --lr X, --lr-final X  cosine learning rate (default 1e-3 -> 5e-5)\n"
     "  --clip X              global gradient norm clip (default 1; 0 off)\n"
-    "  --loss tm|log         L1 on the metrics' tone curve (default) or on log(1 + x)\n"
+    "  --loss tm|log|psnr    L1 on the metrics' tone curve (default) or on log(1 + x), or minus\n"
+    "                        each patch's PSNR on the tone curve (every sample count weighs alike)\n"
     "  --threads N           worker threads (default 0: all cores)\n"
     "  --val-every N         validate every N steps (default 250)\n"
     "  --val-max N           validate on at most N scenes (default 12)\n"
@@ -204,8 +205,9 @@ static int parse(int argc, char **argv, options *o) {
     if (!ok || !train_no_operands(argc, argv, usage)) return 0;
     o->loss = EW_KPCN_LOSS_TM;
     if (o->loss_name && !strcmp(o->loss_name, "log")) o->loss = EW_KPCN_LOSS_LOG;
+    else if (o->loss_name && !strcmp(o->loss_name, "psnr")) o->loss = EW_KPCN_LOSS_PSNR;
     else if (o->loss_name && strcmp(o->loss_name, "tm") != 0) {
-        fprintf(stderr, "train_kpcn: --loss tm or log\n");
+        fprintf(stderr, "train_kpcn: --loss tm, log or psnr\n");
         return 0;
     }
     if (o->eval && !o->nval_dirs && !o->ntrain_dirs) {
@@ -854,7 +856,7 @@ static int train(const options *opt, ew_device *dev) {
     printf("arch %s: %zu parameters, %.0f multiply-adds a pixel; seed %lu, %ld steps of %d patches of %d^2, "
            "lr %g -> %g, clip %g, loss %s, %d threads\n",
            net.arch, net.nparams, ew_kpcn_macs_per_pixel(&net), o.run.seed, o.run.steps, o.run.batch, o.run.patch, o.run.lr, o.run.lr_final,
-           o.run.clip, o.loss == EW_KPCN_LOSS_LOG ? "log" : "tm", ew_device_get_num_threads(dev));
+           o.run.clip, o.loss == EW_KPCN_LOSS_LOG ? "log" : o.loss == EW_KPCN_LOSS_PSNR ? "psnr" : "tm", ew_device_get_num_threads(dev));
     FILE *csv = held.csv = fopen(o.csv, step > 0 ? "a" : "w");
     if (!csv) {
         fprintf(stderr, "train_kpcn: cannot write '%s'\n", o.csv);
