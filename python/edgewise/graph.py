@@ -411,21 +411,29 @@ def run_node(type_name, outputs=None, device=None, progress=None, **kwargs):
     return result
 
 
-class Filter(object):
-    """One libedgewise filter used directly, outside a graph, for state that
-    must live across calls: the "temporal" filter keeps its history between
-    run()s (a graph's temporal node starts over with every run). Parameters
-    are set by name (types from the descriptors); run() takes numpy arrays."""
+class Op(object):
+    """One libedgewise op (any denoiser or filter: "kpcn", "auto",
+    "temporal", ...) used directly, outside a graph, and kept across calls:
+    its scratch and device memory stay allocated from one frame to the next
+    of the same size, as a graph keeps its ops over a frame range (run_node
+    builds a new one every call), and the "temporal" filter keeps its
+    history between run()s. Parameters are set by name (types from the
+    descriptors; an enum also by its choice's name); run() takes numpy
+    arrays; describe() says what the last run ran."""
+
+    _node = {"denoiser": "denoise", "filter": "filter"}
 
     def __init__(self, method, device=None):
         core, _ = _lib.libs()
         self._core = core
         self._device = device or default_device()
-        self._params = dict((p["name"], p["type"]) for p in node_type("filter", method)["params"])
         handle = ctypes.c_void_p()
-        r = core.ew_filter_create(self._device.handle, _e(method), ctypes.byref(handle))
+        r = core.ew_op_create(self._device.handle, _e(method), ctypes.byref(handle))
         self._handle = handle if r == 0 else None
         self._check(r)
+        self.method = method
+        self.kind = core.ew_op_kind(self._handle).decode()
+        self._params = dict((p["name"], p) for p in node_type(self._node[self.kind], method)["params"])
         self._kept = []
 
     def _check(self, r):
@@ -435,13 +443,18 @@ class Filter(object):
             raise EdgewiseError(r, msg or self._core.ew_result_string(r).decode())
 
     def set(self, name, value):
-        t = self._params.get(name)
-        if t is None:
-            raise KeyError("filter has no parameter %r (it has %s)" % (name, ", ".join(sorted(self._params))))
-        if t == "float":
-            self._check(self._core.ew_filter_set_float(self._handle, _e(name), float(value)))
+        p = self._params.get(name)
+        if p is None:
+            raise KeyError("%s has no parameter %r (it has %s)" % (self.method, name, ", ".join(sorted(self._params))))
+        if isinstance(value, str):
+            choices = list(p.get("choices") or [])
+            if value not in choices:
+                raise ValueError("%r is not a choice of %s's %r (%s)" % (value, self.method, name, ", ".join(choices)))
+            value = choices.index(value)
+        if p["type"] == "float":
+            self._check(self._core.ew_op_set_float(self._handle, _e(name), float(value)))
         else:
-            self._check(self._core.ew_filter_set_int(self._handle, _e(name), int(value)))
+            self._check(self._core.ew_op_set_int(self._handle, _e(name), int(value)))
 
     def run(self, **images):
         """Set the images (None unsets one), commit and execute. An output
@@ -449,20 +462,25 @@ class Filter(object):
         kept = []
         for name, a in images.items():
             if a is None:
-                self._check(self._core.ew_filter_set_image(self._handle, _e(name), None))
+                self._check(self._core.ew_op_set_image(self._handle, _e(name), None))
                 continue
             view, arr = image_view(a)
             if arr is not a and isinstance(a, np.ndarray) and name == "output":
                 raise ValueError("output array must be float32 with contiguous channels")
             kept.append((view, arr))
-            self._check(self._core.ew_filter_set_image(self._handle, _e(name), ctypes.byref(view)))
+            self._check(self._core.ew_op_set_image(self._handle, _e(name), ctypes.byref(view)))
         self._kept = kept
-        self._check(self._core.ew_filter_commit(self._handle))
-        self._check(self._core.ew_filter_execute(self._handle))
+        self._check(self._core.ew_op_commit(self._handle))
+        self._check(self._core.ew_op_execute(self._handle))
+
+    def describe(self):
+        """What the last run ran, in words (for "auto": the method and model it picked)."""
+        d = self._core.ew_op_describe(self._handle) if self._handle else None
+        return d.decode("utf-8", "replace") if d else None
 
     def close(self):
         if self._handle:
-            self._core.ew_filter_destroy(self._handle)
+            self._core.ew_op_destroy(self._handle)
             self._handle = None
 
     def __del__(self):
@@ -470,3 +488,13 @@ class Filter(object):
             self.close()
         except Exception:
             pass
+
+
+class Filter(Op):
+    """An Op whose method is a filter (the class of earlier versions)."""
+
+    def __init__(self, method, device=None):
+        Op.__init__(self, method, device)
+        if self.kind != "filter":
+            self.close()
+            raise _lib.UnknownNameError("unknown node type 'filter' with method %r" % method)

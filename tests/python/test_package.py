@@ -144,5 +144,48 @@ class TestProgress(unittest.TestCase):
             ew.run_node("outlier", color=self.img, progress=boom)
 
 
+class TestOp(unittest.TestCase):
+    """ew.Op: one op of any kind kept across runs gives what a one-node graph
+    gives, frame after frame; enums by name; describe; clear errors."""
+
+    def setUp(self):
+        rng = np.random.default_rng(3)
+        self.color = rng.random((48, 64, 3), dtype=np.float32)
+        self.albedo = np.full((48, 64, 3), 0.5, np.float32)
+        self.normal = np.zeros((48, 64, 3), np.float32)
+        self.normal[:, :, 2] = 1
+        self.depth = np.full((48, 64, 1), 2.0, np.float32)
+
+    def test_kept_op_gives_the_graphs_output_every_frame(self):
+        feats = dict(albedo=self.albedo, normal=self.normal, depth=self.depth)
+        op = ew.Op("kpcn")
+        self.assertEqual(op.kind, "denoiser")
+        op.set("model", "kpcn-small")
+        out = np.zeros_like(self.color)
+        for frame in range(3):  # a new frame each time, into the same op and output array
+            color = self.color * (1 + frame)
+            op.run(color=color, output=out, **feats)
+            ref = ew.run_node("denoise", method="kpcn", model="kpcn-small", color=color, **feats)
+            np.testing.assert_array_equal(out, ref)
+        self.assertIn("kpcn-small", op.describe())
+        op.close()
+
+    def test_filters_and_errors(self):
+        op = ew.Op("bilateral")
+        self.assertEqual(op.kind, "filter")
+        op.set("radius", 3)
+        out = np.zeros_like(self.color)
+        op.run(color=self.color, output=out)
+        np.testing.assert_array_equal(out, ew.run_node("bilateral", color=self.color, radius=3))
+        with self.assertRaises(KeyError):
+            op.set("no_such_parameter", 1)
+        with self.assertRaises(ew.EdgewiseError):
+            ew.Op("no_such_method")
+        with self.assertRaises(ew.UnknownNameError):
+            ew.Filter("kpcn")  # a denoiser is not a filter
+        with self.assertRaises(ValueError):
+            ew.Op("kpcn").set("model", "no-such-model")
+
+
 if __name__ == "__main__":
     unittest.main()
