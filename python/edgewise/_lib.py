@@ -174,13 +174,6 @@ def _declare(core, nodes):
     fn(core, "ew_op_execute", c_int32, c_void_p)
     fn(core, "ew_op_describe", c_char_p, c_void_p)
     fn(core, "ew_op_kind", c_char_p, c_void_p)
-    fn(core, "ew_filter_create", c_int32, c_void_p, c_char_p, P(c_void_p))
-    fn(core, "ew_filter_destroy", None, c_void_p)
-    fn(core, "ew_filter_set_image", c_int32, c_void_p, c_char_p, P(Image))
-    fn(core, "ew_filter_set_int", c_int32, c_void_p, c_char_p, c_int32)
-    fn(core, "ew_filter_set_float", c_int32, c_void_p, c_char_p, ctypes.c_float)
-    fn(core, "ew_filter_commit", c_int32, c_void_p)
-    fn(core, "ew_filter_execute", c_int32, c_void_p)
 
     fn(nodes, "ew_node_type_count", c_int32)
     fn(nodes, "ew_node_type_name", c_char_p, c_int32)
