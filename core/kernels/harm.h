@@ -79,7 +79,8 @@ enum {
     EW_HARM_SPREAD_V = 8, /* ... (columns), and the output scaled by it */
     EW_HARM_TAKE = 9,     /* what the rejection took that comes back, as a grey of that luminance */
     EW_HARM_SCALE = 10,   /* the output scaled by 1 + the frame's gain */
-    EW_HARM_STATS_BLEND = 11 /* STATS and BLEND in bands of rows (a backend with harm_bands only) */
+    EW_HARM_STATS_BLEND = 11, /* STATS and BLEND in bands of rows (a backend with harm_bands only) */
+    EW_HARM_EXCESS = 12   /* after REMOD: what the rejection took, as TAKE reads it, into excess */
 };
 #define EW_HARM_STATS_FLOATS 6
 
@@ -117,6 +118,9 @@ typedef struct ew_harm_args {
     float take_limit;       /* TAKE: of what the rejection took, a pixel gives back at most this luminance */
     float gain;             /* SCALE: every pixel of the output is scaled by 1 + gain */
     int band_rows;          /* STATS_BLEND: rows a band; 0: the backend's choice */
+    float *excess;          /* 1 per pixel, or NULL: EXCESS writes the luminance the rejection took (color -
+                               clamped, as TAKE computes it) and TAKE reads it there instead of from color,
+                               which the method's output may have overwritten by then */
 } ew_harm_args;
 
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
@@ -448,17 +452,27 @@ EW_HD void ew_harm_give_px(int x, int y, const ew_harm_args *a) {
     a->give[j * 3] = sum > 0.0f ? lg / sum : 0.0f;
 }
 
-/* TAKE: the luminance of what the rejection (color - clamped) took that
- * comes back, at most give_cap x the luminance it left and take_limit, as a
- * grey of it into give[3 j ..] (the frame's luminance sum adds it up) */
-EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
+/* The luminance of what the rejection took from a pixel (color - clamped,
+ * each channel's positive part) */
+EW_HD float ew_harm_excess_lum(long j, const ew_harm_args *a) {
     const float *c0 = a->color + j * a->channels, *c1 = a->clamped + j * a->channels;
     float ex[3];
     for (int c = 0; c < 3; c++) {
         const float e = c0[c] - c1[c];
         ex[c] = ew_finitef(e) && e > 0.0f ? e : 0.0f;
     }
-    const float le = ew_luminance(ex), lk = ew_maxf(ew_luminance(c1), 0.0f);
+    return ew_luminance(ex);
+}
+
+/* EXCESS: that luminance kept for TAKE, the colour not needed after it */
+EW_HD void ew_harm_excess_px(long j, const ew_harm_args *a) { a->excess[j] = ew_harm_excess_lum(j, a); }
+
+/* TAKE: the luminance of what the rejection took that comes back, at most
+ * give_cap x the luminance it left and take_limit, as a grey of it into
+ * give[3 j ..] (the frame's luminance sum adds it up) */
+EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
+    const float *c1 = a->clamped + j * a->channels;
+    const float le = a->excess ? a->excess[j] : ew_harm_excess_lum(j, a), lk = ew_maxf(ew_luminance(c1), 0.0f);
     const float lr = ew_minf(ew_minf(le, a->give_cap * lk), a->take_limit);
     for (int c = 0; c < 3; c++) a->give[j * 3 + c] = lr > 0.0f ? lr : 0.0f;
 }

@@ -116,8 +116,10 @@ void ew_harm_forward(const ew_op *from, ew_op *to) {
 typedef struct ew_harm_state {
     int w, h, cc, has_a, has_n, pre;
     int own;        /* which of colour (1), albedo (2), normal (4) the stage packs itself (else the view in place) */
+    int kept;       /* the rejection's excess is kept (the output overwrites the colour read in place) */
     void *dmem;
     float *col, *alb, *nrm, *a, *b, *clamped;
+    float *excess;  /* kept: the luminance the rejection took, a float a pixel (kernels/harm.h EW_HARM_EXCESS) */
     float *fed;     /* the colour the method reads: clamped, or (pre 2) that after the firefly clamp too */
     float *removed; /* what the firefly clamp took (the method's own through ew_harm_clamp_removed, or the
                        stage's for a filter), then what comes back */
@@ -142,20 +144,27 @@ static int slot(const ew_op *op, const char *name) {
 }
 
 /* The stage's device floats for a colour of cc channels (see the commit);
- * own: which of colour, albedo, normal it packs itself. */
-static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own) {
+ * own: which of colour, albedo, normal it packs itself; kept: the
+ * rejection's excess plane. */
+static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept) {
     return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
-                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)cc + 3);
+                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)cc + 3 + (size_t)kept);
 }
 
 /* Colour, albedo and normal read from the caller's views where they are
- * (ew_dev_view_in_place; the colour only when the output does not overlap
- * it: the stage reads the colour again after the method wrote the output). */
-static int views_in_place(const ew_op *op, int cc, const float *in[3]) {
-    const ew_image *o = ew_op_image(op, "output");
-    in[0] = ew_dev_view_in_place(op->dev, ew_op_image(op, "color"), cc, o);
+ * (ew_dev_view_in_place). After the method the stage reads the colour only
+ * for what the rejection took (TAKE); with a rejection (pre) that is kept
+ * in a plane of one float a pixel before the method (*kept), so the colour
+ * is read in place even where the output overlaps it: a caller writing the
+ * result over its colour holds one frame of RGB, not two, and the stage no
+ * copy of it. Without one it is read in place only where the output does
+ * not overlap it (the blend reads it too). */
+static int views_in_place(const ew_op *op, int cc, int pre, const float *in[3], int *kept) {
+    const ew_image *o = ew_op_image(op, "output"), *c = ew_op_image(op, "color");
+    in[0] = ew_dev_view_in_place(op->dev, c, cc, pre ? NULL : o);
     in[1] = ew_dev_view_in_place(op->dev, ew_op_image(op, "albedo"), 3, o);
     in[2] = ew_dev_view_in_place(op->dev, ew_op_image(op, "normal"), 3, o);
+    *kept = in[0] && o && ew_images_overlap(c, o);
     return (in[0] ? 0 : 1) | (in[1] ? 0 : 2) | (in[2] ? 0 : 4);
 }
 
@@ -174,13 +183,13 @@ uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     /* an RGBA colour with albedo and normal: the most the commit takes;
      * with the views of that size set, what they make it take */
     const ew_image *c = ew_op_image(op, "color");
-    int own = 7, cc = 4;
+    int own = 7, cc = 4, kept = 0;
     if (c && c->width == w && c->height == h) {
         const float *in[3];
         cc = c->channels;
-        own = views_in_place(op, cc, in);
+        own = views_in_place(op, cc, pre, in, &kept);
     }
-    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own, kept) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
            (uint64_t)(stage + (pre ? stage : 0)) * sizeof(float);
 }
 
@@ -198,10 +207,11 @@ ew_result ew_harm_commit(ew_op *op) {
     const int has_a = slot(op, "albedo") >= 0 && op->images[slot(op, "albedo")].channels >= 3;
     const int has_n = slot(op, "normal") >= 0 && op->images[slot(op, "normal")].channels >= 3;
     const float *in[3];
-    const int own = views_in_place(op, cc, in);
+    int kept;
+    const int own = views_in_place(op, cc, pre, in, &kept);
     ew_harm_state *s = (ew_harm_state *)op->harm;
     if (s && s->w == w && s->h == h && s->cc == cc && s->has_a == has_a && s->has_n == has_n && s->pre == pre &&
-        s->own == own) {
+        s->own == own && s->kept == kept) {
         if (!(own & 1)) s->col = (float *)in[0];
         if (has_a && !(own & 2)) s->alb = (float *)in[1];
         if (has_n && !(own & 4)) s->nrm = (float *)in[2];
@@ -211,8 +221,8 @@ ew_result ew_harm_commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     /* col (cc), albedo, normal (those not read in place), a (radiance, then
      * the method's output), b (rejected radiance, then the residual
-     * statistics), clamped (cc), removed (3) */
-    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own);
+     * statistics), clamped (cc), removed (3), the rejection's excess (1, kept) */
+    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
     const size_t hclamp = pre ? stage : 0; /* the colour the method reads */
@@ -229,6 +239,7 @@ ew_result ew_harm_commit(ew_op *op) {
     s->has_n = has_n;
     s->pre = pre;
     s->own = own;
+    s->kept = kept;
     s->rows = s->host;
     s->stage = stage ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->hclamp = hclamp ? s->stage + stage : NULL;
@@ -241,7 +252,8 @@ ew_result ew_harm_commit(ew_op *op) {
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
     s->clamped = pre ? m : NULL; m += pre ? n * (size_t)cc : 0;
     s->fed = pre == 2 ? m : s->clamped; m += pre == 2 ? n * (size_t)cc : 0;
-    s->removed = m;
+    s->removed = m; m += n * 3;
+    s->excess = kept ? m : NULL; /* past b: not among the pages released while the method runs */
     return EW_OK;
 }
 
@@ -334,6 +346,7 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     }
     if (r != EW_OK) return r;
     dev->backend->harm(dev, EW_HARM_REMOD, ha);
+    if (ha->excess) dev->backend->harm(dev, EW_HARM_EXCESS, ha);
     if (s->pre == 2) {
         /* then the denoisers' own firefly clamp (kernels/outlier.h: mean +
          * 3 sigma of the 5x5 window, no features) on the rejected radiance,
@@ -379,6 +392,7 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.radiance = s->a;
     ha.rejected = s->b;
     ha.clamped = s->pre ? s->clamped : s->col;
+    ha.excess = s->excess;
     ha.radius = HARM_BLEND_RADIUS;
     ha.strength = HARM_BLEND_STRENGTH;
     ha.z = HARM_BLEND_Z;
@@ -420,8 +434,9 @@ ew_result ew_harm_execute(ew_op *op) {
     const ew_image *out = ew_op_image(op, "output");
     /* an output view packed as the stage's RGB is blended and given its
      * light in place: no second frame of the result beside the statistics
-     * (nothing the stage reads after the method overlaps it: the colour,
-     * albedo and normal are read in place only where they do not) */
+     * (nothing the stage reads after the method overlaps it: albedo and
+     * normal are read in place only where they do not, and the colour is
+     * not read after the method where it does: its excess is kept) */
     float *res = (float *)ew_dev_view_in_place(dev, out, 3, NULL);
     if (!res) {
         res = s->a;

@@ -450,7 +450,13 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     spec.warm_runs = cli_timing.warm_runs;
     spec.warm_ms = &warm_ms;
     cli_timing.read += cli_seconds() - t_read;
-    int bad = ew_method_run(j->dev, &spec, &in, j->out, &ms, j->err, sizeof j->err);
+    /* the result goes over the colour (every denoiser takes its output
+     * over its colour, and the do-no-harm stage keeps what it reads of the
+     * colour after the method: what its rejection took), so the layer holds
+     * one frame of RGB, not two; into j->out where the colour is read again
+     * (--timings=N) or the result after the layer (--reference) */
+    float *res = j->out ? j->out : in.color;
+    int bad = ew_method_run(j->dev, &spec, &in, res, &ms, j->err, sizeof j->err);
     cli_timing.compute += ms * 1e-3;
     if (warm_ms >= 0.0) cli_timing.warm = warm_ms * 1e-3;
     cli_progress_end(&prog);
@@ -465,12 +471,16 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
                    ? ewio_set_pass_from_source(j->f, layer, fp[k].pass, fp[k].comps, fp[k].pass, back_err,
                                                sizeof back_err)
                    : ewio_set_pass(j->f, layer, fp[k].pass, fp[k].comps, fp[k].data, back_err, sizeof back_err);
+    float *color = in.color; /* may hold the result: freed after it is put into the file */
+    in.color = NULL;
     ew_layer_data_free(&in);
     if (back != 0 && !bad) {
+        free(color);
         free(orig);
         return cli_fail("%s", back_err);
     }
     if (bad) {
+        free(color);
         free(orig);
         return cli_fail("denoising layer '%s' failed: %s", layer, j->err);
     }
@@ -482,7 +492,8 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
         put = ewio_set_pass(j->f, layer, "Noisy Image", lp->color_comps, orig, j->err, sizeof j->err);
     else if (keep_noisy)
         put = ewio_set_pass_from_source(j->f, layer, "Noisy Image", lp->color_comps, lp->color, j->err, sizeof j->err);
-    if (put == 0) put = ewio_set_pass(j->f, layer, dst, "RGB", j->out, j->err, sizeof j->err);
+    if (put == 0) put = ewio_set_pass(j->f, layer, dst, "RGB", res, j->err, sizeof j->err);
+    free(color);
     free(orig);
     if (put != 0) return cli_fail("%s", j->err);
     if (!j->o->quiet)
@@ -611,9 +622,11 @@ int cmd_denoise(int argc, char **argv) {
     cli_timing.read += cli_seconds() - t_read;
     const size_t n = (size_t)ewio_width(j.f) * (size_t)ewio_height(j.f);
     float *noisy_first = NULL;
-    j.out = (float *)malloc(n * 3 * sizeof(float));
+    /* a result apart from the colour (denoise_layer) */
+    const int own_out = o.reference || cli_timing.warm_runs > 0;
+    if (own_out) j.out = (float *)malloc(n * 3 * sizeof(float));
     if (o.reference) noisy_first = (float *)malloc(n * 3 * sizeof(float)); /* scored after the first layer */
-    if (!j.out || (o.reference && !noisy_first)) {
+    if ((own_out && !j.out) || (o.reference && !noisy_first)) {
         cli_fail("out of memory for a %dx%d image", ewio_width(j.f), ewio_height(j.f));
         goto done;
     }

@@ -117,7 +117,7 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     *ms = 0.0;
     if (errlen) err[0] = '\0';
     if (!spec->kind) { /* identity: the noisy input */
-        memcpy(out, in->color, n * 3 * sizeof(float));
+        if (out != in->color) memcpy(out, in->color, n * 3 * sizeof(float));
         return 0;
     }
     const int is_filter = !strcmp(spec->kind, "filter");

@@ -55,7 +55,9 @@ typedef struct ew_layer_data {
 int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);
 void ew_layer_data_free(ew_layer_data *d);
 
-/* Run `spec` on the layer into out (3 per pixel). *ms: wall time of commit +
+/* Run `spec` on the layer into out (3 per pixel; it may be in->color, the
+ * result written over the colour, and then spec's warm runs are skipped:
+ * they would read it). *ms: wall time of commit +
  * execute (the work a user waits for), excluding file I/O. Returns 0, or
  * non-zero with the reason in err (unknown method, missing required pass,
  * library error). */

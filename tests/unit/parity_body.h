@@ -479,6 +479,13 @@ TEST(harm_stage_steps) {
     ok = ok && match(back(p.dut, d.give, N * 3), h.give, N * 3, "shares given back");
     ok = ok && match(back(p.dut, d.spread, N * 3), h.spread, N * 3, "box sums of the energy return");
     ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended, light given back");
+    /* what the rejection took, kept for TAKE (a caller's output over its colour) */
+    h.excess = hnan(N);
+    d.excess = dnan(p.dut, N);
+    ew_cpu_backend.harm(p.cpu, EW_HARM_EXCESS, &h);
+    p.dut->backend->harm(p.dut, EW_HARM_EXCESS, &d);
+    ok = ok && match(back(p.dut, d.excess, N), h.excess, N, "the rejection's excess");
+    h.excess = d.excess = NULL;
     /* RGB colour (no channels to copy), with and without albedo: the CPU
      * backend's rows take other paths there */
     for (int with_albedo = 0; with_albedo < 2; with_albedo++) {

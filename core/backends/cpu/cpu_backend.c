@@ -793,6 +793,7 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
                 case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, (int)y, a); break;
                 case EW_HARM_TAKE: ew_harm_take_px(j, a); break;
                 case EW_HARM_SCALE: ew_harm_scale_px(j, a); break;
+                case EW_HARM_EXCESS: ew_harm_excess_px(j, a); break;
                 default: ew_harm_blend_px(x, (int)y, a); break;
                 }
             }

@@ -99,6 +99,7 @@ EW_HD void ew_kb_harm(const ew_thread *t, int step, const ew_harm_args *a) {
     case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, y, a); break;
     case EW_HARM_TAKE: ew_harm_take_px(j, a); break;
     case EW_HARM_SCALE: ew_harm_scale_px(j, a); break;
+    case EW_HARM_EXCESS: ew_harm_excess_px(j, a); break;
     default: ew_harm_blend_px(x, y, a); break;
     }
 }
