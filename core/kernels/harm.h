@@ -119,8 +119,9 @@ typedef struct ew_harm_args {
     float gain;             /* SCALE: every pixel of the output is scaled by 1 + gain */
     int band_rows;          /* STATS_BLEND: rows a band; 0: the backend's choice */
     float *excess;          /* 1 per pixel, or NULL: EXCESS writes the luminance the rejection took (color -
-                               clamped, as TAKE computes it) and TAKE reads it there instead of from color,
-                               which the method's output may have overwritten by then */
+                               clamped, as TAKE computes it) where it is not 0 (zero it first) and TAKE
+                               reads it there instead of from color, which the method's output may have
+                               overwritten by then */
 } ew_harm_args;
 
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
@@ -464,8 +465,13 @@ EW_HD float ew_harm_excess_lum(long j, const ew_harm_args *a) {
     return ew_luminance(ex);
 }
 
-/* EXCESS: that luminance kept for TAKE, the colour not needed after it */
-EW_HD void ew_harm_excess_px(long j, const ew_harm_args *a) { a->excess[j] = ew_harm_excess_lum(j, a); }
+/* EXCESS: that luminance kept for TAKE, the colour not needed after it.
+ * Only where the rejection took something (excess is zero before): the
+ * pixels it judges extreme are few, and a page not written is not held */
+EW_HD void ew_harm_excess_px(long j, const ew_harm_args *a) {
+    const float le = ew_harm_excess_lum(j, a);
+    if (le != 0.0f) a->excess[j] = le;
+}
 
 /* TAKE: the luminance of what the rejection took that comes back, at most
  * give_cap x the luminance it left and take_limit, as a grey of it into

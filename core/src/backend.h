@@ -161,6 +161,11 @@ void ew_dev_free(ew_device *dev, void *ptr);
  * buffers every later reader writes first may be given. Otherwise (the
  * default, or device memory) nothing happens. */
 void ew_dev_release_pages(ew_device *dev, void *from, void *to);
+/* bytes of a block from ew_dev_alloc set to zero: on host memory its whole
+ * pages are dropped instead of written (whatever release_scratch says), so
+ * a buffer written sparsely afterwards holds only the pages written; the
+ * partial pages at its ends, and device memory, through mem_zero. */
+ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes);
 /* A device block an op keeps from one commit to the next: a graph commits
  * its ops again every frame with the same images, and a new block would be
  * mapped and faulted in again. */

@@ -46,6 +46,24 @@ void ew_dev_release_pages(ew_device *dev, void *from, void *to) {
 #endif
 }
 
+ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes) {
+#if defined(__linux__)
+    const long ps = sysconf(_SC_PAGESIZE);
+    if (!dev->device_memory && ptr && ps > 0) {
+        const uintptr_t p = (uintptr_t)ptr, e = p + bytes;
+        const uintptr_t a = (p + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps;
+        const uintptr_t b = e / (uintptr_t)ps * (uintptr_t)ps;
+        /* MADV_DONTNEED on private anonymous memory: zero-filled on the
+         * next touch (a failure leaves the pages: they are written) */
+        if (b > a && madvise((void *)a, (size_t)(b - a), MADV_DONTNEED) == 0) {
+            ew_result r = dev->backend->mem_zero(dev, ptr, (size_t)(a - p));
+            return r == EW_OK ? dev->backend->mem_zero(dev, (void *)b, (size_t)(e - b)) : r;
+        }
+    }
+#endif
+    return dev->backend->mem_zero(dev, ptr, bytes);
+}
+
 ew_dev_kept ew_dev_kept_take(ew_dev_kept *k) {
     ew_dev_kept t = {NULL, 0};
     if (k) {

@@ -346,7 +346,13 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     }
     if (r != EW_OK) return r;
     dev->backend->harm(dev, EW_HARM_REMOD, ha);
-    if (ha->excess) dev->backend->harm(dev, EW_HARM_EXCESS, ha);
+    if (ha->excess) {
+        /* written only where the rejection took something: on the CPU the
+         * plane holds those pages only */
+        r = ew_dev_zero(dev, ha->excess, (size_t)s->w * s->h * sizeof(float));
+        if (r != EW_OK) return r;
+        dev->backend->harm(dev, EW_HARM_EXCESS, ha);
+    }
     if (s->pre == 2) {
         /* then the denoisers' own firefly clamp (kernels/outlier.h: mean +
          * 3 sigma of the 5x5 window, no features) on the rejected radiance,

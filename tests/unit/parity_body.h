@@ -480,8 +480,8 @@ TEST(harm_stage_steps) {
     ok = ok && match(back(p.dut, d.spread, N * 3), h.spread, N * 3, "box sums of the energy return");
     ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended, light given back");
     /* what the rejection took, kept for TAKE (a caller's output over its colour) */
-    h.excess = hnan(N);
-    d.excess = dnan(p.dut, N);
+    h.excess = hrand(N, 0.0f, 0.0f, 0); /* zero first: written where the rejection took something */
+    d.excess = dup_to(p.dut, h.excess, N);
     ew_cpu_backend.harm(p.cpu, EW_HARM_EXCESS, &h);
     p.dut->backend->harm(p.dut, EW_HARM_EXCESS, &d);
     ok = ok && match(back(p.dut, d.excess, N), h.excess, N, "the rejection's excess");
