@@ -10,5 +10,6 @@
 #include "kernels/atrous.h"
 #include "kernels/kernel_ids.h"
 #include "kernels/kpcn.h"
+#include "kernels/mirror.h"
 
 #endif

@@ -1037,6 +1037,55 @@ TEST(kpcn_input_pool_up_filter) {
     CHECK_NO_MISUSE();
 }
 
+/* kpcn's passes: in-place mirrors along each axis (odd sizes: a middle
+ * column and row that stay), then the gathers back in every mode. */
+TEST(mirror_swap_and_add) {
+    OPEN_PAIR(p, 0);
+    int ok = 1;
+    for (int axis = 0; axis < 2 && ok; axis++) {
+        float *h = hrand(N * 3, 0.0f, 2.0f, 31 + axis), *d = dup_to(p.dut, h, N * 3);
+        ew_mirror_swap_args hs;
+        memset(&hs, 0, sizeof hs);
+        hs.p = h;
+        hs.channels = 3;
+        hs.width = W;
+        hs.height = H;
+        hs.axis = axis;
+        hs.dw = axis == 0 ? W / 2 : W;
+        hs.dh = axis == 0 ? H : H / 2;
+        ew_mirror_swap_args ds = hs;
+        ds.p = d;
+        (void)EW_RUN(p.cpu, mirror_swap, &hs);
+        (void)EW_RUN(p.dut, mirror_swap, &ds);
+        ok = match(back(p.dut, d, N * 3), h, N * 3, "mirror swap");
+    }
+    float *out = hrand(N * 3, 0.0f, 2.0f, 5), *dout = dup_to(p.dut, out, N * 3);
+    float *acc = hnan(N * 3), *dacc = dnan(p.dut, N * 3);
+    static const int modes[3][3] = {{1, 0, EW_MIRROR_FIRST}, {1, 1, EW_MIRROR_MORE}, {0, 0, EW_MIRROR_LAST}};
+    for (int i = 0; i < 3 && ok; i++) {
+        ew_mirror_add_args ha;
+        memset(&ha, 0, sizeof ha);
+        ha.out = out;
+        ha.acc = acc;
+        ha.width = W;
+        ha.height = H;
+        ha.mx = modes[i][0];
+        ha.my = modes[i][1];
+        ha.mode = modes[i][2];
+        ha.scale = 1.0f / 3.0f;
+        ew_mirror_add_args da = ha;
+        da.out = dout;
+        da.acc = dacc;
+        (void)EW_RUN(p.cpu, mirror_add, &ha);
+        (void)EW_RUN(p.dut, mirror_add, &da);
+        ok = match(back(p.dut, dacc, N * 3), acc, N * 3, "mirror add (sum)") &&
+             match(back(p.dut, dout, N * 3), out, N * 3, "mirror add (output)");
+    }
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
 TEST(reduce_rows_both_kinds) {
     OPEN_PAIR(p, 0);
     float *rgb = hrand(N * 3, -0.5f, 3.0f, 13), *depth = hrand(N, 0.0f, 50.0f, 17);

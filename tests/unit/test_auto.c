@@ -66,8 +66,9 @@ static ew_result run(ew_device *dev, const char *method, frame *f, int features,
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "normal", &n);
     if (r == EW_OK && features) r = ew_denoiser_set_image(d, "depth", &z);
     if (r == EW_OK && samples >= 0) r = ew_denoiser_set_int(d, "samples", samples);
-    for (; r == EW_OK && ps && ps->name; ps++) /* "model", "quality" and "max_memory_mb" are the integer ones */
-        r = strcmp(ps->name, "model") && strcmp(ps->name, "quality") && strcmp(ps->name, "max_memory_mb")
+    for (; r == EW_OK && ps && ps->name; ps++) /* "model", "quality", "max_memory_mb", "passes": integers */
+        r = strcmp(ps->name, "model") && strcmp(ps->name, "quality") && strcmp(ps->name, "max_memory_mb") &&
+                    strcmp(ps->name, "passes")
                 ? ew_denoiser_set_float(d, ps->name, ps->value)
                 : ew_denoiser_set_int(d, ps->name, (int32_t)ps->value);
     if (r == EW_OK) r = ew_denoiser_commit(d);
@@ -101,8 +102,8 @@ TEST(sample_count_picks_the_model) {
     CHECK(same(f.out, f.out2));
 
     /* quality fast stays on the grids and nbg; balanced (the default)
-     * and high climb to kpcn-large at every count;
-     * the output is that model's own */
+     * and high climb to kpcn-large at every count, high with four
+     * mirrored passes; the output is that model's own */
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "bgrid fine grid 2/8");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 16, NULL, f.out, what, sizeof what), EW_OK);
@@ -116,8 +117,11 @@ TEST(sample_count_picks_the_model) {
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, fast, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "nbg 2layer-3grid-1spp");
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 4, high, f.out, what, sizeof what), EW_OK);
-    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (4 spp, quality high)");
+    CHECK_STR_CONTAINS(what, "kpcn kpcn-large (4 spp, quality high), 4 mirrored passes");
     CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, (const param[]){{"model", 2}, {NULL, 0}}, f.out2, NULL, 0), EW_OK);
+    CHECK(!same(f.out, f.out2));
+    CHECK_EQ_INT(run(dev, "kpcn", &f, 1, -1, (const param[]){{"model", 2}, {"passes", 4}, {NULL, 0}}, f.out2, NULL, 0),
+                 EW_OK);
     CHECK(same(f.out, f.out2));
     CHECK_EQ_INT(run(dev, "auto", &f, 1, 1, high, f.out, what, sizeof what), EW_OK);
     CHECK_STR_CONTAINS(what, "kpcn kpcn-large (1 spp, quality high)");
