@@ -33,7 +33,8 @@ static OfxStatus dispatch(int slot, const char *action, const void *handle, OfxP
                 !strcmp(action, kOfxImageEffectActionGetRegionOfDefinition) ||
                 !strcmp(action, kOfxImageEffectActionGetRegionsOfInterest) ||
                 !strcmp(action, kOfxImageEffectActionGetClipPreferences) ||
-                !strcmp(action, kOfxImageEffectActionIsIdentity) || !strcmp(action, kOfxImageEffectActionRender);
+                !strcmp(action, kOfxImageEffectActionIsIdentity) || !strcmp(action, kOfxImageEffectActionRender) ||
+                !strcmp(action, kOfxActionPurgeCaches) || !strcmp(action, kOfxImageEffectActionEndSequenceRender);
     if (!known) return kOfxStatReplyDefault;
 
     if (!ew_ofx_loaded()) return kOfxStatFailed; /* the host skipped kOfxActionLoad */
@@ -51,6 +52,10 @@ static OfxStatus dispatch(int slot, const char *action, const void *handle, OfxP
         return ew_ofx_regions_of_interest(node, effect, in, out);
     if (!strcmp(action, kOfxImageEffectActionGetClipPreferences)) return ew_ofx_clip_preferences(node, effect, out);
     if (!strcmp(action, kOfxImageEffectActionIsIdentity)) return ew_ofx_is_identity(node, effect, in, out);
+    /* The kept device and op go when the host wants memory back, and when
+     * a batch render is over (ofx_keep.c). */
+    if (!strcmp(action, kOfxActionPurgeCaches) || !strcmp(action, kOfxImageEffectActionEndSequenceRender))
+        return ew_ofx_drop_kept(node, effect);
     return ew_ofx_render(node, effect, in);
 }
 

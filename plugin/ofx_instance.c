@@ -48,6 +48,7 @@ OfxStatus ew_ofx_create_instance(const ew_ofx_node *node, OfxImageEffectHandle e
     if (!inst) return kOfxStatErrMemory;
     inst->magic = EW_OFX_INSTANCE_MAGIC;
     inst->node = node;
+    ew_ofx_keep_init(&inst->keep);
 
     const OfxImageEffectSuiteV1 *E = ew_ofx.effect;
     if ((st = E->clipGetHandle(effect, kOfxImageEffectSimpleSourceClipName, &inst->source, NULL)) != kOfxStatOK ||
@@ -75,6 +76,7 @@ OfxStatus ew_ofx_create_instance(const ew_ofx_node *node, OfxImageEffectHandle e
     return kOfxStatOK;
 fail:
     inst->magic = 0;
+    ew_ofx_keep_fini(&inst->keep);
     ew_ofx_free(inst);
     return st;
 }
@@ -86,6 +88,7 @@ OfxStatus ew_ofx_destroy_instance(const ew_ofx_node *node, OfxImageEffectHandle 
     OfxPropertySetHandle props;
     if (effect_props(effect, &props) == kOfxStatOK) ew_ofx.prop->propSetPointer(props, kOfxPropInstanceData, 0, NULL);
     inst->magic = 0;
+    ew_ofx_keep_fini(&inst->keep);
     ew_ofx_free(inst);
     return kOfxStatOK;
 }

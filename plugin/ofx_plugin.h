@@ -8,10 +8,13 @@
  *   ofx_instance.c  create/destroy instance, RoD, RoI, clip preferences, identity
  *   ofx_images.c    fetching host images and viewing them as ew_image
  *   ofx_bands.c     running row bands on the host's threads, checking abort()
+ *   ofx_keep.c      the device and op an instance keeps between renders
  *   ofx_render.c    the render action
  */
 #ifndef EW_OFX_PLUGIN_H
 #define EW_OFX_PLUGIN_H
+
+#include <pthread.h>
 
 #include "edgewise/edgewise.h"
 #include "ofx_abi.h"
@@ -111,12 +114,38 @@ OfxStatus ew_ofx_describe(const ew_ofx_node *node, OfxImageEffectHandle effect);
 OfxStatus ew_ofx_describe_in_context(const ew_ofx_node *node, OfxImageEffectHandle effect,
                                      OfxPropertySetHandle in);
 
+/* The device and op of an instance's last good render, for the next one
+ * (ofx_keep.c says when they are dropped). Between renders the op holds no
+ * image and no progress callback: nothing that points into a render. */
+typedef struct ew_ofx_keep {
+    pthread_mutex_t lock;
+    ew_device *dev;
+    ew_op *op;          /* NULL: nothing kept */
+    const char *method; /* what op runs (a static string) */
+    int threads;        /* what dev was created with */
+    unsigned generation; /* bumped by every drop */
+} ew_ofx_keep;
+
+void ew_ofx_keep_init(ew_ofx_keep *k);
+/* Drop what is kept, then the lock. */
+void ew_ofx_keep_fini(ew_ofx_keep *k);
+/* Free the kept pair, and make a render that holds it now free it too. */
+void ew_ofx_keep_drop(ew_ofx_keep *k);
+/* Take the kept pair out if it runs `method` on `threads` (1), else free it
+ * (0). *generation is what ew_ofx_keep_put wants back. */
+int ew_ofx_keep_take(ew_ofx_keep *k, const char *method, int threads, ew_device **dev, ew_op **op,
+                     unsigned *generation);
+/* Keep the pair of a good render, or free it if a drop came since the take. */
+void ew_ofx_keep_put(ew_ofx_keep *k, const char *method, int threads, ew_device *dev, ew_op *op,
+                     unsigned generation);
+
 typedef struct ew_ofx_instance {
     unsigned magic;
     const ew_ofx_node *node;
     OfxImageClipHandle source, output;
     OfxImageClipHandle aux[EW_OFX_MAX_AUX]; /* NULL if the host has no such clip */
     OfxParamHandle params[EW_OFX_MAX_PARAMS];
+    ew_ofx_keep keep;
 } ew_ofx_instance;
 
 OfxStatus ew_ofx_create_instance(const ew_ofx_node *node, OfxImageEffectHandle effect);
@@ -133,6 +162,9 @@ OfxStatus ew_ofx_clip_preferences(const ew_ofx_node *node, OfxImageEffectHandle 
 OfxStatus ew_ofx_is_identity(const ew_ofx_node *node, OfxImageEffectHandle effect, OfxPropertySetHandle in,
                              OfxPropertySetHandle out);
 OfxStatus ew_ofx_render(const ew_ofx_node *node, OfxImageEffectHandle effect, OfxPropertySetHandle in);
+/* kOfxActionPurgeCaches and kOfxImageEffectActionEndSequenceRender: free
+ * the instance's kept device and op. */
+OfxStatus ew_ofx_drop_kept(const ew_ofx_node *node, OfxImageEffectHandle effect);
 
 /* Read parameter i of the instance at `time` as the library wants it:
  * clamped to the descriptor's range, the default if the host gives a

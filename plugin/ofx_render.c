@@ -8,6 +8,10 @@
  * window. Every resource lives in one struct and one cleanup releases it,
  * so no path — error, abort or success — leaks an image or a buffer.
  *
+ * The device and op are the instance's kept ones when they fit (ofx_keep.c):
+ * every render sets every image, every parameter and the progress callback
+ * again, so a kept op computes what a new one would, bit for bit.
+ *
  * Cancelling: the library calls our progress callback between its bands
  * (we ask the host's abort() there), and the copy to the output runs in
  * bands that ask abort() too. An aborted render returns kOfxStatFailed:
@@ -42,15 +46,42 @@ typedef struct {
     float *result; /* dom-sized, top-down, `channels` per pixel */
     ew_device *dev;
     ew_op *op;
+    const char *method;  /* what op runs */
+    int threads;         /* what dev was created with */
+    unsigned generation; /* of the instance's keep when the op was taken */
     atomic_int aborted;
     /* a denoiser whose feature clips are missing runs this instead (the
      * colour-guided grid), and the user is told */
     const char *fallback;
 } render_job;
 
+/* After a good render the op goes back to the instance holding nothing of
+ * this render: no image (the host's are released in cleanup) and no
+ * callback (r lives on this stack). After a failed or aborted one it is
+ * freed, and so is anything the instance still keeps. */
+static void finish_op(render_job *r, OfxStatus st) {
+    if (!r->op) {
+        if (st != kOfxStatOK) ew_ofx_keep_drop(&r->inst->keep);
+        ew_device_destroy(r->dev); /* the op could not be made */
+        r->dev = NULL;
+        return;
+    }
+    int keep = st == kOfxStatOK && ew_op_set_progress(r->op, NULL, NULL) == EW_OK &&
+               ew_op_set_image(r->op, "color", NULL) == EW_OK && ew_op_set_image(r->op, "output", NULL) == EW_OK;
+    for (int i = 0; keep && !r->fallback && i < r->node->num_aux; i++)
+        keep = ew_op_set_image(r->op, r->node->aux[i].image, NULL) == EW_OK;
+    if (keep) {
+        ew_ofx_keep_put(&r->inst->keep, r->method, r->threads, r->dev, r->op, r->generation);
+    } else {
+        ew_op_destroy(r->op);
+        ew_device_destroy(r->dev);
+        ew_ofx_keep_drop(&r->inst->keep);
+    }
+    r->op = NULL;
+    r->dev = NULL;
+}
+
 static void cleanup(render_job *r) {
-    ew_op_destroy(r->op);
-    ew_device_destroy(r->dev);
     for (int i = 0; i < r->num_mem; i++) {
         if (r->mem[i].locked) ew_ofx.effect->imageMemoryUnlock(r->mem[i].handle);
         ew_ofx.effect->imageMemoryFree(r->mem[i].handle);
@@ -264,20 +295,29 @@ static OfxStatus run_library(render_job *r) {
     const ew_ofx_node *n = r->node;
     OfxStatus st;
     const int w = r->dom.x2 - r->dom.x1, h = r->dom.y2 - r->dom.y1;
-    ew_device_desc desc = EW_DEVICE_DESC_INIT;
-    desc.num_threads = ew_ofx_thread_count();
-    ew_result e = ew_device_create(&desc, &r->dev);
-    if (e != EW_OK) return library_status(r, e);
-    e = ew_op_create(r->dev, r->fallback ? r->fallback : n->method, &r->op);
-    if (e != EW_OK) return library_status(r, e);
+    ew_result e;
+    r->method = r->fallback ? r->fallback : n->method;
+    r->threads = ew_ofx_thread_count();
+    if (!ew_ofx_keep_take(&r->inst->keep, r->method, r->threads, &r->dev, &r->op, &r->generation)) {
+        ew_device_desc desc = EW_DEVICE_DESC_INIT;
+        desc.num_threads = r->threads;
+        if ((e = ew_device_create(&desc, &r->dev)) != EW_OK) return library_status(r, e);
+        if ((e = ew_op_create(r->dev, r->method, &r->op)) != EW_OK) return library_status(r, e);
+    }
     e = ew_op_set_progress(r->op, progress, r);
     if (e != EW_OK) return library_status(r, e);
 
     ew_image color = ew_ofx_image_view(&r->src, 0, r->channels);
     if ((e = op_image(r, "color", &color)) != EW_OK) return library_status(r, e);
+    /* A feature not given this time is unset, not left over from an
+     * earlier frame of a kept op. The fallback gets none: it is guided by
+     * the colour alone. */
     for (int i = 0; i < n->num_aux && !r->fallback; i++) {
-        if (!r->aux[i].handle) continue;
         ew_image v;
+        if (!r->aux[i].handle) {
+            if ((e = op_image(r, n->aux[i].image, NULL)) != EW_OK) return library_status(r, e);
+            continue;
+        }
         if ((st = aux_view(r, i, &n->aux[i], &r->aux[i], &v)) != kOfxStatOK) return st;
         if ((e = op_image(r, n->aux[i].image, &v)) != EW_OK) return library_status(r, e);
     }
@@ -339,6 +379,7 @@ OfxStatus ew_ofx_render(const ew_ofx_node *node, OfxImageEffectHandle effect, Of
     r.effect = effect;
     atomic_init(&r.aborted, 0);
     st = render(&r, in);
+    finish_op(&r, st);
     cleanup(&r);
     if (st == kOfxStatOK) ew_ofx_clear_error(effect);
     if (st == kOfxStatOK && r.fallback) {

@@ -246,6 +246,33 @@ OfxStatus hx_render(const host_bundle *b, int plugin, host_effect *inst, double 
     return st;
 }
 
+static OfxStatus sequence_action(const host_bundle *b, int plugin, host_effect *inst, const char *action,
+                                 double first, double last) {
+    OfxPropertySetHandle in = hp_new("sequence render inArgs", hs_sequence_render_in);
+    hp_set_d(in, "OfxImageEffectPropFrameRange", 0, first);
+    hp_set_d(in, "OfxImageEffectPropFrameRange", 1, last);
+    hp_set_d(in, "OfxImageEffectPropFrameStep", 0, 1.0);
+    hp_set_i(in, "OfxPropIsInteractive", 0, 0);
+    hp_set_i(in, "OfxImageEffectPropSequentialRenderStatus", 0, 0);
+    hp_set_i(in, "OfxImageEffectPropInteractiveRenderStatus", 0, 0);
+    set_scale(in);
+    OfxStatus st = hx_action(b, plugin, action, inst, in, NULL);
+    hp_free(in);
+    return st;
+}
+
+OfxStatus hx_begin_sequence(const host_bundle *b, int plugin, host_effect *inst, double first, double last) {
+    return sequence_action(b, plugin, inst, "OfxImageEffectActionBeginSequenceRender", first, last);
+}
+
+OfxStatus hx_end_sequence(const host_bundle *b, int plugin, host_effect *inst, double first, double last) {
+    return sequence_action(b, plugin, inst, "OfxImageEffectActionEndSequenceRender", first, last);
+}
+
+OfxStatus hx_purge_caches(const host_bundle *b, int plugin, host_effect *inst) {
+    return hx_action(b, plugin, "OfxActionPurgeCaches", inst, NULL, NULL);
+}
+
 /* ---- pixels ---------------------------------------------------------------- */
 #define GUARD 64
 #define GUARD_BYTE 0xAB

@@ -232,3 +232,15 @@ const hp_schema hs_render_in[] = {
     {"OfxImageEffectPropRenderQualityDraft", 'i', 1, RO},
     {NULL, 0, 0, 0},
 };
+
+/* Begin- and EndSequenceRender share their inArgs. */
+const hp_schema hs_sequence_render_in[] = {
+    {"OfxImageEffectPropFrameRange", 'd', 2, RO},
+    {"OfxImageEffectPropFrameStep", 'd', 1, RO},
+    {"OfxPropIsInteractive", 'i', 1, RO},
+    {"OfxImageEffectPropRenderScale", 'd', 2, RO},
+    {"OfxImageEffectPropSequentialRenderStatus", 'i', 1, RO},
+    {"OfxImageEffectPropInteractiveRenderStatus", 'i', 1, RO},
+    {"OfxImageEffectPropRenderQualityDraft", 'i', 1, RO},
+    {NULL, 0, 0, 0},
+};

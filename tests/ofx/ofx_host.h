@@ -89,6 +89,7 @@ extern const hp_schema hs_clip_descriptor[], hs_clip_instance[], hs_image[];
 extern const hp_schema hs_param_double[], hs_param_int[], hs_param_bool[], hs_param_choice[];
 extern const hp_schema hs_describe_in_context_in[], hs_rod_in[], hs_rod_out[], hs_roi_in[];
 extern const hp_schema hs_identity_in[], hs_identity_out[], hs_render_in[], hs_clip_prefs_out[];
+extern const hp_schema hs_sequence_render_in[];
 
 /* ---- objects ---------------------------------------------------------------- */
 enum { HE_DESCRIPTOR = 1, HE_CONTEXT = 2, HE_INSTANCE = 3 };
@@ -192,6 +193,12 @@ OfxStatus hx_clip_prefs(const host_bundle *b, int plugin, host_effect *inst, Ofx
 OfxStatus hx_is_identity(const host_bundle *b, int plugin, host_effect *inst, double time, OfxRectI window,
                          char *clip, size_t clip_len, double *clip_time);
 OfxStatus hx_render(const host_bundle *b, int plugin, host_effect *inst, double time, OfxRectI window);
+/* kOfxImageEffectActionBeginSequenceRender / EndSequenceRender over the
+ * frames [first, last], step 1, not interactive. */
+OfxStatus hx_begin_sequence(const host_bundle *b, int plugin, host_effect *inst, double first, double last);
+OfxStatus hx_end_sequence(const host_bundle *b, int plugin, host_effect *inst, double first, double last);
+/* kOfxActionPurgeCaches: no arguments. */
+OfxStatus hx_purge_caches(const host_bundle *b, int plugin, host_effect *inst);
 
 /* Pixels. `top_down` holds w*h*comps floats, row 0 at the top (y1+h-1). */
 enum { HX_NEG_ROW_BYTES = 1, HX_PAD_ROWS = 2 };

@@ -300,7 +300,6 @@ TEST(malformed_calls_get_an_ofx_status) {
     CHECK_EQ_INT(hx_action(b, i, NULL, inst, in, NULL), kOfxStatErrValue);
     CHECK_EQ_INT(hx_action(b, i, "OfxActionNoSuchThing", inst, in, NULL), kOfxStatReplyDefault);
     CHECK_EQ_INT(hx_action(b, i, "", NULL, NULL, NULL), kOfxStatReplyDefault);
-    CHECK_EQ_INT(hx_action(b, i, "OfxActionPurgeCaches", NULL, NULL, NULL), kOfxStatReplyDefault);
     CHECK_EQ_INT(hx_action(b, i, "OfxImageEffectActionBeginSequenceRender", NULL, NULL, NULL), kOfxStatReplyDefault);
     const char *need_handle[] = {"OfxActionDescribe",
                                  "OfxImageEffectActionDescribeInContext",
@@ -310,8 +309,11 @@ TEST(malformed_calls_get_an_ofx_status) {
                                  "OfxImageEffectActionGetRegionsOfInterest",
                                  "OfxImageEffectActionGetClipPreferences",
                                  "OfxImageEffectActionIsIdentity",
-                                 "OfxImageEffectActionRender"};
-    for (int k = 0; k < 9; k++) {
+                                 "OfxImageEffectActionRender",
+                                 /* they drop the instance's kept op */
+                                 "OfxActionPurgeCaches",
+                                 "OfxImageEffectActionEndSequenceRender"};
+    for (int k = 0; k < (int)(sizeof need_handle / sizeof need_handle[0]); k++) {
         OfxStatus st = hx_action(b, i, need_handle[k], NULL, in, NULL);
         if (st != kOfxStatErrBadHandle) FAIL_AT("%s with a NULL handle: %d", need_handle[k], st);
     }
@@ -329,6 +331,7 @@ TEST(malformed_calls_get_an_ofx_status) {
 
     /* handles that are not this plugin's instance */
     CHECK_EQ_INT(hx_render(b, i, fx.desc, 1.0, whole), kOfxStatErrBadHandle); /* a descriptor */
+    CHECK_EQ_INT(hx_purge_caches(b, i, fx.desc), kOfxStatErrBadHandle);
     CHECK_EQ_INT(hx_action(b, i, "OfxImageEffectActionRender", he_clip(inst, "Source"), in, NULL),
                  kOfxStatErrBadHandle); /* a clip posing as an effect */
     int other = (i + 1) % b->get_count();
