@@ -5,11 +5,12 @@
  * executes of one size, so the next frame of the same node skips the
  * allocations and the page faults of fresh memory. The pair is kept for
  * exactly one method (the node's, or the colour-guided fallback) and one
- * thread count; a render that wants another takes nothing and makes its
- * own.
+ * thread count; a render that wants another frees it (two frames' scratch
+ * are never held) and makes its own.
  *
- * Memory: the pair (one frame's scratch, hundreds of MB for a kpcn at 4K)
- * is held only while the host is likely to ask for another frame. It is
+ * Memory: the pair holds one frame's scratch (ew_op_memory: 349 MiB for
+ * kpcn-small at 1280x720), so it is held only while the host is likely to
+ * ask for another frame. It is
  * dropped when the host purges caches, when a sequence render ends (a batch
  * is over; interactive renders between sequences keep it), when the
  * instance is destroyed, and after any render that failed or was aborted,
