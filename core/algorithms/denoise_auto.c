@@ -66,8 +66,8 @@ static const ew_param_desc params[] = {
     {"quality", EW_PARAM_INT, 1.0f, 0.0f, 2.0f,
      "how far up the ladder auto may climb: fast (grids and nbg only), balanced (the default: kpcn-large at every "
      "sample count, 0.6-2.6 dB better than fast on the held-out scenes for about 3x the time) and high "
-     "(kpcn-large averaged over 4 mirrored passes: about +0.15 dB over balanced for 4x the network's time); kpcn "
-     "needs albedo, normal and depth"},
+     "(kpcn-large averaged over 4 mirrored passes: about +0.1 dB over balanced for 4x the network's time, but more "
+     "frame-to-frame flicker at 4 spp on animated test scenes); kpcn needs albedo, normal and depth"},
     {"max_memory_mb", EW_PARAM_INT, 0.0f, 0.0f, 1048576.0f,
      "memory the method auto picks may allocate, in MiB (that method's max_memory_mb: a frame above it runs in "
      "tiles or bands of rows, with the same output); 0: the method's own default (kpcn 1024, nbg 256, bgrid 256)"},
