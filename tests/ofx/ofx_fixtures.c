@@ -219,3 +219,12 @@ int fx_set_param(fx_plugin *fx, const char *name, double value) {
     p->num_keys = 0;
     return 0;
 }
+
+int fx_plugin_exists(const char *identifier) {
+    char err[256];
+    host_bundle b;
+    if (hb_open(&b, err, sizeof err)) return 0;
+    int found = hb_find(&b, identifier) >= 0;
+    hb_close(&b);
+    return found;
+}

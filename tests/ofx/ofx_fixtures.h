@@ -65,6 +65,13 @@ int fx_open(fx_plugin *fx, const char *identifier, const char *context, char *er
 /* Destroy the instance, unload, close the bundle (fresh plugin state for
  * the next test). */
 void fx_close(fx_plugin *fx);
+/* 1 when the bundle declares a plugin with this identifier (a build may
+ * lack a method's weights); NEED(id) skips the test otherwise. */
+int fx_plugin_exists(const char *identifier);
+#define NEED(id)                                                                                               \
+    do {                                                                                                       \
+        if (!fx_plugin_exists(id)) SKIP("the library has no " id);                                             \
+    } while (0)
 /* Set a host parameter's value (no keys). 0 if it exists. */
 int fx_set_param(fx_plugin *fx, const char *name, double value);
 

@@ -27,19 +27,6 @@ static char err[512];
 #define KPCN "org.edgewise.denoise.kpcn"
 #define AUTO "org.edgewise.denoise.auto"
 
-static int plugin_exists(const char *id) {
-    host_bundle b;
-    if (hb_open(&b, err, sizeof err)) return 0;
-    int found = hb_find(&b, id) >= 0;
-    hb_close(&b);
-    return found;
-}
-
-#define NEED(id)                                                                                               \
-    do {                                                                                                       \
-        if (!plugin_exists(id)) SKIP("the library has no " id);                                                \
-    } while (0)
-
 static const char *const feature_clips[3] = {"Albedo", "Normal", "Depth"};
 
 /* Frames: crops of the Cornell render at other places (other pixels). */

@@ -233,19 +233,6 @@ static render_case pyramid_case(const fx_sample *s) {
     return c;
 }
 
-#define NEED(id)                                                                                               \
-    do {                                                                                                       \
-        if (!plugin_exists(id)) SKIP("the library has no " id);                                                \
-    } while (0)
-
-static int plugin_exists(const char *id) {
-    host_bundle b;
-    if (hb_open(&b, err, sizeof err)) return 0;
-    int found = hb_find(&b, id) >= 0;
-    hb_close(&b);
-    return found;
-}
-
 TEST(bgrid_filter_context_matches_library) {
     const fx_sample *s = cornell();
     CHECK(s);

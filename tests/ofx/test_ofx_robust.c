@@ -20,19 +20,6 @@ static char err[512];
 #define DOF "org.edgewise.filter.dof"
 #define ATROUS "org.edgewise.filter.atrous"
 
-static int plugin_exists(const char *id) {
-    host_bundle b;
-    if (hb_open(&b, err, sizeof err)) return 0;
-    int found = hb_find(&b, id) >= 0;
-    hb_close(&b);
-    return found;
-}
-
-#define NEED(id)                                                                                               \
-    do {                                                                                                       \
-        if (!plugin_exists(id)) SKIP("the library has no " id);                                                \
-    } while (0)
-
 /* A loaded instance with a small real image on Source (origin -7, 13). */
 static int open_with_image(fx_plugin *fx, const char *id, const char *context, fx_sample *crop) {
     host_reset();
@@ -136,14 +123,14 @@ static void identity_case(const char *id, const char *method, fx_param *params, 
 TEST(is_identity) {
     fx_param none[1] = {{"spatial_rate", 8.0}};
     identity_case(BGRID, "bgrid", none, 1, 0);
-    if (plugin_exists(PYRAMID)) {
+    if (fx_plugin_exists(PYRAMID)) {
         /* weights 0: the trained table is not built in yet (see test_ofx_render.c) */
         fx_param r0[3] = {{"radius", 0}, {"sigma_range", 0.05}, {"weights", 0}};
         identity_case(PYRAMID, "pyramid", r0, 3, 1);
         fx_param r2[1] = {{"radius", 2}};
         identity_case(PYRAMID, "pyramid", r2, 1, 0);
     }
-    if (plugin_exists(ATROUS)) {
+    if (fx_plugin_exists(ATROUS)) {
         fx_param a0[2] = {{"radius", 0}, {"iterations", 0}};
         identity_case(ATROUS, "atrous", a0, 2, 1);
         fx_param a1[2] = {{"radius", 0}, {"iterations", 1}};
