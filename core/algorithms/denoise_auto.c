@@ -97,6 +97,7 @@ typedef struct {
  * or above it at 4 spp, for 4x the network's time (models/kpcn/README.md,
  * "A self-ensemble"). Balanced stays one pass. */
 #define HIGH_PASSES 4
+static int kpcn_passes(int quality) { return quality == QUALITY_HIGH ? HIGH_PASSES : 1; }
 
 /* Where kpcn takes over, by quality (docs/kpcn.md, models/kpcn/README.md).
  * kpcn-large with its learned remodulation, on the 42 held-out scenes below
@@ -247,8 +248,8 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     for (int l = lo; l <= hi; l++) {
         const level_choice *lv = &levels[l];
         const int kmodel = quality == QUALITY_HIGH ? lv->kpcn_high : quality == QUALITY_BALANCED ? lv->kpcn_balanced : -1;
-        const int passes = quality == QUALITY_HIGH ? HIGH_PASSES : 1;
-        if (kmodel >= 0 && (b = rung_memory(op, "kpcn", "model", kmodel, passes, NULL, w, h)) > most) most = b;
+        if (kmodel >= 0 && (b = rung_memory(op, "kpcn", "model", kmodel, kpcn_passes(quality), NULL, w, h)) > most)
+            most = b;
         if (lv->nbg_model >= 0 && (b = rung_memory(op, "nbg", "model", lv->nbg_model, 0, NULL, w, h)) > most)
             most = b;
         if ((b = rung_memory(op, "bgrid", NULL, 0, 0, lv, w, h)) > most) most = b;
@@ -280,7 +281,7 @@ static ew_result commit(ew_op *op) {
                                       : quality == QUALITY_BALANCED ? lv->kpcn_balanced : -1;
     if (kmodel >= 0) {
         ew_result r = bind(op, s, "kpcn");
-        const int passes = quality == QUALITY_HIGH ? HIGH_PASSES : 1;
+        const int passes = kpcn_passes(quality);
         if (r == EW_OK) r = ew_op_set_param(s->inner, "model", (float)kmodel, 1);
         if (r == EW_OK) r = ew_op_set_param(s->inner, "passes", (float)passes, 1);
         if (r == EW_OK) r = ew_op_commit(s->inner);

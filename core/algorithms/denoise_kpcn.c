@@ -117,12 +117,16 @@ static void release(ew_op *op) {
 #define TILE_EXTRA_FLOATS 3
 #define MIN_CORE 256
 
+/* Several passes (the "passes" parameter): the features are the op's own
+ * copies, mirrored in place between runs, and a sum plane holds the runs. */
+static int passes_of(const ew_op *op) { return (int)ew_op_param(op, "passes"); }
+
 /* The features the op reads from the caller's views where they are
  * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
  * them), else NULL; the output is written while they are still read.
  * Several passes mirror the features in place: then always the op's copies. */
 static void features_in_place(const ew_op *op, const float *in[3]) {
-    if (ew_op_param(op, "passes") > 1.0f) {
+    if (passes_of(op) > 1) {
         in[0] = in[1] = in[2] = NULL;
         return;
     }
@@ -136,7 +140,7 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
     const float *in[3];
     features_in_place(op, in);
     const size_t px = FRAME_FLOATS - (in[0] ? 3 : 0) - (in[1] ? 3 : 0) - (in[2] ? 1 : 0) +
-                      (ew_op_param(op, "passes") > 1.0f ? 3 : 0); /* the passes' sum */
+                      (passes_of(op) > 1 ? 3 : 0); /* the passes' sum */
     return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + 64;
 }
 
@@ -209,9 +213,9 @@ static ew_result commit(ew_op *op) {
         const size_t len = strlen(s->choice);
         snprintf(s->choice + len, sizeof s->choice - len, ", %dx%d tiles", tiling.nx, tiling.ny);
     }
-    if (ew_op_param(op, "passes") > 1.0f) {
+    if (passes_of(op) > 1) {
         const size_t len = strlen(s->choice);
-        snprintf(s->choice + len, sizeof s->choice - len, ", %d mirrored passes", (int)ew_op_param(op, "passes"));
+        snprintf(s->choice + len, sizeof s->choice - len, ", %d mirrored passes", passes_of(op));
     }
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
@@ -232,7 +236,7 @@ static ew_result commit(ew_op *op) {
     b->radiance = p; p += n * 3;
     s->clamped = p; p += n * 3;
     b->guide = p; p += n;
-    s->acc = ew_op_param(op, "passes") > 1.0f ? p : NULL; p += s->acc ? n * 3 : 0;
+    s->acc = passes_of(op) > 1 ? p : NULL; p += s->acc ? n * 3 : 0;
     /* the region's buffers */
     int rsw[EW_KPCN_MAX_SCALES], rsh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, tiling.rw, tiling.rh, rsw, rsh);
@@ -474,7 +478,7 @@ static ew_result execute(ew_op *op) {
     /* The runs' mirrors (x, y), the unmirrored one last: it leaves the
      * inputs as they came, and its output is where the sum goes. */
     static const int mirrors[4][2] = {{1, 0}, {1, 1}, {0, 1}, {0, 0}};
-    const int passes = s->acc ? (int)ew_op_param(op, "passes") : 1;
+    const int passes = s->acc ? passes_of(op) : 1;
     int at[2] = {0, 0};
     for (int i = 0; i < passes && r == EW_OK; i++) {
         const int *m = mirrors[i == passes - 1 ? 3 : i];
