@@ -12,6 +12,7 @@
 #include "ofx_plugin.h"
 
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -40,10 +41,21 @@ OfxStatus ew_ofx_image_fetch(OfxImageClipHandle clip, OfxTime time, ew_ofx_image
         P->propGetString(h, kOfxImageEffectPropComponents, 0, &comps) != kOfxStatOK ||
         P->propGetPointer(h, kOfxImagePropData, 0, &data) != kOfxStatOK ||
         P->propGetIntN(h, kOfxImagePropBounds, 4, b) != kOfxStatOK ||
-        P->propGetInt(h, kOfxImagePropRowBytes, 0, &row_bytes) != kOfxStatOK)
+        P->propGetInt(h, kOfxImagePropRowBytes, 0, &row_bytes) != kOfxStatOK) {
+        snprintf(img->problem, sizeof img->problem,
+                 "lacks one of pixel depth, components, data, bounds and row bytes");
         return kOfxStatErrBadHandle;
+    }
     img->comps = components_of(comps);
-    if (!depth || strcmp(depth, kOfxBitDepthFloat) != 0 || img->comps == 0) return kOfxStatErrImageFormat;
+    if (!depth || strcmp(depth, kOfxBitDepthFloat) != 0) {
+        snprintf(img->problem, sizeof img->problem, "is %s, not 32-bit float", depth ? depth : "of no pixel depth");
+        return kOfxStatErrImageFormat;
+    }
+    if (img->comps == 0) {
+        snprintf(img->problem, sizeof img->problem, "has components %s, not RGBA, RGB or Alpha",
+                 comps ? comps : "(none)");
+        return kOfxStatErrImageFormat;
+    }
 
     img->bounds.x1 = b[0];
     img->bounds.y1 = b[1];
@@ -52,8 +64,25 @@ OfxStatus ew_ofx_image_fetch(OfxImageClipHandle clip, OfxTime time, ew_ofx_image
     int64_t w = (int64_t)b[2] - b[0], h64 = (int64_t)b[3] - b[1];
     int64_t row = w * img->comps * (int64_t)sizeof(float);
     int64_t rb = row_bytes < 0 ? -(int64_t)row_bytes : (int64_t)row_bytes;
-    if (w < 0 || h64 < 0 || w > 65536 || h64 > 65536) return kOfxStatErrValue;
-    if (w > 0 && h64 > 0 && (!data || rb < row)) return kOfxStatErrValue;
+    /* An image whose layout does not hold the format it claims (a host
+     * that labels 8-bit pixels float after clip preferences asked for
+     * float, as the OpenFX SDK's hostDemo does) is refused before a pixel
+     * is read: reading it would run past the host's buffer. */
+    if (w < 0 || h64 < 0 || w > 65536 || h64 > 65536) {
+        snprintf(img->problem, sizeof img->problem, "has bounds (%d, %d, %d, %d): inverted or over 65536 pixels",
+                 b[0], b[1], b[2], b[3]);
+        return kOfxStatErrImageFormat;
+    }
+    if (w > 0 && h64 > 0 && !data) {
+        snprintf(img->problem, sizeof img->problem, "has no pixel data");
+        return kOfxStatErrImageFormat;
+    }
+    if (w > 0 && h64 > 0 && rb < row) {
+        snprintf(img->problem, sizeof img->problem,
+                 "has rows of %d bytes, fewer than the %lld its %lld pixels of %d-channel float take",
+                 row_bytes, (long long)row, (long long)w, img->comps);
+        return kOfxStatErrImageFormat;
+    }
     img->data = (char *)data;
     img->row_bytes = row_bytes;
     return kOfxStatOK;

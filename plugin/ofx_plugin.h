@@ -180,12 +180,17 @@ typedef struct ew_ofx_image {
     OfxRectI bounds;
     int row_bytes;  /* may be negative */
     int comps;      /* 4 RGBA, 3 RGB, 1 alpha */
+    /* why the image was refused, for the user ("" if it was not): a host
+     * that hands an image the plugin cannot read must be told what is wrong
+     * with it, or the node just fails */
+    char problem[160];
 } ew_ofx_image;
 
 /* Fetch and check (float, known components, sane bounds and row bytes).
  * kOfxStatFailed from the host (no image at this time) is passed on so the
- * caller can treat the input as black. On a check failure the image is
- * still held: release it. */
+ * caller can treat the input as black. A refused image returns
+ * kOfxStatErrImageFormat (kOfxStatErrBadHandle if its properties cannot be
+ * read) with `problem` set; it is still held: release it. */
 OfxStatus ew_ofx_image_fetch(OfxImageClipHandle clip, OfxTime time, ew_ofx_image *img);
 void ew_ofx_image_release(ew_ofx_image *img);
 /* Address of pixel (x, y) in pixel coordinates; must be inside bounds. */

@@ -213,6 +213,15 @@ static OfxStatus write_window(render_job *r) {
     return kOfxStatOK;
 }
 
+/* Fetch a clip's image; an image the plugin refuses is reported to the
+ * user by the clip's name. */
+static OfxStatus fetch(render_job *r, OfxImageClipHandle clip, const char *name, ew_ofx_image *img) {
+    OfxStatus st = ew_ofx_image_fetch(clip, r->time, img);
+    if (st != kOfxStatOK && img->problem[0])
+        ew_ofx_post_error(r->effect, "Edgewise %s: the host's %s image %s", r->node->method, name, img->problem);
+    return st;
+}
+
 /* ---- the steps ------------------------------------------------------------ */
 static OfxStatus read_args(render_job *r, OfxPropertySetHandle in) {
     if (!in) return kOfxStatErrBadHandle;
@@ -256,7 +265,7 @@ static OfxStatus fetch_features(render_job *r) {
         if (clip && ew_ofx.effect->clipGetPropertySet(clip, &props) == kOfxStatOK && props)
             ew_ofx.prop->propGetInt(props, kOfxImageClipPropConnected, 0, &connected);
         if (connected) {
-            OfxStatus st = ew_ofx_image_fetch(clip, r->time, &r->aux[i]);
+            OfxStatus st = fetch(r, clip, n->aux[i].clip, &r->aux[i]);
             /* no image at this time: as if unconnected */
             if (st == kOfxStatFailed) ew_ofx_image_release(&r->aux[i]);
             else if (st != kOfxStatOK) return st;
@@ -344,10 +353,10 @@ static OfxStatus run_library(render_job *r) {
 static OfxStatus render(render_job *r, OfxPropertySetHandle in) {
     OfxStatus st;
     if ((st = read_args(r, in)) != kOfxStatOK) return st;
-    if ((st = ew_ofx_image_fetch(r->inst->output, r->time, &r->out)) != kOfxStatOK) return st;
+    if ((st = fetch(r, r->inst->output, kOfxImageEffectOutputClipName, &r->out)) != kOfxStatOK) return st;
     clip_window(r);
 
-    st = ew_ofx_image_fetch(r->inst->source, r->time, &r->src);
+    st = fetch(r, r->inst->source, kOfxImageEffectSimpleSourceClipName, &r->src);
     if (st == kOfxStatFailed) {
         /* "assume the image was black and transparent" (clipGetImage) */
         ew_ofx_image_release(&r->src);

@@ -206,6 +206,17 @@ static void source_in_bytes(fx_plugin *fx, fx_sample *c) {
     (void)c;
     snprintf(he_clip(fx->inst, "Source")->depth, 32, "OfxBitDepthByte");
 }
+/* The OpenFX SDK's hostDemo: its images keep 8-bit RGBA pixels (rows of
+ * width x 4 bytes) but carry the depth clip preferences chose, float. */
+static void source_rows_of_bytes(fx_plugin *fx, fx_sample *c) {
+    host_clip *s = he_clip(fx->inst, "Source");
+    s->row_bytes = c->w * 4;
+}
+static void depth_in_bytes(fx_plugin *fx, fx_sample *c) {
+    host_clip *d = he_clip(fx->inst, "Depth");
+    hx_clip_set_image(d, c->ddepth, c->w, c->h, 1, -7, 13, 0);
+    snprintf(d->depth, 32, "OfxBitDepthByte");
+}
 static void normal_as_alpha(fx_plugin *fx, fx_sample *c) {
     hx_clip_set_image(he_clip(fx->inst, "Normal"), c->ddepth, c->w, c->h, 1, -7, 13, 0);
 }
@@ -230,7 +241,18 @@ static void dof_without_depth(fx_plugin *fx, fx_sample *c) {
 }
 
 TEST(source_fetch_out_of_memory) { failing_render(BGRID, FILTER, source_out_of_memory, kOfxStatErrMemory, NULL); }
-TEST(unsupported_pixel_depth) { failing_render(BGRID, FILTER, source_in_bytes, kOfxStatErrImageFormat, NULL); }
+/* An image the plugin cannot read fails the render with a message that
+ * names the clip and what is wrong: a failed node without one leaves the
+ * user nothing to go on. */
+TEST(unsupported_pixel_depth) {
+    failing_render(BGRID, FILTER, source_in_bytes, kOfxStatErrImageFormat, "Source image is OfxBitDepthByte");
+}
+TEST(feature_clip_in_unsupported_depth) {
+    failing_render(BGRID, FILTER, depth_in_bytes, kOfxStatErrImageFormat, "Depth image is OfxBitDepthByte");
+}
+TEST(image_rows_too_short_for_its_format) {
+    failing_render(BGRID, FILTER, source_rows_of_bytes, kOfxStatErrImageFormat, "Source image has rows of 148 bytes");
+}
 TEST(feature_clip_with_too_few_channels) {
     failing_render(BGRID, FILTER, normal_as_alpha, kOfxStatErrImageFormat, "Normal");
 }
