@@ -16,7 +16,7 @@
  *
  * The "quality" parameter says how far up the ladder it may climb: fast is
  * the table above; balanced, the default, and high run the kernel-predicting
- * network kpcn-large (24 channels, four scales, a learned remodulation) at
+ * network kpcn-large (32 channels, four scales, a learned remodulation) at
  * every level, where it measured 0.6-2.6 dB better than the fast rungs for
  * about 3x their time (the rows below); high runs it on the frame mirrored
  * four ways and averages (HIGH_PASSES).

@@ -35,7 +35,7 @@ static const ew_image_desc images[] = {
 static const ew_param_desc params[] = {
     {"model", EW_PARAM_INT, 0.0f, 0.0f, (float)(EW_KPCN_NUM_MODELS - 1),
      "built-in model: kpcn (16 channels; the default), kpcn-small (8 channels, 2.7x fewer multiply-adds), "
-     "kpcn-large (24 channels, a fourth, coarser scale and a learned 5x5 remodulation over the albedo, 2.3x the "
+     "kpcn-large (32 channels, a fourth, coarser scale and a learned 5x5 remodulation over the albedo, 3.6x the "
      "multiply-adds, the best); ignored while weights "
      "are set with set_data"},
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
