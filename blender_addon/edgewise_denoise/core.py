@@ -409,7 +409,16 @@ def denoise_arrays(passes, settings, progress=None, ew=None):
     rgb = g.output("out")
     out = np.empty((h, w, 4), np.float32)
     out[:, :, :3] = rgb[:, :, :3]
-    out[:, :, 3] = color[:, :, 3] if color.shape[2] > 3 else 1.0
+    if color.shape[2] > 3:
+        out[:, :, 3] = color[:, :, 3]
+        # Combined is premultiplied: where alpha is 0 no sample found a
+        # surface, so the pixel has no colour of its own to denoise, and a
+        # kernel reaching in from the object beside it would leave colour
+        # there (a halo over whatever the layer is composited on).
+        empty = color[:, :, 3] <= 0.0
+        out[:, :, :3][empty] = color[:, :, :3][empty]
+    else:
+        out[:, :, 3] = 1.0
     return out, (ran + ("; " + note if note else ""))
 
 

@@ -699,7 +699,7 @@ TEST(halo_grows_with_the_scales) {
 
 /* The weights compiled into the library are the files in models/kpcn. */
 TEST(builtin_weights_match_model_files) {
-    static const int channels[EW_KPCN_NUM_MODELS] = {16, 8, 24};
+    static const int channels[EW_KPCN_NUM_MODELS] = {16, 8, 32};
     for (int k = 0; k < EW_KPCN_NUM_MODELS; k++) {
         char path[1024];
         snprintf(path, sizeof path, "%s/kpcn/%s.ewm", EW_MODELS_DIR, ew_kpcn_model_name(k));
