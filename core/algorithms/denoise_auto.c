@@ -17,9 +17,11 @@
  * The "quality" parameter says how far up the ladder it may climb: fast is
  * the table above; balanced, the default, and high run the kernel-predicting
  * network kpcn-large (32 channels, four scales, a learned remodulation) at
- * every level, where it measured 0.6-2.6 dB better than the fast rungs for
- * about 3x their time (the rows below); high runs it on the frame mirrored
- * four ways and averages (HIGH_PASSES).
+ * every level, where its 24-channel predecessor measured 0.6-2.6 dB better
+ * than the fast rungs for about 3x their time (the rows below; the 32
+ * channels gain 0.08-0.38 dB more on the test scenes for 1.3x that,
+ * BENCHMARKS.md); high runs it on the frame mirrored four ways and
+ * averages (HIGH_PASSES).
  * Without albedo, normal and depth every quality is the grid. The choice
  * reads the level, not the frame's content: even an oracle picking between
  * kpcn-large and the fast rung per frame would gain at most 0.09 dB on the
