@@ -25,7 +25,10 @@
  *      energy R and its neighbour correlation C over a window
  *      (kernels/harm.h says why that estimates the blend of least error).
  *      The input blended toward is the input after step 1, so a rejected
- *      firefly does not come back.
+ *      firefly does not come back. On a quiet frame (16-64 spp, where a
+ *      method's harm is what is left of its error) with albedo, normal and
+ *      depth, a second estimate from a pilot: kpcn run on the same input
+ *      (kernels/harm.h, "The pilot"); not for kpcn itself.
  *   3. energy return: the light the method's own firefly_k clamp took
  *      (recorded through ew_harm_clamp_removed, or the stage's firefly
  *      clamp for a filter) is given back over a 49x49 window in proportion
@@ -74,11 +77,15 @@
 #define HARM_TAKE_LIMIT 50.0      /* ... and 50x the output frame's mean luminance, to the whole frame */
 #define HARM_TAKE_GAIN 0.5        /* which grows by at most half */
 #define HARM_FIREFLY_K 3.0f       /* the denoisers' firefly_k default, for a method without that clamp */
+#define HARM_PILOT_METHOD "kpcn"  /* the pilot on a quiet frame: kpcn's default model (16 channels) */
+#define HARM_PILOT_MEMORY_MB 256  /* its max_memory_mb: tiles beyond that (the same output) */
 
 static const ew_param_desc stage_on[] = {
     {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
      "blend the result toward the input where it differs from the input by more than the input's noise "
-     "explains (detail a converged frame already had); 0: the method's output as it is"},
+     "explains (detail a converged frame already had; on such a frame with albedo, normal and depth, a method "
+     "other than kpcn is also compared with kpcn run on the same input, which tells noise from detail for about "
+     "kpcn's time); 0: the method's output as it is"},
     {"outlier_k", EW_PARAM_FLOAT, HARM_OUTLIER_K, 0.0f, 1000.0f,
      "before the method, scale isolated extreme samples (fireflies) down to the median + k spreads of the "
      "neighbours of their own surface, in albedo-demodulated radiance; 0 turns it off"},
@@ -174,6 +181,20 @@ static int views_in_place(const ew_op *op, int cc, int pre, const float *in[3], 
 static int pre_steps(const ew_op *op) {
     if (!(ew_op_param(op, "outlier_k") > 0.0f)) return 0;
     return strcmp(op->type->kind, "denoiser") ? 2 : 1;
+}
+
+/* The pilot needs the features kpcn reads; kpcn is its own pilot (the
+ * estimate would compare the method with a smaller copy of itself). */
+static int pilot_possible(const ew_op *op) {
+    return strcmp(op->type->name, HARM_PILOT_METHOD) != 0 && slot(op, "albedo") >= 0 && slot(op, "normal") >= 0 &&
+           slot(op, "depth") >= 0;
+}
+
+static ew_result pilot_params(ew_op *p) {
+    ew_result r = ew_op_set_param(p, "do_no_harm", 0.0f, 1);
+    if (r == EW_OK) r = ew_op_set_param(p, "outlier_k", 0.0f, 0);
+    if (r == EW_OK) r = ew_op_set_param(p, "max_memory_mb", (float)HARM_PILOT_MEMORY_MB, 1);
+    return r;
 }
 
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
@@ -380,6 +401,65 @@ float *ew_harm_clamp_removed(const ew_op *op) {
     return s ? s->removed : NULL;
 }
 
+/* The pilot's output (3 floats a pixel, host memory) on the colour the
+ * method is about to read and the op's features: kpcn's default model
+ * without a stage of its own (the colour is the stage's, rejected already),
+ * built for this frame and freed after it, so that its tiles are not held
+ * while the method runs. NULL in *out when it could not run (the stage
+ * then blends as without it). */
+static ew_result run_pilot(ew_op *op, float **out) {
+    *out = NULL;
+    const ew_image *c = ew_op_image(op, "color");
+    const size_t n = (size_t)c->width * (size_t)c->height;
+    float *buf = (float *)malloc(n * 3 * sizeof(float));
+    ew_op *p = NULL;
+    ew_result r = buf ? ew_op_create_kind(op->dev, "denoiser", HARM_PILOT_METHOD, &p) : EW_ERR_OUT_OF_MEMORY;
+    if (r == EW_OK) r = pilot_params(p);
+    static const char *const in[] = {"color", "albedo", "normal", "depth"};
+    for (int i = 0; r == EW_OK && i < 4; i++) r = ew_op_set_image(p, in[i], ew_op_image(op, in[i]));
+    const ew_image o = ew_image_packed(buf, c->width, c->height, 3);
+    if (r == EW_OK) r = ew_op_set_image(p, "output", &o);
+    if (r == EW_OK) r = ew_op_commit(p);
+    if (r == EW_OK) r = ew_op_execute(p);
+    ew_op_destroy(p);
+    if (r != EW_OK) {
+        free(buf);
+        return r == EW_ERR_CANCELLED ? r : EW_OK;
+    }
+    *out = buf;
+    return EW_OK;
+}
+
+/* The pilot's second estimate over the blended output (kernels/harm.h),
+ * a share `share` of it. */
+static ew_result apply_pilot(ew_op *op, ew_harm_state *s, ew_harm_args *ha, float *host, float share) {
+    ew_device *dev = op->dev;
+    const ew_image v = ew_image_packed(host, s->w, s->h, 3);
+    float *p = (float *)ew_dev_view_in_place(dev, &v, 3, NULL), *mem = NULL;
+    if (!p) {
+        const size_t stage = ew_dev_stage_floats(dev, (size_t)s->w * s->h, 3);
+        float *st = stage ? (float *)malloc(stage * sizeof(float)) : NULL;
+        mem = (float *)ew_dev_alloc(dev, (size_t)s->w * s->h * 3 * sizeof(float));
+        ew_result r = !mem || (stage && !st) ? EW_ERR_OUT_OF_MEMORY : ew_dev_put_view(dev, &v, 3, mem, st);
+        free(st);
+        if (r != EW_OK) {
+            ew_dev_free(dev, mem);
+            return r == EW_ERR_OUT_OF_MEMORY ? EW_OK : r; /* no pilot: the blend as without it */
+        }
+        p = mem;
+    }
+    ha->pilot = p;
+    ha->pilot_share = share;
+    ha->spread = s->b;
+    dev->backend->harm(dev, EW_HARM_PILOT_SQ, ha);
+    dev->backend->harm(dev, EW_HARM_PILOT_H, ha);
+    dev->backend->harm(dev, EW_HARM_PILOT_V, ha);
+    ew_result r = dev->backend->sync(dev, 0);
+    ew_dev_free(dev, mem);
+    ha->pilot = NULL;
+    return r;
+}
+
 ew_result ew_harm_execute(ew_op *op) {
     ew_harm_state *s = (ew_harm_state *)op->harm;
     ew_device *dev = op->dev;
@@ -427,6 +507,17 @@ ew_result ew_harm_execute(ew_op *op) {
             op->images[ci] = ew_image_packed(s->fed, s->w, s->h, s->cc);
         }
     }
+    /* the pilot reads what the method reads, before the method may write
+     * its output over the colour */
+    float *pilot = NULL;
+    const int post = ew_op_param(op, "do_no_harm") != 0.0f && ha.fade < 1.0f;
+    if (post && quiet > 0.0f && pilot_possible(op)) {
+        r = run_pilot(op, &pilot);
+        if (r != EW_OK) {
+            op->images[ci] = saved;
+            return r;
+        }
+    }
     if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
         r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
         if (r != EW_OK) return r;
@@ -436,7 +527,10 @@ ew_result ew_harm_execute(ew_op *op) {
     ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     r = op->type->execute(op);
     op->images[ci] = saved;
-    if (r != EW_OK) return r;
+    if (r != EW_OK) {
+        free(pilot);
+        return r;
+    }
     const ew_image *out = ew_op_image(op, "output");
     /* an output view packed as the stage's RGB is blended and given its
      * light in place: no second frame of the result beside the statistics
@@ -447,14 +541,17 @@ ew_result ew_harm_execute(ew_op *op) {
     if (!res) {
         res = s->a;
         r = ew_dev_put_view(dev, out, 3, res, s->stage);
-        if (r != EW_OK) return r;
+        if (r != EW_OK) {
+            free(pilot);
+            return r;
+        }
     }
     ha.out = res;
     ha.stats = s->b;
     ha.give = s->removed;
     /* faded out (a noisy frame), the blend would keep every pixel of the
      * method's output: its statistics are not computed at all */
-    if (ew_op_param(op, "do_no_harm") != 0.0f && ha.fade < 1.0f) {
+    if (post) {
         /* a backend that blends in bands of rows keeps their statistics
          * itself: only the first 3 floats a pixel of b (the energy return's
          * box sums) are touched after the method */
@@ -464,6 +561,11 @@ ew_result ew_harm_execute(ew_op *op) {
             dev->backend->harm(dev, EW_HARM_STATS, &ha);
             dev->backend->harm(dev, EW_HARM_BLEND, &ha);
         }
+    }
+    if (pilot) {
+        r = apply_pilot(op, s, &ha, pilot, quiet);
+        free(pilot);
+        if (r != EW_OK) return r;
     }
     /* the light the clamps took (kernels/harm.h): the method's clamp's back
      * where it was taken, the rejection's to the whole frame as one gain.

@@ -20,6 +20,7 @@
 #include <math.h>
 #include <sys/resource.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "frame_energy.h"
 #include "method_run.h"
@@ -481,14 +482,19 @@ static int is_denoising(const ew_method_spec *s) {
  * reference's local maximum) and the energy; else check output - input
  * against `margin` dB; must_meet: check the target (the energy, or the
  * margin) too. Returns the failures. */
-static int harm_case(const char *scene, int spp, int firefly, double margin, int must_meet) {
+static int harm_case_of(const char *scene, int spp, int firefly, double margin, int must_meet, const char *only) {
     collect();
     const char *root = getenv("EW_STABILITY_DATA");
     if (!root || !root[0]) root = EW_STABILITY_DATA_DIR;
     char err[512];
     ew_layer_data d;
     float *refc;
-    if (read_render(root, scene, spp, "f0001_ref1024.exr", &d, &refc, err, sizeof err) != 0) {
+    /* the suite's own renders have 1024-spp references; a crop of a render
+     * cache scene its 256-spp one */
+    char ref[2048];
+    snprintf(ref, sizeof ref, "%s/%s/f0001_ref1024.exr", root, scene);
+    const char *ref_name = access(ref, R_OK) == 0 ? "f0001_ref1024.exr" : "f0001_ref0256.exr";
+    if (read_render(root, scene, spp, ref_name, &d, &refc, err, sizeof err) != 0) {
         fprintf(stderr, "  %s/%s: %s\n", root, scene, err);
         return 1;
     }
@@ -531,7 +537,7 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
             }
         }
         int ok, target;
-        const int check = must_meet;
+        const int check = must_meet && (!only || strstr(only, all_specs[m].label));
         if (firefly) {
             const int energy = fig[1][0] >= 0.85 && fig[1][0] <= 1.10;
             target = energy && fig[1][1] <= 10.0;
@@ -554,6 +560,10 @@ static int harm_case(const char *scene, int spp, int firefly, double margin, int
     return fails;
 }
 
+static int harm_case(const char *scene, int spp, int firefly, double margin, int must_meet) {
+    return harm_case_of(scene, spp, firefly, margin, must_meet, NULL);
+}
+
 TEST(firefly_energy_1spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 1, 1, 10.0, 0), 0); }
 TEST(firefly_energy_4spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 4, 1, 15.0, 0), 0); }
 TEST(firefly_energy_16spp) { CHECK_EQ_INT(harm_case("d_firefly_1_64x64", 16, 1, 10.0, 0), 0); }
@@ -572,6 +582,17 @@ TEST(glossy_no_harm_16spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 16, 0, 0
 TEST(glossy_no_harm_64spp) { CHECK_EQ_INT(harm_case("b_glossy_1_64x64", 64, 0, -0.2, 1), 0); }
 TEST(motionblur_no_harm_16spp) { CHECK_EQ_INT(harm_case("f_motionblur_1_64x64", 16, 0, 0.0, 1), 0); }
 TEST(motionblur_no_harm_64spp) { CHECK_EQ_INT(harm_case("f_motionblur_1_64x64", 64, 0, -0.2, 1), 0); }
+/* The 64x64 region of a render cache training frame (b_glossy_150001, a
+ * reflection of texture on a glossy floor) where bgrid fell furthest below
+ * its input. The target is checked for the methods the stage's pilot
+ * serves (denoisers with albedo, normal and depth, other than kpcn;
+ * src/harm_stage.c): before it bgrid -0.80 / -3.74 dB and nbg -0.47 /
+ * -1.89 dB at 16 / 64 spp, with it +0.05 / -0.16 and +0.13 / -0.18 dB.
+ * The others miss it here and print "target missed": auto (kpcn-large)
+ * -0.21 / -0.72, kpcn -0.03 / +0.11, the filters (run demodulated, no
+ * features, so no pilot) -0.8 to -1.1 / -2.5 to -3.5 dB. */
+TEST(glossy_floor_no_harm_16spp) { CHECK_EQ_INT(harm_case_of("b_glossy_150001_64x64", 16, 0, 0.0, 1, "bgrid nbg"), 0); }
+TEST(glossy_floor_no_harm_64spp) { CHECK_EQ_INT(harm_case_of("b_glossy_150001_64x64", 64, 0, -0.2, 1, "bgrid nbg"), 0); }
 
 /* 1 spp: the stage never makes a method worse (the check above) on noise
  * whose windows are a few bright samples. Before the blend faded with the

@@ -255,12 +255,13 @@ TEST(converged_detail_is_not_smoothed_below_the_input) {
         fprintf(stderr, "  noise %.0f %%: input %.2f dB, bgrid alone %.2f dB, with the stage %.2f dB\n",
                 100.0 * noise[k] / 2.0, p_in, p_off, p_on);
         if (k == 0) {
-            /* what the method does alone: 40 dB below a 64 dB input; the stage
-             * takes back most of it (measured 23.6 -> 50.2 dB), not all: the
-             * error at the stripes' edges is at the scale of one pixel, where
-             * the blend's estimates read it as noise */
+            /* what the method does alone: 40 dB below a 64 dB input. The
+             * blend's own estimates read the error at the stripes' edges,
+             * at the scale of one pixel, as noise (23.6 -> 51.6 dB without
+             * the pilot); on this quiet frame the pilot (kpcn on the same
+             * input, src/harm_stage.c) tells them apart: 63.2 dB measured */
             CHECK(p_off < p_in - 10.0);
-            CHECK(p_on > p_off + 10.0);
+            CHECK(p_on > p_in - 3.0);
         } else {
             CHECK(p_on >= p_off); /* on noise the stage loses nothing */
         }

@@ -780,23 +780,7 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
         }
     } else {
         for (int64_t y = begin; y < end; y++)
-            for (int x = 0; x < w; x++) {
-                const long j = (long)y * w + x;
-                switch (h->step) {
-                case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
-                case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
-                case EW_HARM_STATS: ew_harm_stats_px(x, (int)y, a); break;
-                case EW_HARM_SUM_H: ew_harm_sum_h_px(x, (int)y, a); break;
-                case EW_HARM_SUM_V: ew_harm_sum_v_px(x, (int)y, a); break;
-                case EW_HARM_GIVE: ew_harm_give_px(x, (int)y, a); break;
-                case EW_HARM_SPREAD_H: ew_harm_spread_h_px(x, (int)y, a); break;
-                case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, (int)y, a); break;
-                case EW_HARM_TAKE: ew_harm_take_px(j, a); break;
-                case EW_HARM_SCALE: ew_harm_scale_px(j, a); break;
-                case EW_HARM_EXCESS: ew_harm_excess_px(j, a); break;
-                default: ew_harm_blend_px(x, (int)y, a); break;
-                }
-            }
+            for (int x = 0; x < w; x++) ew_harm_px(h->step, x, (int)y, a);
     }
     free(buf);
     free(ring.held);

@@ -87,21 +87,7 @@ EW_HD ew_launch ew_kl_harm(const ew_harm_args *a) { return ew_launch_2d(a->width
 EW_HD void ew_kb_harm(const ew_thread *t, int step, const ew_harm_args *a) {
     const int x = ew_tx(t), y = ew_ty(t);
     if (x >= a->width || y >= a->height) return;
-    const long j = (long)y * a->width + x;
-    switch (step) {
-    case EW_HARM_DEMOD: ew_harm_demod_px(j, a); break;
-    case EW_HARM_REMOD: ew_harm_remod_px(j, a); break;
-    case EW_HARM_STATS: ew_harm_stats_px(x, y, a); break;
-    case EW_HARM_SUM_H: ew_harm_sum_h_px(x, y, a); break;
-    case EW_HARM_SUM_V: ew_harm_sum_v_px(x, y, a); break;
-    case EW_HARM_GIVE: ew_harm_give_px(x, y, a); break;
-    case EW_HARM_SPREAD_H: ew_harm_spread_h_px(x, y, a); break;
-    case EW_HARM_SPREAD_V: ew_harm_spread_v_px(x, y, a); break;
-    case EW_HARM_TAKE: ew_harm_take_px(j, a); break;
-    case EW_HARM_SCALE: ew_harm_scale_px(j, a); break;
-    case EW_HARM_EXCESS: ew_harm_excess_px(j, a); break;
-    default: ew_harm_blend_px(x, y, a); break;
-    }
+    ew_harm_px(step == EW_HARM_STATS_BLEND ? EW_HARM_BLEND : step, x, y, a);
 }
 
 /* ---- temporal accumulation ---------------------------------------------- */
