@@ -54,7 +54,7 @@
 #define EW_KPCN_MAX_SCALES 5
 #define EW_KPCN_MAX_LAYERS (3 * EW_KPCN_MAX_SCALES)
 #define EW_KPCN_MIN_CH 4
-#define EW_KPCN_MAX_CH 32
+#define EW_KPCN_MAX_CH 64
 
 typedef struct ew_kpcn_layer {
     int scale, in_plane, cin, out_plane, cout, act;
