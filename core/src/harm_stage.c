@@ -190,13 +190,6 @@ static int pilot_possible(const ew_op *op) {
            slot(op, "depth") >= 0;
 }
 
-static ew_result pilot_params(ew_op *p) {
-    ew_result r = ew_op_set_param(p, "do_no_harm", 0.0f, 1);
-    if (r == EW_OK) r = ew_op_set_param(p, "outlier_k", 0.0f, 0);
-    if (r == EW_OK) r = ew_op_set_param(p, "max_memory_mb", (float)HARM_PILOT_MEMORY_MB, 1);
-    return r;
-}
-
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     const int pre = pre_steps(op), post = ew_op_param(op, "do_no_harm") != 0.0f;
     if (!has_stage(op->type) || op->type->stage_in_inner || (!pre && !post)) return 0;
@@ -414,7 +407,9 @@ static ew_result run_pilot(ew_op *op, float **out) {
     float *buf = (float *)malloc(n * 3 * sizeof(float));
     ew_op *p = NULL;
     ew_result r = buf ? ew_op_create_kind(op->dev, "denoiser", HARM_PILOT_METHOD, &p) : EW_ERR_OUT_OF_MEMORY;
-    if (r == EW_OK) r = pilot_params(p);
+    if (r == EW_OK) r = ew_op_set_param(p, "do_no_harm", 0.0f, 1);
+    if (r == EW_OK) r = ew_op_set_param(p, "outlier_k", 0.0f, 0);
+    if (r == EW_OK) r = ew_op_set_param(p, "max_memory_mb", (float)HARM_PILOT_MEMORY_MB, 1);
     static const char *const in[] = {"color", "albedo", "normal", "depth"};
     for (int i = 0; r == EW_OK && i < 4; i++) r = ew_op_set_image(p, in[i], ew_op_image(op, in[i]));
     const ew_image o = ew_image_packed(buf, c->width, c->height, 3);
@@ -507,6 +502,13 @@ ew_result ew_harm_execute(ew_op *op) {
             op->images[ci] = ew_image_packed(s->fed, s->w, s->h, s->cc);
         }
     }
+    if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
+        r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
+        if (r != EW_OK) return r;
+    }
+    /* the radiance and the rejected radiance are dead while the method
+     * runs (its output and the residual statistics overwrite them after it) */
+    ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     /* the pilot reads what the method reads, before the method may write
      * its output over the colour */
     float *pilot = NULL;
@@ -518,13 +520,6 @@ ew_result ew_harm_execute(ew_op *op) {
             return r;
         }
     }
-    if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
-        r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
-        if (r != EW_OK) return r;
-    }
-    /* the radiance and the rejected radiance are dead while the method
-     * runs (its output and the residual statistics overwrite them after it) */
-    ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     r = op->type->execute(op);
     op->images[ci] = saved;
     if (r != EW_OK) {
