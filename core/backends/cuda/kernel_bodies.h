@@ -87,7 +87,7 @@ EW_HD ew_launch ew_kl_harm(const ew_harm_args *a) { return ew_launch_2d(a->width
 EW_HD void ew_kb_harm(const ew_thread *t, int step, const ew_harm_args *a) {
     const int x = ew_tx(t), y = ew_ty(t);
     if (x >= a->width || y >= a->height) return;
-    ew_harm_px(step == EW_HARM_STATS_BLEND ? EW_HARM_BLEND : step, x, y, a);
+    ew_harm_px(step, x, y, a);
 }
 
 /* ---- temporal accumulation ---------------------------------------------- */
