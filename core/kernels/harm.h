@@ -565,7 +565,7 @@ EW_HD void ew_harm_pilot_h_px(int x, int y, const ew_harm_args *a) {
 }
 
 /* PILOT_V: ... and along the column, then the blend by N / (N + D), taken
- * pilot_share of the way (a ramp with the frame's quietness) */
+ * pilot_share of the way (a ramp with the frame's noise level) */
 EW_HD void ew_harm_pilot_v_px(int x, int y, const ew_harm_args *a) {
     const long n = (long)a->width * a->height;
     float sn = 0.0f, sd = 0.0f;
