@@ -25,8 +25,8 @@
  *      energy R and its neighbour correlation C over a window
  *      (kernels/harm.h says why that estimates the blend of least error).
  *      The input blended toward is the input after step 1, so a rejected
- *      firefly does not come back. On a frame the blend does not fade on
- *      (4-64 spp, where a method's harm is what is left of its error)
+ *      firefly does not come back. On a frame of low noise (most of
+ *      16-64 spp, where a method's harm is what is left of its error)
  *      with albedo, normal and depth, a second estimate from a pilot: kpcn
  *      run on the same input, with a stage of its own (kernels/harm.h, "The
  *      pilot"); not for kpcn itself.
@@ -70,6 +70,7 @@
 #define HARM_QUIET_KAPPA 0.85f    /* on a quiet frame a share of H is the method's own error */
 #define HARM_FADE_NOISE 0.025     /* from this noise level the blend fades ... */
 #define HARM_OFF_NOISE 0.04       /* ... to none at this one */
+#define HARM_PILOT_NOISE 0.016    /* the pilot's share from 0 at this noise level to 1 at HARM_NOISY_NOISE */
 #define HARM_REJECT_KEEP 0.75     /* a rejection that took more of the frame's mean runs again */
 #define HARM_GIVE_RADIUS 24       /* the method's clamp's light comes back over 49x49 pixels */
 #define HARM_GIVE_LIMIT 30.0      /* a pixel gives back at most 30x the output frame's mean luminance */
@@ -84,9 +85,9 @@
 static const ew_param_desc stage_on[] = {
     {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
      "blend the result toward the input where it differs from the input by more than the input's noise "
-     "explains (detail a converged frame already had). With albedo, normal and depth, on most frames of 4 samples "
-     "or more, a method other than kpcn is also compared with kpcn run on the same input, which tells noise from "
-     "detail for about kpcn's time; 0: the method's output as it is"},
+     "explains (detail a converged frame already had). With albedo, normal and depth, on a frame of low noise "
+     "(most frames of 16 samples or more), a method other than kpcn is also compared with kpcn run on the same "
+     "input, which tells noise from detail for about kpcn's time; 0: the method's output as it is"},
     {"outlier_k", EW_PARAM_FLOAT, HARM_OUTLIER_K, 0.0f, 1000.0f,
      "before the method, scale isolated extreme samples (fireflies) down to the median + k spreads of the "
      "neighbours of their own surface, in albedo-demodulated radiance; 0 turns it off"},
@@ -334,16 +335,20 @@ static float quietness(double noise) { return noise_ramp(noise, HARM_NOISY_NOISE
  * +2.7 on average; up to 15 dB below the input without it). */
 static float fade_of(double noise) { return noise_ramp(noise, HARM_FADE_NOISE, HARM_OFF_NOISE); }
 
-/* The share of the pilot's estimate (kernels/harm.h): 0 from the noise
- * level where the blend starts to fade, 1 on a frame no noisier than
- * HARM_NOISY_NOISE, a ramp between. Below 0.011 only (a quiet frame), a
- * 64-spp glossy frame of noise 0.0115 ran without it and kept bgrid and
- * nbg 1.3-1.6 dB below their input; on 284 render-cache training scenes
- * at 16 and 64 spp the ramp from 0.025 (with the pilot's own stage, below)
- * took the frames below input - 0.2 dB at 64 spp from 6 to 1 for bgrid
- * and 2 to 1 for nbg, and bgrid's worst at 16 spp from -0.25 to +0.14 dB,
- * the means +0.02 to +0.07 dB; on 40 of them at 4 spp bgrid +0.13 dB. */
-static float pilot_share_of(double noise) { return noise_ramp(noise, HARM_FADE_NOISE, HARM_NOISY_NOISE); }
+/* The share of the pilot's estimate (kernels/harm.h): 0 from
+ * HARM_PILOT_NOISE, 1 on a frame no noisier than HARM_NOISY_NOISE, a ramp
+ * between. As a quiet frame's share (0.011 -> 0.007) it left a 64-spp
+ * glossy frame of noise 0.0115 without it and bgrid and nbg 1.3-1.6 dB
+ * below their input, and took only a third of it on frames of 0.0092 and
+ * 0.0098 where bgrid stayed 0.6-0.8 dB below. On 306 render-cache training
+ * scenes at 16 and 64 spp this ramp (with the pilot's own stage, below)
+ * took the frames below input - 0.2 dB at 64 spp from 6 to 1 for bgrid and
+ * from 2 to 1 for nbg, and bgrid's worst at 16 spp from -0.25 to +0.14 dB,
+ * the means +0.02 to +0.06 dB. A ramp from the fade's 0.025 did the same
+ * there and +0.13 against +0.06 dB for bgrid at 4 spp (40 of the scenes),
+ * but ran the pilot on most 4-spp frames: the median 4-spp frame's bgrid
+ * 22 -> 81 ms against 22 -> 25. */
+static float pilot_share_of(double noise) { return noise_ramp(noise, HARM_PILOT_NOISE, HARM_NOISY_NOISE); }
 
 /* Step 1 into s->clamped (s->a holds the demodulated radiance). The floor of the spread is the frame's mean
  * radiance; when the rejection itself took more than a quarter of it, that

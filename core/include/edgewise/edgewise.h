@@ -227,9 +227,9 @@ EW_API const char *ew_op_describe(const ew_op *op);
  * For "auto", the most of the methods it may pick for such a frame (at the
  * sample count set, else at any). The caller's own buffers (the images) are
  * not included. EW_ERR_UNSUPPORTED for a method that gives no estimate
- * (the filters, for now). Not included either: on most frames of 4
- * samples or more a denoiser's do-no-harm stage runs kpcn (with its own
- * stage) on the same input during execute (its own estimate at
+ * (the filters, for now). Not included either: on a frame of low noise
+ * (most of 16 samples or more) a denoiser's do-no-harm stage runs kpcn
+ * (with its own stage) on the same input during execute (its own estimate at
  * max_memory_mb 256, plus 12 bytes a pixel), freed before execute
  * returns. */
 EW_API ew_result ew_op_memory(ew_op *op, int32_t width, int32_t height, uint64_t *bytes);
