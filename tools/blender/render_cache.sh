@@ -11,6 +11,8 @@
 #   -W W -H H     resolution (default 256x256)
 #   -j THREADS    Cycles threads per render, 0 = all cores (default 0)
 #   -N NICE       niceness of the renders (default 10: builds and tests go first)
+#   -S STYLE      render_scene.py's --style: busy (default) or simple (the shared
+#                 cycles-train set's look; its eight families; seeds base + 20000)
 #   -c            check: verify every complete scene's checksums, render nothing
 #   -d            dry run: print what would be rendered
 #   -h            help
@@ -28,7 +30,7 @@
 # missing (renders are deterministic per seed up to Cycles' last-bit noise).
 #
 # Seeds. Scene i of family k (k = position in the full list below) gets
-#     seed = base + 16*i + k,  base 150000 (train) or 250000 (val)
+#     seed = base + 16*i + k,  base 150000 (train) or 250000 (val), 20000 more for -S simple,
 # inside make_dataset.sh's train (100000..199999) and val (200000..299999) ranges, so
 # never a test seed (300000..) and never one of the shared cycles-train scenes (100..123),
 # which hold the test scenes of BENCHMARKS.md. Families are interleaved, so any prefix of
@@ -50,23 +52,26 @@ width=256
 height=256
 threads=0
 niceness=10
+style=busy
+families_given=0
 check=0
 dry=0
 
 usage() { sed -n '2,/^set -eu/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
 
-while getopts "o:s:n:f:p:r:W:H:j:N:cdh" opt; do
+while getopts "o:s:n:f:p:r:W:H:j:N:S:cdh" opt; do
     case $opt in
         o) out=$OPTARG ;;
         s) split=$OPTARG ;;
         n) count=$OPTARG ;;
-        f) families=$OPTARG ;;
+        f) families=$OPTARG; families_given=1 ;;
         p) spp=$OPTARG ;;
         r) ref=$OPTARG ;;
         W) width=$OPTARG ;;
         H) height=$OPTARG ;;
         j) threads=$OPTARG ;;
         N) niceness=$OPTARG ;;
+        S) style=$OPTARG ;;
         c) check=1 ;;
         d) dry=1 ;;
         h) usage; exit 0 ;;
@@ -84,6 +89,13 @@ case $split in
     train) base=150000 ;;
     val) base=250000 ;;
     *) echo "render_cache.sh: split must be train or val (test scenes are never rendered here)" >&2; exit 2 ;;
+esac
+case $style in
+    busy) ;;
+    simple)
+        base=$((base + 20000))
+        [ "$families_given" = 1 ] || families=cornell,glossy,glass,firefly,dof,motionblur,anim,hdri ;;
+    *) echo "render_cache.sh: style must be busy or simple" >&2; exit 2 ;;
 esac
 
 # family -> "letter index" in the full list (the index fixes the seed)
@@ -143,7 +155,7 @@ while [ "$n" -lt "$count" ]; do
         t0=$(date +%s)
         if nice -n "$niceness" "$blender" -b --factory-startup --python "$script" -- \
                 --family "$fam" --seed "$seed" --width "$width" --height "$height" \
-                --spp "$spp" --ref-spp "$ref" --frames "$frames" --threads "$threads" \
+                --spp "$spp" --ref-spp "$ref" --frames "$frames" --threads "$threads" --style "$style" \
                 --out "$dir.partial" </dev/null \
             && [ -f "$dir.partial/meta.json" ] \
             && (cd "$dir.partial" && sha256sum -- *.exr meta.json > SHA256SUMS.tmp && mv SHA256SUMS.tmp SHA256SUMS)

@@ -165,6 +165,12 @@ def build_parser():
                    help="auto-exposure target for the mean luminance (default 0.18)")
     p.add_argument("--preview-spp", type=int_range(1, 4096, "--preview-spp"), default=32,
                    help="samples of the auto-exposure preview render (default 32)")
+    p.add_argument("--style", choices=("busy", "simple"), default="busy",
+                   help="busy: many objects on procedural floors, emitters in view, a clipped "
+                        "two-pass exposure (the render cache's scenes); simple: few large objects "
+                        "near the camera, plain/checker/brick floors, lamps out of view, one "
+                        "unclipped exposure preview (the look of the shared cycles-train set; "
+                        "families cornell..hdri only; tools/blender/scenes_simple.py) (default busy)")
     p.add_argument("--no-autoexpose", action="store_true",
                    help="keep the built-in light strengths")
     p.add_argument("--threads", type=int_range(0, 1024, "--threads"), default=0,
@@ -956,8 +962,9 @@ def build_hdri(rng, ctx):
 
 # --------------------------------------------------------------------------
 # stability families: scenes where denoisers fail.  Added after the
-# dataset families; nothing above is changed, so those still reproduce the shared
-# dataset exactly.
+# dataset families, which they leave as they were, so the render cache's scenes
+# re-render the same.  (None of these builders makes the shared cycles-train set's
+# scenes: that set came from another generator; scenes_simple.py has its look.)
 
 
 def mat_volume(name, color, density, anisotropy=0.0, absorption=(0.0, 0.0, 0.0),
@@ -1380,7 +1387,7 @@ def preview_mean(sc, vl, args, tmpdir, quiet, seed):
     # Robust mean: a pixel counts as at most PREVIEW_CLIP_REL * target, so a visible sun
     # disc, a specular highlight of it or a few fireflies in a small preview do not set
     # the exposure of the whole scene.  (Exact once the scale has converged.)
-    cap = PREVIEW_CLIP_REL * args.target_mean
+    cap = PREVIEW_CLIP_REL * args.target_mean if args.style == "busy" else float("inf")
     return float(np.minimum(lum, cap).mean()), float(lum.max()), (pw, ph)
 
 
@@ -1392,7 +1399,7 @@ def autoexpose(sc, vl, args, tmpdir, quiet, seed_rng):
     total = 1.0
     steps = []
     size = None
-    for it in range(3):
+    for it in range(3 if args.style == "busy" else 1):
         m, mx, size = preview_mean(sc, vl, args, tmpdir, quiet, seed_rng.randrange(2**31 - 1))
         if not (m > 1e-8 and math.isfinite(m)):
             raise RuntimeError("auto-exposure preview rendered black (mean %r)" % m)
@@ -1406,7 +1413,7 @@ def autoexpose(sc, vl, args, tmpdir, quiet, seed_rng):
             break
     return {"preview_mean_lum": steps[0]["mean_lum"], "light_scale": total,
             "target_mean_lum": args.target_mean, "preview_size": list(size),
-            "preview_spp": args.preview_spp, "preview_clip_lum": PREVIEW_CLIP_REL * args.target_mean,
+            "preview_spp": args.preview_spp, "preview_clip_lum": PREVIEW_CLIP_REL * args.target_mean if args.style == "busy" else None,
             "previews": steps}
 
 
@@ -1471,7 +1478,15 @@ def run(args):
     ctx = {"width": args.width, "height": args.height,
            "frame_start": args.frame_start, "frames": frames}
     sc.frame_set(args.frame_start)
-    extra = BUILDERS[family](rng, ctx) or {}
+    if args.style == "simple":
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # not there under Blender
+        import scenes_simple
+        builders = scenes_simple.BUILDERS
+        if family not in builders:
+            raise UsageError("--style simple has the families %s" % ", ".join(builders))
+    else:
+        builders = BUILDERS
+    extra = builders[family](rng, ctx) or {}
     world = extra.pop("world", None)
     vector = family != "motionblur"
     n_obj = len([o for o in sc.objects if o.type == "MESH"])
@@ -1498,6 +1513,7 @@ def run(args):
     meta = {
         "family": letter,
         "family_name": family,
+        "style": args.style,
         "variant_seed": args.seed,
         "width": args.width,
         "height": args.height,
