@@ -41,7 +41,11 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off (the "
      "shipped models were trained with 3)"},
-    {"max_memory_mb", EW_PARAM_INT, 1024.0f, 1.0f, 1048576.0f,
+    /* 768, not more: regions of up to ~0.7 Mpx run faster per pixel than larger ones on the CPU (fewer
+     * first-touched pages, planes nearer the caches), which outweighs their halos down to ~0.2 Mpx; at
+     * 1920x1080 and 3840x2160 this budget's tiles ran kpcn-large faster than 1024's and took 200-260 MB less
+     * (docs/kpcn.md, "Tiles for memory") */
+    {"max_memory_mb", EW_PARAM_INT, 768.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose network planes would exceed it "
      "runs in tiles with a halo of the network's reach (36 pixels at three scales, 80 for kpcn-large's four), giving "
      "the same output; the frame-sized buffers (68 bytes a pixel, 40 when the features are packed float views "
