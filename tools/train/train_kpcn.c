@@ -99,9 +99,10 @@ static int is_test_scene(const char *name) {
 
 static const char usage[] =
     "usage: train_kpcn --arch kpcn-c<C> --out MODEL.ewm --train DIR [--shared DIR] --val DIR [options]\n"
-    "       train_kpcn --eval MODEL.ewm --val DIR [--holdout K --train DIR]\n"
+    "       train_kpcn --eval MODEL.ewm --val DIR [--holdout K --train DIR] [--eval-csv FILE]\n"
     "       train_kpcn --emit-c MODELDIR > core/algorithms/kpcn_weights_data.c\n"
     "       train_kpcn --bench W H THREADS   (time the built-in models)\n"
+    "  --eval-csv FILE       with --eval: one row a validation frame and method (scene,frame,spp,method,psnr)\n"
     "  --seed N              initialisation and patch sampling (default 1)\n"
     "  --init WEIGHTS.ewm    start from another kpcn's weights (a warm start: its channels copied, new ones\n"
     "                        random and unread at first; kpcn-c16 -> kpcn-c24-noise keeps its output until trained;\n"
@@ -132,7 +133,7 @@ static const char usage[] =
     "                        that comes before --steps, so only a run that ends by --steps repeats step for step\n";
 
 typedef struct {
-    const char *arch, *out, *eval, *shared, *loss_name, *init, *scenes;
+    const char *arch, *out, *eval, *eval_csv, *shared, *loss_name, *init, *scenes;
     const char *train[MAX_DIRS], *val[MAX_DIRS];
     int ntrain_dirs, nval_dirs;
     char csv[1024];
@@ -143,7 +144,7 @@ typedef struct {
 
 enum {
     OPT_ARCH = TRAIN_OPT_OWN, OPT_OUT, OPT_EVAL, OPT_INIT, OPT_TRAIN, OPT_VAL, OPT_SHARED, OPT_LOSS, OPT_VAL_MAX,
-    OPT_TIME_LIMIT, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP
+    OPT_TIME_LIMIT, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP, OPT_EVAL_CSV
 };
 static const struct option long_opts[] = {
     TRAIN_RUN_LONG_OPTS,
@@ -154,6 +155,7 @@ static const struct option long_opts[] = {
     {"val-max", required_argument, NULL, OPT_VAL_MAX}, {"time-limit", required_argument, NULL, OPT_TIME_LIMIT},
     {"rescan", no_argument, NULL, OPT_RESCAN}, {"holdout", required_argument, NULL, OPT_HOLDOUT},
     {"scenes", required_argument, NULL, OPT_SCENES}, {"train-spp", required_argument, NULL, OPT_TRAIN_SPP},
+    {"eval-csv", required_argument, NULL, OPT_EVAL_CSV},
     {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
 
 static int parse(int argc, char **argv, options *o) {
@@ -177,6 +179,7 @@ static int parse(int argc, char **argv, options *o) {
         case OPT_ARCH: o->arch = v; break;
         case OPT_OUT: o->out = v; break;
         case OPT_EVAL: o->eval = v; break;
+        case OPT_EVAL_CSV: o->eval_csv = v; break;
         case OPT_INIT: o->init = v; break;
         case OPT_TRAIN:
         case OPT_VAL:
@@ -495,6 +498,8 @@ static int spp_index(int spp) { return spp == 1 ? 0 : spp == 4 ? 1 : spp == 16 ?
 
 /* Mean PSNR per spp level (1/4/16/64) and over all, of a method on the
  * validation scenes. */
+static FILE *eval_rows; /* --eval-csv: per-frame rows, for differences between models scene by scene */
+
 static int validate(ew_device *dev, const char *method, const void *weights, size_t wsize, double *per, double *all,
                     int *nval_scenes) {
     double sum[4] = {0, 0, 0, 0};
@@ -508,6 +513,7 @@ static int validate(ew_device *dev, const char *method, const void *weights, siz
             if ((size_t)f->w * f->h * 3 > sizeof out / sizeof out[0]) continue;
             double p;
             if (run_op(dev, f, method, weights, wsize, out, &p)) return 1;
+            if (eval_rows) fprintf(eval_rows, "%s,%d,%d,%s,%.4f\n", scenes[i].name, k, f->spp, method ? method : "input", p);
             sum[spp_index(f->spp)] += p;
             cnt[spp_index(f->spp)]++;
         }
@@ -755,10 +761,24 @@ static int evaluate(const options *opt, ew_device *dev) {
     }
     double per[4], all, pn[4], an, pi[4], ai, pa[4], aa;
     int ns;
+    if (o.eval_csv) {
+        eval_rows = fopen(o.eval_csv, "w");
+        if (!eval_rows) {
+            fprintf(stderr, "train_kpcn: cannot write '%s': %s\n", o.eval_csv, strerror(errno));
+            free(b);
+            return 1;
+        }
+        fprintf(eval_rows, "scene,frame,spp,method,psnr\n");
+    }
     auto_quality = 0;
     const int bad = validate(dev, "kpcn", b, size, per, &all, &ns) || validate(dev, "nbg", NULL, 0, pn, &an, &ns) ||
                     validate(dev, NULL, NULL, 0, pi, &ai, &ns) || validate(dev, "auto", NULL, 0, pa, &aa, &ns);
     free(b);
+    if (eval_rows && fclose(eval_rows) != 0) {
+        fprintf(stderr, "train_kpcn: cannot write '%s': %s\n", o.eval_csv, strerror(errno));
+        return 1;
+    }
+    eval_rows = NULL;
     if (bad) return 1;
     printf("%d scenes, PSNR at 1/4/16/64 spp and all:\n", ns);
     printf("  input %6.2f %6.2f %6.2f %6.2f | %6.2f\n", pi[0], pi[1], pi[2], pi[3], ai);
