@@ -1386,7 +1386,8 @@ def preview_mean(sc, vl, args, tmpdir, quiet, seed):
     lum = rgb @ np.array([0.2126, 0.7152, 0.0722])
     # Robust mean: a pixel counts as at most PREVIEW_CLIP_REL * target, so a visible sun
     # disc, a specular highlight of it or a few fireflies in a small preview do not set
-    # the exposure of the whole scene.  (Exact once the scale has converged.)
+    # the exposure of the whole scene.  (Exact once the scale has converged.)  The simple
+    # style takes the plain mean, as the shared set's generator did (scenes_simple.py).
     cap = PREVIEW_CLIP_REL * args.target_mean if args.style == "busy" else float("inf")
     return float(np.minimum(lum, cap).mean()), float(lum.max()), (pw, ph)
 
@@ -1395,7 +1396,8 @@ def autoexpose(sc, vl, args, tmpdir, quiet, seed_rng):
     """Scale every emitter (lamps, emission shaders, world) so the preview's robust mean
     luminance hits the target.  Repeats the preview (at most 3 in all) while the
     correction is beyond +-25 %: sample clamping and the clipped mean are not linear in
-    the light strength."""
+    the light strength.  The simple style renders one preview, as the shared set's
+    generator did."""
     total = 1.0
     steps = []
     size = None
