@@ -48,7 +48,8 @@ static const ew_param_desc params[] = {
     {"max_memory_mb", EW_PARAM_INT, 768.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose network planes would exceed it "
      "runs in tiles with a halo of the network's reach (36 pixels at three scales, 80 for kpcn-large's four), giving "
-     "the same output; the frame-sized buffers (68 bytes a pixel, 40 when the features are packed float views "
+     "the same output (on the CPU, frames above ~0.75 Mpx run in tiles whatever the budget: faster there); "
+     "the frame-sized buffers (68 bytes a pixel, 40 when the features are packed float views "
      "read in place) and "
      "a 256x256 tile come first, so a small budget can be exceeded"},
     {"passes", EW_PARAM_INT, 1.0f, 1.0f, 4.0f,
@@ -120,6 +121,12 @@ static void release(ew_op *op) {
 #define FRAME_FLOATS 17
 #define TILE_EXTRA_FLOATS 3
 #define MIN_CORE 256
+/* On the CPU a region above ~0.75 Mpx costs more a pixel than smaller
+ * ones (more pages touched for the first time, planes farther from the
+ * caches), more than the halos of smaller regions cost down to ~0.2 Mpx:
+ * frames above a FAST_REGION-sided square run in tiles whatever the budget
+ * (docs/kpcn.md, "Tiles for memory", has the sweep) */
+#define FAST_REGION 864
 
 /* Several passes (the "passes" parameter): the features are the op's own
  * copies, mirrored in place between runs, and a sum plane holds the runs. */
@@ -157,7 +164,12 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_til
      * such a tile's region is the least the tiles get */
     const int least = MIN_CORE + 2 * ew_kpcn_halo(net);
     const size_t floor = ew_kpcn_device_floats(net, least, least) + (size_t)TILE_EXTRA_FLOATS * least * least;
-    const size_t tiles = budget > frame + floor ? budget - frame : floor;
+    size_t tiles = budget > frame + floor ? budget - frame : floor;
+    if (!op->dev->device_memory) {
+        const size_t fast = ew_kpcn_device_floats(net, FAST_REGION, FAST_REGION) +
+                            (size_t)TILE_EXTRA_FLOATS * FAST_REGION * FAST_REGION;
+        if (tiles > fast) tiles = fast;
+    }
     ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, t);
     const int tiled = t->nx * t->ny > 1;
     return frame + ew_kpcn_device_floats(net, t->rw, t->rh) +

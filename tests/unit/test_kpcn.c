@@ -880,6 +880,46 @@ TEST(tiles_with_winograd_give_the_untiled_output_to_rounding) {
     tiles_case("kpcn-c24-noise-s4-ra", 0); /* the shipped large model's layers */
 }
 
+/* The CPU runs frames above FAST_REGION's ~0.75 Mpx in tiles however large
+ * the budget (smaller regions are cheaper a pixel there); a frame under it
+ * runs whole. The commit decides; the built-in model, no execute. */
+static void tiles_at(int w, int h, char *what, size_t len) {
+    ew_device *dev = make_device(1);
+    CHECK(dev != NULL);
+    ew_denoiser *d = NULL;
+    CHECK(ew_denoiser_create(dev, "kpcn", &d) == EW_OK);
+    scene sc;
+    scene_make(&sc, w, h, 3);
+    float *out = malloc(sizeof(float) * 3 * (size_t)w * h);
+    CHECK(out != NULL);
+    ew_image c = ew_image_packed(sc.color, w, h, 3), a = ew_image_packed(sc.albedo, w, h, 3);
+    ew_image n = ew_image_packed(sc.normal, w, h, 3), z = ew_image_packed(sc.depth, w, h, 1);
+    ew_image o = ew_image_packed(out, w, h, 3);
+    CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "normal", &n) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+    CHECK(ew_denoiser_set_int(d, "max_memory_mb", 65536) == EW_OK);
+    const ew_result r = ew_denoiser_commit(d);
+    CHECK(r == EW_OK);
+    snprintf(what, len, "%s", r == EW_OK ? ew_denoiser_describe(d) : "(commit failed)");
+    ew_denoiser_destroy(d);
+    free(out);
+    scene_free(&sc);
+    ew_device_destroy(dev);
+}
+
+TEST(large_frames_run_in_tiles_on_the_cpu_whatever_the_budget) {
+    char what[160];
+    tiles_at(800, 800, what, sizeof what); /* 0.64 Mpx */
+    fprintf(stderr, "  800x800: %s\n", what);
+    CHECK(strstr(what, "tiles") == NULL);
+    tiles_at(1280, 720, what, sizeof what); /* 0.92 Mpx */
+    fprintf(stderr, "  1280x720: %s\n", what);
+    CHECK_STR_CONTAINS(what, "2x1 tiles");
+}
+
 /* ---- passes: the network on mirrored frames, averaged ------------------- */
 /* A w x h x c frame mirrored along x and/or y into dst. */
 static void mirror_frame(const float *src, float *dst, int w, int h, int c, int mx, int my) {
