@@ -155,6 +155,11 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
     return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + 64;
 }
 
+/* The device floats of a tiled side x side region. */
+static size_t square_region_floats(const ew_kpcn_net *net, int side) {
+    return ew_kpcn_device_floats(net, side, side) + (size_t)TILE_EXTRA_FLOATS * side * side;
+}
+
 /* The tiles of a w x h frame under max_memory_mb, and the device floats of
  * the commit. */
 static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_tiling *t) {
@@ -162,14 +167,10 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_til
     const size_t frame = frame_floats(op, net, w, h);
     /* below a 256-pixel core the halos would more than double the work:
      * such a tile's region is the least the tiles get */
-    const int least = MIN_CORE + 2 * ew_kpcn_halo(net);
-    const size_t floor = ew_kpcn_device_floats(net, least, least) + (size_t)TILE_EXTRA_FLOATS * least * least;
+    const size_t floor = square_region_floats(net, MIN_CORE + 2 * ew_kpcn_halo(net));
     size_t tiles = budget > frame + floor ? budget - frame : floor;
-    if (!op->dev->device_memory) {
-        const size_t fast = ew_kpcn_device_floats(net, FAST_REGION, FAST_REGION) +
-                            (size_t)TILE_EXTRA_FLOATS * FAST_REGION * FAST_REGION;
-        if (tiles > fast) tiles = fast;
-    }
+    const size_t fast = square_region_floats(net, FAST_REGION);
+    if (!op->dev->device_memory && tiles > fast) tiles = fast;
     ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, t);
     const int tiled = t->nx * t->ny > 1;
     return frame + ew_kpcn_device_floats(net, t->rw, t->rh) +

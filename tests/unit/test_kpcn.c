@@ -789,21 +789,27 @@ TEST(tiling_plan_covers_frame_within_budget) {
 
 /* Denoise a w x h scene with weights `bytes` and a memory budget; the
  * description in *what. */
+/* The colour, its three features and the output, w x h packed planes, on d. */
+static void set_frame(ew_denoiser *d, float *color, float *albedo, float *normal, float *depth, float *out, int w,
+                      int h) {
+    ew_image c = ew_image_packed(color, w, h, 3), a = ew_image_packed(albedo, w, h, 3);
+    ew_image n = ew_image_packed(normal, w, h, 3), z = ew_image_packed(depth, w, h, 1);
+    ew_image o = ew_image_packed(out, w, h, 3);
+    CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "normal", &n) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
+    CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+}
+
 static void denoise_budget(const scene *sc, const void *bytes, size_t size, int budget_mb, int direct, float *out,
                            char *what, size_t len) {
     ew_device *dev = direct ? make_direct_device(2) : make_device(2);
     CHECK(dev != NULL);
     ew_denoiser *d = NULL;
     CHECK(ew_denoiser_create(dev, "kpcn", &d) == EW_OK);
-    ew_image c = ew_image_packed(sc->color, sc->w, sc->h, 3), a = ew_image_packed(sc->albedo, sc->w, sc->h, 3);
-    ew_image n = ew_image_packed(sc->normal, sc->w, sc->h, 3), z = ew_image_packed(sc->depth, sc->w, sc->h, 1);
-    ew_image o = ew_image_packed(out, sc->w, sc->h, 3);
     CHECK(ew_denoiser_set_data(d, "weights", bytes, size) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "normal", &n) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+    set_frame(d, sc->color, sc->albedo, sc->normal, sc->depth, out, sc->w, sc->h);
     CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget_mb) == EW_OK);
     CHECK(ew_denoiser_commit(d) == EW_OK);
     CHECK(ew_denoiser_execute(d) == EW_OK);
@@ -892,14 +898,7 @@ static void tiles_at(int w, int h, char *what, size_t len) {
     scene_make(&sc, w, h, 3);
     float *out = malloc(sizeof(float) * 3 * (size_t)w * h);
     CHECK(out != NULL);
-    ew_image c = ew_image_packed(sc.color, w, h, 3), a = ew_image_packed(sc.albedo, w, h, 3);
-    ew_image n = ew_image_packed(sc.normal, w, h, 3), z = ew_image_packed(sc.depth, w, h, 1);
-    ew_image o = ew_image_packed(out, w, h, 3);
-    CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "normal", &n) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+    set_frame(d, sc.color, sc.albedo, sc.normal, sc.depth, out, w, h);
     CHECK(ew_denoiser_set_int(d, "max_memory_mb", 65536) == EW_OK);
     const ew_result r = ew_denoiser_commit(d);
     CHECK(r == EW_OK);
@@ -943,14 +942,7 @@ static void run_passes(ew_device *dev, const scene *sc, int passes, int mx, int 
     mirror_frame(sc->depth, z, sc->w, sc->h, 1, mx, my);
     ew_denoiser *d = NULL;
     CHECK(ew_denoiser_create(dev, "kpcn", &d) == EW_OK);
-    ew_image ci = ew_image_packed(c, sc->w, sc->h, 3), ai = ew_image_packed(a, sc->w, sc->h, 3);
-    ew_image ni = ew_image_packed(nr, sc->w, sc->h, 3), zi = ew_image_packed(z, sc->w, sc->h, 1);
-    ew_image oi = ew_image_packed(res, sc->w, sc->h, 3);
-    CHECK(ew_denoiser_set_image(d, "color", &ci) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "albedo", &ai) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "normal", &ni) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "depth", &zi) == EW_OK);
-    CHECK(ew_denoiser_set_image(d, "output", &oi) == EW_OK);
+    set_frame(d, c, a, nr, z, res, sc->w, sc->h);
     CHECK(ew_denoiser_set_int(d, "model", 1) == EW_OK);
     CHECK(ew_denoiser_set_int(d, "passes", passes) == EW_OK);
     CHECK(ew_denoiser_set_int(d, "do_no_harm", 0) == EW_OK);

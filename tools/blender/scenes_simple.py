@@ -53,8 +53,7 @@ def soft_keys(rng, energy=400.0):
 
 def row_of_objects(rng, n, kinds, size=(0.3, 0.55), spread=1.3, depth=0.8):
     """n objects spaced across the frame, a little jitter in depth."""
-    items = rs.scatter(rng, n, (-spread, spread), (-depth, depth), size, kinds, gap=0.1)
-    return items
+    return rs.scatter(rng, n, (-spread, spread), (-depth, depth), size, kinds, gap=0.1)
 
 
 def near_camera(rng, target=(0.0, 0.0, 0.45), dist=(3.6, 5.2), el=(6.0, 22.0), az=25.0,

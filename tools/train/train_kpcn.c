@@ -102,7 +102,8 @@ static const char usage[] =
     "       train_kpcn --eval MODEL.ewm --val DIR [--holdout K --train DIR] [--eval-csv FILE]\n"
     "       train_kpcn --emit-c MODELDIR > core/algorithms/kpcn_weights_data.c\n"
     "       train_kpcn --bench W H THREADS   (time the built-in models)\n"
-    "  --eval-csv FILE       with --eval: one row a validation frame and method (scene,frame,spp,method,psnr)\n"
+    "  --eval-csv FILE       with --eval: one row a validation file and method (scene,index,spp,method,psnr;\n"
+    "                        index: the file's place among the scene's loaded renders)\n"
     "  --seed N              initialisation and patch sampling (default 1)\n"
     "  --init WEIGHTS.ewm    start from another kpcn's weights (a warm start: its channels copied, new ones\n"
     "                        random and unread at first; kpcn-c16 -> kpcn-c24-noise keeps its output until trained;\n"
@@ -768,7 +769,7 @@ static int evaluate(const options *opt, ew_device *dev) {
             free(b);
             return 1;
         }
-        fprintf(eval_rows, "scene,frame,spp,method,psnr\n");
+        fprintf(eval_rows, "scene,index,spp,method,psnr\n");
     }
     auto_quality = 0;
     const int bad = validate(dev, "kpcn", b, size, per, &all, &ns) || validate(dev, "nbg", NULL, 0, pn, &an, &ns) ||
