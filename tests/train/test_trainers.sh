@@ -48,6 +48,9 @@ expect kpcn_missing_value 2 "--out needs a value" -- "$KPCN" "${K[@]}" --out
 expect kpcn_unknown_option 2 "unknown option '--frobnicate'" -- "$KPCN" "${K[@]}" --out "$T/x.ewm" --frobnicate
 expect kpcn_stray_argument 2 "unexpected argument 'extra'" -- "$KPCN" "${K[@]}" --out "$T/x.ewm" extra
 expect kpcn_eval_needs_scenes 2 "--eval needs scenes" -- "$KPCN" --eval "$T/whole.ewm"
+# scenes past the memory budget stop the run before it trains, with what to do
+expect kpcn_scenes_past_the_memory_budget 2 "would take the scenes held past" -- \
+  "$KPCN" "${K[@]}" --out "$T/x.ewm" --max-memory-gb 0.001
 [ ! -e "$T/x.ewm" ] && ok kpcn_usage_errors_write_nothing || bad kpcn_usage_errors_write_nothing
 "$KPCN" --help | grep -q -- "--stop-after" && ok kpcn_help || bad kpcn_help
 

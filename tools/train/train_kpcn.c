@@ -62,6 +62,9 @@ static int holdout; /* --holdout K */
 static int only_val; /* --eval: read validation scenes only */
 /* --scenes FILE: only the scene folders it names load (a run's MODEL.scenes
  * repeats that run's data: the render cache keeps growing) */
+static double max_memory_gb; /* --max-memory-gb; 0: 80 % of the machine's memory */
+static double held_gb;       /* what the loaded scenes hold */
+static int over_budget;      /* a scene did not fit: no more are loaded */
 static char (*allowed)[256];
 static int nallowed;
 static int auto_quality; /* the "auto" row of --eval */
@@ -121,6 +124,9 @@ static const char usage[] =
     "  --val-max N           validate on at most N scenes (default 12)\n"
     "  --rescan              look for new scenes at every validation\n"
     "  --train-spp LIST      sample counts a training scene loads, e.g. 1,4,16,64 (default all rendered)\n"
+    "  --max-memory-gb X     the scenes held in memory stay under X GB (default 80 %% of the machine's memory;\n"
+    "                        ~5.2 MB a training render at 256x256): a run whose scenes do not fit stops\n"
+    "                        before training, and --rescan then adds no more scenes, each with a message\n"
     "  --scenes FILE         load only the scene folders FILE names (one a line; the last word's last path\n"
     "                        component counts, so a run's MODEL.scenes, which every validation rewrites, repeats\n"
     "                        its data)\n"
@@ -145,7 +151,7 @@ typedef struct {
 
 enum {
     OPT_ARCH = TRAIN_OPT_OWN, OPT_OUT, OPT_EVAL, OPT_INIT, OPT_TRAIN, OPT_VAL, OPT_SHARED, OPT_LOSS, OPT_VAL_MAX,
-    OPT_TIME_LIMIT, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP, OPT_EVAL_CSV
+    OPT_TIME_LIMIT, OPT_RESCAN, OPT_HOLDOUT, OPT_SCENES, OPT_TRAIN_SPP, OPT_EVAL_CSV, OPT_MAX_MEMORY
 };
 static const struct option long_opts[] = {
     TRAIN_RUN_LONG_OPTS,
@@ -156,7 +162,7 @@ static const struct option long_opts[] = {
     {"val-max", required_argument, NULL, OPT_VAL_MAX}, {"time-limit", required_argument, NULL, OPT_TIME_LIMIT},
     {"rescan", no_argument, NULL, OPT_RESCAN}, {"holdout", required_argument, NULL, OPT_HOLDOUT},
     {"scenes", required_argument, NULL, OPT_SCENES}, {"train-spp", required_argument, NULL, OPT_TRAIN_SPP},
-    {"eval-csv", required_argument, NULL, OPT_EVAL_CSV},
+    {"eval-csv", required_argument, NULL, OPT_EVAL_CSV}, {"max-memory-gb", required_argument, NULL, OPT_MAX_MEMORY},
     {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
 
 static int parse(int argc, char **argv, options *o) {
@@ -197,6 +203,7 @@ static int parse(int argc, char **argv, options *o) {
         case OPT_RESCAN: o->rescan = 1; break;
         case OPT_HOLDOUT: ok = train_parse_int("--holdout", v, 0, 1000, &holdout); break;
         case OPT_SCENES: o->scenes = v; break;
+        case OPT_MAX_MEMORY: ok = train_parse_double("--max-memory-gb", v, 1e-4, 1e6, &max_memory_gb); break;
         case OPT_TRAIN_SPP:
             if (!parse_spp_list(v)) {
                 fprintf(stderr, "train_kpcn: --train-spp takes sample counts >= 1 separated by commas\n");
@@ -252,6 +259,12 @@ static int cmp_name(const void *a, const void *b) { return strcmp((const char *)
 
 /* Load one scene folder: frame 1's noisy renders (validation: 1/4/16/64 spp
  * only) against its reference (fNNNN_ref*.exr). */
+static double memory_budget_gb(void) {
+    if (max_memory_gb > 0) return max_memory_gb;
+    const long pages = sysconf(_SC_PHYS_PAGES), ps = sysconf(_SC_PAGESIZE);
+    return pages > 0 && ps > 0 ? 0.8 * (double)pages * (double)ps / 1e9 : 1e9;
+}
+
 static int load_scene(scene_t *s) {
     char sdir[1400];
     snprintf(sdir, sizeof sdir, "%.1023s/%.255s", s->dir, s->name);
@@ -274,6 +287,20 @@ static int load_scene(scene_t *s) {
     float *r = NULL, *ua = NULL, *un = NULL, *ud = NULL;
     int rw, rh;
     if (train_read_render(path, 0, &rw, &rh, &r, &ua, &un, &ud)) return 1;
+    /* what the frames will hold: a training frame its ew_kpcn_frame (the
+     * inputs, the clamped radiance, the albedo, the reference), a validation
+     * frame also the passes the op reads */
+    int keep = 0;
+    for (int k = 0; k < nn; k++) {
+        int fno, spp;
+        if (sscanf(names[k], "f%d_spp%d.exr", &fno, &spp) != 2) continue;
+        keep += s->val ? spp == 1 || spp == 4 || spp == 16 || spp == 64 : train_loads_spp(spp);
+    }
+    const double gb = (double)keep * rw * rh * sizeof(float) * (EW_KPCN_MAX_INPUTS + 9 + (s->val ? 13 : 0)) / 1e9;
+    if (held_gb + gb > memory_budget_gb()) {
+        free(r);
+        return 2;
+    }
     s->frames = (frame_t *)calloc((size_t)nn, sizeof(frame_t));
     s->nframes = 0;
     for (int k = 0; k < nn; k++) {
@@ -301,6 +328,7 @@ static int load_scene(scene_t *s) {
         s->nframes++;
     }
     free(r);
+    if (s->nframes) held_gb += gb;
     return s->nframes ? 0 : 1;
 }
 
@@ -398,7 +426,18 @@ static int scan_dir(const char *dir, int val, int shared, int val_max) {
         snprintf(s->name, sizeof s->name, "%.255s", found[i]);
         snprintf(s->dir, sizeof s->dir, "%.1023s", dir);
         s->val = as_val;
-        if (load_scene(s) != 0) {
+        if (over_budget) break;
+        const int lr = load_scene(s);
+        if (lr == 2) {
+            fprintf(stderr,
+                    "train_kpcn: scene %s/%s would take the scenes held past %.1f GB (%.1f GB loaded, %d scenes): "
+                    "no more scenes are loaded; fewer sample counts (--train-spp 1,4,16,64), a --scenes list or "
+                    "--max-memory-gb choose what fits\n",
+                    dir, found[i], memory_budget_gb(), held_gb, nscenes);
+            over_budget = 1;
+            break;
+        }
+        if (lr != 0) {
             fprintf(stderr, "train_kpcn: skipped scene %s/%s (unreadable or incomplete)\n", dir, found[i]);
             continue;
         }
@@ -754,6 +793,7 @@ static int evaluate(const options *opt, ew_device *dev) {
     only_val = 1;
     for (int i = 0; i < o.nval_dirs; i++) scan_dir(o.val[i], 1, 0, o.val_max);
     for (int i = 0; i < o.ntrain_dirs; i++) scan_dir(o.train[i], 0, 0, o.val_max);
+    if (over_budget) return 2; /* scan_dir said why */
     size_t size;
     void *b = train_read_file(o.eval, &size);
     if (!b) {
@@ -863,8 +903,9 @@ static int train(const options *opt, ew_device *dev) {
     printf("scenes:\n");
     scan_all(&o);
     build_index();
-    printf("%d training scenes (%d frames), %d validation scenes; loaded in %.1f s\n", ntscenes, ntframes,
-           nscenes - ntscenes, train_now_s() - t0);
+    printf("%d training scenes (%d frames), %d validation scenes; loaded in %.1f s, %.1f GB\n", ntscenes, ntframes,
+           nscenes - ntscenes, train_now_s() - t0, held_gb);
+    if (over_budget) return 2; /* scan_dir said why: a run that trains on what it was given, or not at all */
     if (ntscenes == 0) {
         fprintf(stderr, "train_kpcn: no training scenes\n");
         return 1;
