@@ -345,6 +345,10 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
         a.cdown2 = l + 1 == p->levels ? p->up[l + 1] : NULL; /* Up(L) = Down(L) */
         a.d2_unit = (float)(1u << (2 * l));
         a.major_attr = p->major_attr;
+        /* the pass writes level l + 1's down and attribute planes in full
+         * (and at the coarsest level its upsampled planes) */
+        ew_dev_prefault(dev, p->down[l + 1], l + 1 == p->levels ? p->up[l + 1] + 2 * (size_t)a.cw * a.ch * EW_BF_CH
+                                                                : p->up[l + 1]);
         if (l == 0 && inside && io->fill) {
             a.fill = io->fill;
             a.fill_user = io->fill_user;
@@ -415,6 +419,10 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
          * levels stays. */
         ew_dev_release_pages(dev, p->down[l + 1], p->attr2[l + 1] ? p->attr2[l + 1] : p->attr[l + 1]);
         if (l + 2 <= p->levels) ew_dev_release_pages(dev, p->down[l + 2], p->levels_end);
+        if (l > 0) { /* written in full: Up(l) duplicated, and DOF's CoC of it */
+            const size_t n = (size_t)a.w * (size_t)a.h;
+            ew_dev_prefault(dev, p->up[l], a.ucoc ? p->coc[l] + 2 * n : p->up[l] + 2 * n * EW_BF_CH);
+        }
         be->pyr_up(dev, &a);
     }
     if (io->drain && !inside) io->drain(io->drain_user, 0, p->height, 0);

@@ -161,6 +161,13 @@ void ew_dev_free(ew_device *dev, void *ptr);
  * buffers every later reader writes first may be given. Otherwise (the
  * default, or device memory) nothing happens. */
 void ew_dev_release_pages(ew_device *dev, void *from, void *to);
+/* The whole pages in [from, to) of host memory made resident now, on the
+ * device's threads, for a pass that is about to write all of them: one call
+ * a chunk instead of a fault a page (faults are costly in a virtual machine;
+ * measured in BENCHMARKS.md, "MADV_POPULATE_WRITE"). Only ranges the pass
+ * writes in full, or it would make resident what it never touches. Nothing
+ * on device memory or where the system cannot do it. */
+void ew_dev_prefault(ew_device *dev, void *from, void *to);
 /* bytes of a block from ew_dev_alloc set to zero: on host memory its whole
  * pages are dropped instead of written (whatever release_scratch says), so
  * a buffer written sparsely afterwards holds only the pages written; the

@@ -20,6 +20,7 @@
 #include "src/backend.h"
 #include "src/internal.h"
 #include "src/op.h"
+#include "src/thread_pool.h"
 
 void *ew_dev_alloc(ew_device *dev, size_t bytes) { return dev->backend->mem_alloc(dev, bytes); }
 
@@ -39,6 +40,39 @@ void ew_dev_release_pages(ew_device *dev, void *from, void *to) {
     /* MADV_DONTNEED on private anonymous memory: the pages are dropped at
      * once and come back zero-filled on the next touch */
     if (b > a) (void)madvise((void *)a, (size_t)(b - a), MADV_DONTNEED);
+#else
+    (void)dev;
+    (void)from;
+    (void)to;
+#endif
+}
+
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+#define PREFAULT_CHUNK ((uintptr_t)2 << 20)
+typedef struct {
+    uintptr_t a, b;
+} prefault_job;
+
+static void prefault_chunks(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const prefault_job *j = (const prefault_job *)ctx;
+    const uintptr_t a = j->a + (uintptr_t)begin * PREFAULT_CHUNK;
+    uintptr_t b = j->a + (uintptr_t)end * PREFAULT_CHUNK;
+    if (b > j->b) b = j->b;
+    /* a failure (an older kernel) leaves the pages to fault in as they are written */
+    if (b > a) (void)madvise((void *)a, (size_t)(b - a), MADV_POPULATE_WRITE);
+}
+#endif
+
+void ew_dev_prefault(ew_device *dev, void *from, void *to) {
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+    const long ps = sysconf(_SC_PAGESIZE);
+    if (dev->device_memory || !from || !to || ps <= 0) return;
+    const prefault_job j = {((uintptr_t)from + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps,
+                            (uintptr_t)to / (uintptr_t)ps * (uintptr_t)ps};
+    if (j.b <= j.a) return;
+    ew_pool_run(dev->pool, (int64_t)((j.b - j.a + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK), 1, prefault_chunks,
+                (void *)&j);
 #else
     (void)dev;
     (void)from;
