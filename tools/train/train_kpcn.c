@@ -60,11 +60,11 @@ static const char *const test_scenes[] = {"a_cornell_119_", "a_cornell_122_", "b
 
 static int holdout; /* --holdout K */
 static int only_val; /* --eval: read validation scenes only */
-/* --scenes FILE: only the scene folders it names load (a run's MODEL.scenes
- * repeats that run's data: the render cache keeps growing) */
 static double max_memory_gb; /* --max-memory-gb; 0: 80 % of the machine's memory */
 static double held_gb;       /* what the loaded scenes hold */
 static int over_budget;      /* a scene did not fit: no more are loaded */
+/* --scenes FILE: only the scene folders it names load (a run's MODEL.scenes
+ * repeats that run's data: the render cache keeps growing) */
 static char (*allowed)[256];
 static int nallowed;
 static int auto_quality; /* the "auto" row of --eval */
@@ -257,14 +257,16 @@ static int nscenes;
 
 static int cmp_name(const void *a, const void *b) { return strcmp((const char *)a, (const char *)b); }
 
-/* Load one scene folder: frame 1's noisy renders (validation: 1/4/16/64 spp
- * only) against its reference (fNNNN_ref*.exr). */
+/* --max-memory-gb, else 80 % of the machine's memory */
 static double memory_budget_gb(void) {
     if (max_memory_gb > 0) return max_memory_gb;
     const long pages = sysconf(_SC_PHYS_PAGES), ps = sysconf(_SC_PAGESIZE);
     return pages > 0 && ps > 0 ? 0.8 * (double)pages * (double)ps / 1e9 : 1e9;
 }
 
+/* Load one scene folder: frame 1's noisy renders (validation: 1/4/16/64 spp
+ * only) against its reference (fNNNN_ref*.exr). 2: it would take the
+ * scenes held past the memory budget (nothing loaded). */
 static int load_scene(scene_t *s) {
     char sdir[1400];
     snprintf(sdir, sizeof sdir, "%.1023s/%.255s", s->dir, s->name);
