@@ -28,18 +28,26 @@ void ew_dev_free(ew_device *dev, void *ptr) {
     if (ptr) dev->backend->mem_free(dev, ptr);
 }
 
+#if defined(__linux__)
+/* [*a, *b): the whole pages inside [from, to) — a page the range shares with
+ * live data (the block's parameters, the allocator's header) is left out.
+ * 0 when there is none (or no page size). */
+static int inner_pages(uintptr_t from, uintptr_t to, uintptr_t *a, uintptr_t *b) {
+    const long ps = sysconf(_SC_PAGESIZE);
+    if (ps <= 0) return 0;
+    *a = (from + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps;
+    *b = to / (uintptr_t)ps * (uintptr_t)ps;
+    return *b > *a;
+}
+#endif
+
 void ew_dev_release_pages(ew_device *dev, void *from, void *to) {
 #if defined(__linux__)
     if (!dev->release_scratch || dev->device_memory || !from || !to) return;
-    const long ps = sysconf(_SC_PAGESIZE);
-    if (ps <= 0) return;
-    /* whole pages inside the range only: a page it shares with live data
-     * (the block's parameters, the allocator's header) keeps its contents */
-    const uintptr_t a = ((uintptr_t)from + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps;
-    const uintptr_t b = (uintptr_t)to / (uintptr_t)ps * (uintptr_t)ps;
+    uintptr_t a, b;
     /* MADV_DONTNEED on private anonymous memory: the pages are dropped at
      * once and come back zero-filled on the next touch */
-    if (b > a) (void)madvise((void *)a, (size_t)(b - a), MADV_DONTNEED);
+    if (inner_pages((uintptr_t)from, (uintptr_t)to, &a, &b)) (void)madvise((void *)a, (size_t)(b - a), MADV_DONTNEED);
 #else
     (void)dev;
     (void)from;
@@ -66,11 +74,8 @@ static void prefault_chunks(void *ctx, int64_t begin, int64_t end, int tid) {
 
 void ew_dev_prefault(ew_device *dev, void *from, void *to) {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
-    const long ps = sysconf(_SC_PAGESIZE);
-    if (dev->device_memory || !from || !to || ps <= 0) return;
-    const prefault_job j = {((uintptr_t)from + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps,
-                            (uintptr_t)to / (uintptr_t)ps * (uintptr_t)ps};
-    if (j.b <= j.a) return;
+    prefault_job j;
+    if (dev->device_memory || !from || !to || !inner_pages((uintptr_t)from, (uintptr_t)to, &j.a, &j.b)) return;
     ew_pool_run(dev->pool, (int64_t)((j.b - j.a + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK), 1, prefault_chunks,
                 (void *)&j);
 #else
@@ -82,14 +87,12 @@ void ew_dev_prefault(ew_device *dev, void *from, void *to) {
 
 ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes) {
 #if defined(__linux__)
-    const long ps = sysconf(_SC_PAGESIZE);
-    if (!dev->device_memory && ptr && ps > 0) {
-        const uintptr_t p = (uintptr_t)ptr, e = p + bytes;
-        const uintptr_t a = (p + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps;
-        const uintptr_t b = e / (uintptr_t)ps * (uintptr_t)ps;
+    const uintptr_t p = (uintptr_t)ptr, e = p + bytes;
+    uintptr_t a, b;
+    if (!dev->device_memory && ptr && inner_pages(p, e, &a, &b)) {
         /* MADV_DONTNEED on private anonymous memory: zero-filled on the
          * next touch (a failure leaves the pages: they are written) */
-        if (b > a && madvise((void *)a, (size_t)(b - a), MADV_DONTNEED) == 0) {
+        if (madvise((void *)a, (size_t)(b - a), MADV_DONTNEED) == 0) {
             ew_result r = dev->backend->mem_zero(dev, ptr, (size_t)(a - p));
             return r == EW_OK ? dev->backend->mem_zero(dev, (void *)b, (size_t)(e - b)) : r;
         }

@@ -257,6 +257,11 @@ static int nscenes;
 
 static int cmp_name(const void *a, const void *b) { return strcmp((const char *)a, (const char *)b); }
 
+/* Whether scene s loads its render of spp samples: validation 1/4/16/64, training --train-spp. */
+static int scene_loads_spp(const scene_t *s, int spp) {
+    return s->val ? spp == 1 || spp == 4 || spp == 16 || spp == 64 : train_loads_spp(spp);
+}
+
 /* --max-memory-gb, else 80 % of the machine's memory */
 static double memory_budget_gb(void) {
     if (max_memory_gb > 0) return max_memory_gb;
@@ -296,7 +301,7 @@ static int load_scene(scene_t *s) {
     for (int k = 0; k < nn; k++) {
         int fno, spp;
         if (sscanf(names[k], "f%d_spp%d.exr", &fno, &spp) != 2) continue;
-        keep += s->val ? spp == 1 || spp == 4 || spp == 16 || spp == 64 : train_loads_spp(spp);
+        keep += scene_loads_spp(s, spp);
     }
     const double gb = (double)keep * rw * rh * sizeof(float) * (EW_KPCN_MAX_INPUTS + 9 + (s->val ? 13 : 0)) / 1e9;
     if (held_gb + gb > memory_budget_gb()) {
@@ -308,8 +313,7 @@ static int load_scene(scene_t *s) {
     for (int k = 0; k < nn; k++) {
         int fno, spp;
         if (sscanf(names[k], "f%d_spp%d.exr", &fno, &spp) != 2) continue;
-        if (s->val && spp != 1 && spp != 4 && spp != 16 && spp != 64) continue;
-        if (!s->val && !train_loads_spp(spp)) continue;
+        if (!scene_loads_spp(s, spp)) continue;
         frame_t *f = &s->frames[s->nframes];
         snprintf(path, sizeof path, "%.1300s/%.255s", sdir, names[k]);
         if (train_read_render(path, 1, &f->w, &f->h, &f->color, &f->albedo, &f->normal, &f->depth)) continue;
