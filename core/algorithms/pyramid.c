@@ -349,6 +349,8 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
          * (and at the coarsest level its upsampled planes) */
         ew_dev_prefault(dev, p->down[l + 1], l + 1 == p->levels ? p->up[l + 1] + 2 * (size_t)a.cw * a.ch * EW_BF_CH
                                                                 : p->up[l + 1]);
+        /* level 0's input bands: the fill writes them in full */
+        if (l == 0 && p->in) ew_dev_prefault(dev, p->in, p->in_edge);
         if (l == 0 && inside && io->fill) {
             a.fill = io->fill;
             a.fill_user = io->fill_user;
@@ -392,6 +394,9 @@ int ew_pyr_run_planes(ew_device *dev, const ew_pyr_plan *p, const ew_pyr_io *io,
             a.drain_user = io->drain_user;
         }
         if (l == 0) {
+            /* the rows either side of the bands' boundaries and the output
+             * (bands or planes): written in full by this pass */
+            ew_dev_prefault(dev, p->in ? p->in_edge : p->out, p->cbuf ? p->cbuf : p->down[1]);
             a.band = p->band;
             a.band_stride = p->band_stride;
         }

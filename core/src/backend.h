@@ -164,7 +164,8 @@ void ew_dev_release_pages(ew_device *dev, void *from, void *to);
 /* The whole pages in [from, to) of host memory made resident now, on the
  * device's threads, for a pass that is about to write all of them: one call
  * a chunk instead of a fault a page (faults are costly in a virtual machine;
- * measured in BENCHMARKS.md, "MADV_POPULATE_WRITE"). Only ranges the pass
+ * measured in BENCHMARKS.md, "MADV_POPULATE_WRITE"), in transparent huge
+ * pages where the kernel has them free. Only ranges the pass
  * writes in full, or it would make resident what it never touches. Nothing
  * on device memory or where the system cannot do it. */
 void ew_dev_prefault(ew_device *dev, void *from, void *to);

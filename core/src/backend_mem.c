@@ -10,6 +10,8 @@
 #define _DEFAULT_SOURCE /* madvise */
 #endif
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -56,27 +58,72 @@ void ew_dev_release_pages(ew_device *dev, void *from, void *to) {
 }
 
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+/* the pages are made resident in chunks of a transparent huge page's size
+ * (2 MiB with 4 KiB pages), aligned to it, one chunk a call on a thread */
 #define PREFAULT_CHUNK ((uintptr_t)2 << 20)
 typedef struct {
-    uintptr_t a, b;
+    uintptr_t a, b, base;
 } prefault_job;
 
 static void prefault_chunks(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const prefault_job *j = (const prefault_job *)ctx;
-    const uintptr_t a = j->a + (uintptr_t)begin * PREFAULT_CHUNK;
-    uintptr_t b = j->a + (uintptr_t)end * PREFAULT_CHUNK;
+    uintptr_t a = j->base + (uintptr_t)begin * PREFAULT_CHUNK, b = j->base + (uintptr_t)end * PREFAULT_CHUNK;
+    if (a < j->a) a = j->a;
     if (b > j->b) b = j->b;
     /* a failure (an older kernel) leaves the pages to fault in as they are written */
     if (b > a) (void)madvise((void *)a, (size_t)(b - a), MADV_POPULATE_WRITE);
 }
+
+#if defined(MADV_HUGEPAGE)
+/* Bytes the kernel holds free in blocks of 2 MiB and more (/proc/buddyinfo,
+ * every zone: order 9 and above), 0 when unknown or when pages are not
+ * 4 KiB (where a huge page is another size). */
+static size_t free_huge_bytes(void) {
+    const long ps = sysconf(_SC_PAGESIZE);
+    FILE *f = ps == 4096 ? fopen("/proc/buddyinfo", "r") : NULL;
+    if (!f) return 0;
+    size_t total = 0;
+    char line[512];
+    while (fgets(line, sizeof line, f)) {
+        char *p = strstr(line, "zone");
+        if (!p) continue;
+        p += 4;
+        while (*p == ' ') p++;
+        while (*p && *p != ' ') p++; /* the zone's name */
+        for (int order = 0;; order++) {
+            char *e;
+            const unsigned long n = strtoul(p, &e, 10);
+            if (e == p) break;
+            p = e;
+            if (((size_t)ps << order) >= PREFAULT_CHUNK) total += n * ((size_t)ps << order);
+        }
+    }
+    fclose(f);
+    return total;
+}
+#endif
 #endif
 
 void ew_dev_prefault(ew_device *dev, void *from, void *to) {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
     prefault_job j;
     if (dev->device_memory || !from || !to || !inner_pages((uintptr_t)from, (uintptr_t)to, &j.a, &j.b)) return;
-    ew_pool_run(dev->pool, (int64_t)((j.b - j.a + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK), 1, prefault_chunks,
+    j.base = j.a / PREFAULT_CHUNK * PREFAULT_CHUNK;
+#if defined(MADV_HUGEPAGE)
+    /* Transparent huge pages (MADV_HUGEPAGE) for the whole 2 MiB pages of
+     * the range: in a virtual machine the first touch of every 4 KiB page
+     * costs ~5 us in the hypervisor even after it is populated, and a huge
+     * page one such touch (BENCHMARKS.md, "Huge pages for the pyramid's
+     * prefaulted planes"). Only when free blocks of that size cover twice
+     * the range: the kernel then takes them from its free lists instead of
+     * compacting memory for them, which costs more than it saves. As with
+     * glibc's malloc.hugetlb tunable, the advice stays on the heap pages
+     * the block leaves behind when it is freed. */
+    const uintptr_t ha = (j.a + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK * PREFAULT_CHUNK, hb = j.b / PREFAULT_CHUNK * PREFAULT_CHUNK;
+    if (hb > ha && free_huge_bytes() >= 2 * (size_t)(hb - ha)) (void)madvise((void *)ha, (size_t)(hb - ha), MADV_HUGEPAGE);
+#endif
+    ew_pool_run(dev->pool, (int64_t)((j.b - j.base + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK), 1, prefault_chunks,
                 (void *)&j);
 #else
     (void)dev;
