@@ -31,15 +31,20 @@ void ew_dev_free(ew_device *dev, void *ptr) {
 }
 
 #if defined(__linux__)
+/* [*a, *b): the whole units (aligned to unit) inside [from, to); 0 when there
+ * is none. */
+static int inner_units(uintptr_t from, uintptr_t to, uintptr_t unit, uintptr_t *a, uintptr_t *b) {
+    *a = (from + unit - 1) / unit * unit;
+    *b = to / unit * unit;
+    return *b > *a;
+}
+
 /* [*a, *b): the whole pages inside [from, to) — a page the range shares with
  * live data (the block's parameters, the allocator's header) is left out.
  * 0 when there is none (or no page size). */
 static int inner_pages(uintptr_t from, uintptr_t to, uintptr_t *a, uintptr_t *b) {
     const long ps = sysconf(_SC_PAGESIZE);
-    if (ps <= 0) return 0;
-    *a = (from + (uintptr_t)ps - 1) / (uintptr_t)ps * (uintptr_t)ps;
-    *b = to / (uintptr_t)ps * (uintptr_t)ps;
-    return *b > *a;
+    return ps > 0 && inner_units(from, to, (uintptr_t)ps, a, b);
 }
 #endif
 
@@ -120,8 +125,9 @@ void ew_dev_prefault(ew_device *dev, void *from, void *to) {
      * compacting memory for them, which costs more than it saves. As with
      * glibc's malloc.hugetlb tunable, the advice stays on the heap pages
      * the block leaves behind when it is freed. */
-    const uintptr_t ha = (j.a + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK * PREFAULT_CHUNK, hb = j.b / PREFAULT_CHUNK * PREFAULT_CHUNK;
-    if (hb > ha && free_huge_bytes() >= 2 * (size_t)(hb - ha)) (void)madvise((void *)ha, (size_t)(hb - ha), MADV_HUGEPAGE);
+    uintptr_t ha, hb;
+    if (inner_units(j.a, j.b, PREFAULT_CHUNK, &ha, &hb) && free_huge_bytes() >= 2 * (size_t)(hb - ha))
+        (void)madvise((void *)ha, (size_t)(hb - ha), MADV_HUGEPAGE);
 #endif
     ew_pool_run(dev->pool, (int64_t)((j.b - j.base + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK), 1, prefault_chunks,
                 (void *)&j);
