@@ -107,6 +107,21 @@ static size_t free_huge_bytes(void) {
     fclose(f);
     return total;
 }
+
+/* Transparent huge pages (MADV_HUGEPAGE) for the whole 2 MiB pages of
+ * [a, b): in a virtual machine the first touch of every 4 KiB page costs
+ * ~5 us in the hypervisor even after it is populated, and a huge page one
+ * such touch (BENCHMARKS.md, "Huge pages for the pyramid's prefaulted
+ * planes"). Only when free blocks of that size cover twice the range: the
+ * kernel then takes them from its free lists instead of compacting memory
+ * for them, which costs more than it saves. As with glibc's malloc.hugetlb
+ * tunable, the advice stays on the heap pages a block leaves behind when it
+ * is freed. */
+static void advise_huge_pages(uintptr_t a, uintptr_t b) {
+    uintptr_t ha, hb;
+    if (inner_units(a, b, PREFAULT_CHUNK, &ha, &hb) && free_huge_bytes() >= 2 * (size_t)(hb - ha))
+        (void)madvise((void *)ha, (size_t)(hb - ha), MADV_HUGEPAGE);
+}
 #endif
 #endif
 
@@ -116,18 +131,7 @@ void ew_dev_prefault(ew_device *dev, void *from, void *to) {
     if (dev->device_memory || !from || !to || !inner_pages((uintptr_t)from, (uintptr_t)to, &j.a, &j.b)) return;
     j.base = j.a / PREFAULT_CHUNK * PREFAULT_CHUNK;
 #if defined(MADV_HUGEPAGE)
-    /* Transparent huge pages (MADV_HUGEPAGE) for the whole 2 MiB pages of
-     * the range: in a virtual machine the first touch of every 4 KiB page
-     * costs ~5 us in the hypervisor even after it is populated, and a huge
-     * page one such touch (BENCHMARKS.md, "Huge pages for the pyramid's
-     * prefaulted planes"). Only when free blocks of that size cover twice
-     * the range: the kernel then takes them from its free lists instead of
-     * compacting memory for them, which costs more than it saves. As with
-     * glibc's malloc.hugetlb tunable, the advice stays on the heap pages
-     * the block leaves behind when it is freed. */
-    uintptr_t ha, hb;
-    if (inner_units(j.a, j.b, PREFAULT_CHUNK, &ha, &hb) && free_huge_bytes() >= 2 * (size_t)(hb - ha))
-        (void)madvise((void *)ha, (size_t)(hb - ha), MADV_HUGEPAGE);
+    advise_huge_pages(j.a, j.b);
 #endif
     ew_pool_run(dev->pool, (int64_t)((j.b - j.base + PREFAULT_CHUNK - 1) / PREFAULT_CHUNK), 1, prefault_chunks,
                 (void *)&j);
@@ -137,6 +141,22 @@ void ew_dev_prefault(ew_device *dev, void *from, void *to) {
     (void)to;
 #endif
 }
+
+void *ew_host_alloc(size_t bytes) {
+    void *p = NULL;
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE) && defined(MADV_HUGEPAGE)
+    /* from 2 MiB up the block starts on a huge page, so all of it can be
+     * made of them (glibc maps such a block by itself and unmaps it on free) */
+    if (bytes >= PREFAULT_CHUNK) {
+        if (posix_memalign(&p, PREFAULT_CHUNK, bytes) != 0) return NULL;
+        advise_huge_pages((uintptr_t)p, (uintptr_t)p + bytes);
+        return p;
+    }
+#endif
+    return posix_memalign(&p, 64, bytes ? bytes : 64) == 0 ? p : NULL;
+}
+
+void ew_host_free(void *ptr) { free(ptr); }
 
 ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes) {
 #if defined(__linux__)

@@ -417,16 +417,17 @@ static const char *given_pass(const parser *p, const char *image) {
 
 #define MAX_IMAGES 8
 
-/* Decode, in one pass over the file, the pass the method runs on and the
- * passes its other input images will be read from (as the loop that binds
- * them picks them: the given pass, else the first default the layer has);
- * every other pass stays in the file and is copied from it when the
- * result is written. A pass this misses is still decoded when it is read. */
+/* Decode, in one pass over the file, the pass the method runs on (its
+ * components `comps`, straight into `pix`) and the passes its other input
+ * images will be read from (as the loop that binds them picks them: the
+ * given pass, else the first default the layer has); every other pass
+ * stays in the file and is copied from it when the result is written. A
+ * pass this misses is still decoded when it is read. */
 static int load_used_passes(const parser *p, ewio_file *f, const char *method, const char *layer, const char *pass,
-                            char *err, size_t errlen) {
+                            const char *comps, float *pix, char *err, size_t errlen) {
     ewio_pass_ref refs[MAX_IMAGES + 1];
     int n = 0;
-    refs[n++] = (ewio_pass_ref){layer, pass, NULL};
+    refs[n++] = (ewio_pass_ref){layer, pass, comps, pix};
     ew_image_info im;
     for (int32_t k = 0; k < MAX_IMAGES && ew_method_image(NULL, method, k, &im) == EW_OK; k++) {
         uint32_t fl = 0;
@@ -437,7 +438,7 @@ static int load_used_passes(const parser *p, ewio_file *f, const char *method, c
         const char *const *defaults = cli_default_passes(im.name);
         for (int d = 0; !src && defaults && defaults[d]; d++)
             if (cli_pass_comps(f, layer, defaults[d])) src = defaults[d];
-        if (src) refs[n++] = (ewio_pass_ref){layer, src, NULL};
+        if (src) refs[n++] = (ewio_pass_ref){layer, src, NULL, NULL};
     }
     return ewio_load_passes(f, refs, n, err, errlen);
 }
@@ -500,8 +501,8 @@ static int execute(const parser *p) {
     const char *comps = cli_pass_comps(f, layer, pass);
     if (!comps) { cli_fail("layer '%s' has no pass '%s'", layer, pass); goto done; }
     int C = (int)strlen(comps);
-    if (load_used_passes(p, f, method, layer, pass, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
-    if (!(pix = cli_read_pass(f, layer, pass, comps, err, sizeof err))) { cli_fail("%s", err); goto done; }
+    if (!(pix = (float *)ew_host_alloc(n * (size_t)C * sizeof(float)))) { cli_fail("out of memory"); goto done; }
+    if (load_used_passes(p, f, method, layer, pass, comps, pix, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
     long bad = cli_count_nonfinite(pix, n * (size_t)C);
     /* An alpha of one value everywhere (a render without a transparent
      * film) stays in the file and the method runs on RGB: the filters give
@@ -519,7 +520,7 @@ static int execute(const parser *p) {
     for (int32_t k = 0; ew_method_image(NULL, method, k, &info_color) == EW_OK; k++)
         if (!strcmp(info_color.name, "color")) ew_method_image_flags(NULL, method, k, &color_flags);
     if ((color_flags & EW_IMAGE_INPLACE) && !reference) out = pix;
-    else if (!(out = (float *)malloc(n * (size_t)C * sizeof(float)))) { cli_fail("out of memory"); goto done; }
+    else if (!(out = (float *)ew_host_alloc(n * (size_t)C * sizeof(float)))) { cli_fail("out of memory"); goto done; }
 
     if (!(dev = cli_device(threads, 1))) goto done;
     if (ew_op_create(dev, method, &op) != EW_OK) { cli_fail("%s", ew_device_last_error(dev)); goto done; }
@@ -542,7 +543,7 @@ static int execute(const parser *p) {
         if (fl & EW_IMAGE_OUTPUT) {
             if (!given) continue;
             const int ch = im->min_channels > 0 ? im->min_channels : 1;
-            if (!(bufs[k] = (float *)malloc(n * (size_t)ch * sizeof(float)))) { cli_fail("out of memory"); goto done; }
+            if (!(bufs[k] = (float *)ew_host_alloc(n * (size_t)ch * sizeof(float)))) { cli_fail("out of memory"); goto done; }
             ew_image v = ew_image_packed(bufs[k], w, h, ch);
             if ((r = ew_op_set_image(op, im->name, &v)) != EW_OK) break;
             out_pass[k] = given;
@@ -598,8 +599,9 @@ static int execute(const parser *p) {
     if (r != EW_OK) { cli_fail("%s '%s': %s", cmd->kind, method, ew_device_last_error(dev)); goto done; }
     if (set_params(p, op, dev, 0) != 0) goto done;
 
-    /* the pass is in pix now and gets the result back (ewio_set_pass): the
-     * file need not hold it too while the method works */
+    /* the pass is in pix now and gets the result back (ewio_lend_pass): the
+     * file need not hold it too while the method works (a file read whole,
+     * as a PNG, holds it) */
     ewio_release_pass(f, layer, pass, comps);
     cli_return_freed_memory();
 
@@ -654,12 +656,13 @@ static int execute(const parser *p) {
         ew_device_destroy(dev);
         dev = NULL;
     }
-    if (ewio_set_pass(f, layer, pass, comps, out, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
+    /* the file writes the results from out and bufs, which stay until then */
+    if (ewio_lend_pass(f, layer, pass, comps, out, err, sizeof err) != 0) { cli_fail("%s", err); goto done; }
     for (int32_t k = 0; k < MAX_IMAGES; k++) {
         if (!out_pass[k]) continue;
         ew_image_info im;
         ew_method_image(NULL, method, k, &im);
-        if (ewio_set_pass(f, layer, out_pass[k], comps_for(im.min_channels), bufs[k], err, sizeof err) != 0) {
+        if (ewio_lend_pass(f, layer, out_pass[k], comps_for(im.min_channels), bufs[k], err, sizeof err) != 0) {
             cli_fail("%s", err);
             goto done;
         }
@@ -687,17 +690,19 @@ static int execute(const parser *p) {
         free(pr);
         ewio_free(ref);
     }
-    /* the file holds the results now: what the method used goes before the
-     * write, which needs memory of its own */
+    /* what the method used and the file does not write from goes before
+     * the write, which needs memory of its own */
     if (!cli_timing.warm_runs) {
         ew_op_destroy(op);
         op = NULL;
         ew_device_destroy(dev);
         dev = NULL;
-        if (out != pix) free(out);
-        free(pix);
-        pix = out = NULL;
+        if (out != pix) {
+            free(pix);
+            pix = NULL;
+        }
         for (int k = 0; k < MAX_IMAGES; k++) {
+            if (out_pass[k]) continue;
             free(bufs[k]);
             bufs[k] = NULL;
         }

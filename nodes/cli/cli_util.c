@@ -106,7 +106,7 @@ const char *cli_pass_comps(const ewio_file *f, const char *layer, const char *pa
 float *cli_read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
                      size_t errlen) {
     size_t n = (size_t)ewio_width(f) * (size_t)ewio_height(f) * strlen(comps);
-    float *buf = (float *)malloc(n * sizeof(float));
+    float *buf = (float *)ew_host_alloc(n * sizeof(float));
     if (!buf) {
         snprintf(err, errlen, "out of memory");
         return NULL;

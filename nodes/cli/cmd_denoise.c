@@ -320,8 +320,29 @@ typedef struct {
     ew_device *dev;
     const options *o;
     float *out;
+    /* buffers lent to the file (ewio_lend_pass): freed after the write */
+    float **lent;
+    int nlent;
     char err[1024];
 } job;
+
+/* Lend buf to the file as the pass (it is written from there), or copy it
+ * when the job cannot keep it. 0 on success. */
+static int put_result(job *j, const char *layer, const char *pass, const char *comps, float *buf) {
+    float **l = (float **)realloc(j->lent, (size_t)(j->nlent + 1) * sizeof *l);
+    if (!l) return ewio_set_pass(j->f, layer, pass, comps, buf, j->err, sizeof j->err);
+    j->lent = l;
+    if (ewio_lend_pass(j->f, layer, pass, comps, buf, j->err, sizeof j->err) != 0) return 1;
+    j->lent[j->nlent++] = buf;
+    return 0;
+}
+
+static void free_lent(job *j) {
+    for (int k = 0; k < j->nlent; k++) ew_host_free(j->lent[k]);
+    free(j->lent);
+    j->lent = NULL;
+    j->nlent = 0;
+}
 
 /* What runs on a layer: the library method and its settings (bench and the
  * stability suite run the same ew_method_run, so their figures are what
@@ -402,15 +423,15 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     int nc = (int)strlen(lp->color_comps);
     float *orig = NULL;
     if (keep_noisy && !noisy_in_file) {
-        if (!(orig = (float *)malloc((size_t)w * h * nc * sizeof(float)))) return cli_fail("out of memory");
+        if (!(orig = (float *)ew_host_alloc((size_t)w * h * nc * sizeof(float)))) return cli_fail("out of memory");
         if (ewio_get_pass(j->f, layer, lp->color, lp->color_comps, orig, j->err, sizeof j->err) != 0) {
-            free(orig);
+            ew_host_free(orig);
             return cli_fail("%s", j->err);
         }
     }
     ew_layer_data in;
     if (ew_layer_data_read(j->f, lp, &in, j->err, sizeof j->err) != 0) {
-        free(orig);
+        ew_host_free(orig);
         return cli_fail("%s", j->err);
     }
     /* the colour is in in.color now (and in orig or the input file for the
@@ -475,26 +496,35 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     in.color = NULL;
     ew_layer_data_free(&in);
     if (back != 0 && !bad) {
-        free(color);
-        free(orig);
+        ew_host_free(color);
+        ew_host_free(orig);
         return cli_fail("%s", back_err);
     }
     if (bad) {
-        free(color);
-        free(orig);
+        ew_host_free(color);
+        ew_host_free(orig);
         return cli_fail("denoising layer '%s' failed: %s", layer, j->err);
     }
     if (j->o->data_path) /* what ran is the file's */
         snprintf(chosen, sizeof chosen, "%s %s", lm, j->o->data_path);
-    /* Keep the noisy original beside the result, as Blender does. */
+    /* Keep the noisy original beside the result, as Blender does. The
+     * layer's own buffers are lent to the file and written from there; a
+     * result in j->out is copied (the next layer's goes there too). */
     int put = 0;
-    if (keep_noisy && orig)
-        put = ewio_set_pass(j->f, layer, "Noisy Image", lp->color_comps, orig, j->err, sizeof j->err);
-    else if (keep_noisy)
+    if (keep_noisy && orig) {
+        put = put_result(j, layer, "Noisy Image", lp->color_comps, orig);
+        if (put == 0) orig = NULL;
+    } else if (keep_noisy) {
         put = ewio_set_pass_from_source(j->f, layer, "Noisy Image", lp->color_comps, lp->color, j->err, sizeof j->err);
-    if (put == 0) put = ewio_set_pass(j->f, layer, dst, "RGB", res, j->err, sizeof j->err);
-    free(color);
-    free(orig);
+    }
+    if (put == 0 && res == color) {
+        put = put_result(j, layer, dst, "RGB", res);
+        if (put == 0) color = NULL;
+    } else if (put == 0) {
+        put = ewio_set_pass(j->f, layer, dst, "RGB", res, j->err, sizeof j->err);
+    }
+    ew_host_free(color);
+    ew_host_free(orig);
     if (put != 0) return cli_fail("%s", j->err);
     if (!j->o->quiet)
         fprintf(stderr, "edgewise: layer '%s': %s (%s%s%s) %dx%d in %.3f s\n", layer[0] ? layer : "(image)", chosen,
@@ -643,26 +673,11 @@ int cmd_denoise(int argc, char **argv) {
             if (o.layer) { cli_fail("%s", j.err); goto done; }
             continue; /* a layer without colour (e.g. only data passes) is left alone */
         }
-        /* the layer's colour and features in one pass over the file; the
-         * motion vectors only for a method that reads them (else they stay
-         * in the file, and are copied from it when the result is written) */
+        /* the layer's colour and features are decoded in one pass over the
+         * file (ew_layer_data_read); the motion vectors only for a method
+         * that reads them (else they stay in the file, and are copied from
+         * it when the result is written) */
         lp.skip_vector = !method_takes(o.method, "vector");
-        /* the colour's RGB only: the methods read no alpha, and the result
-         * goes into RGB, so an alpha stays in the file and is copied from
-         * it when the result is written */
-        const ewio_pass_ref used[] = {{layer, lp.color, "RGB"},          {layer, lp.albedo, "RGB"},
-                                      {layer, lp.normal, "XYZ"},         {layer, lp.depth, "Z"},
-                                      {layer, lp.skip_vector ? NULL : "Vector", "XY"}};
-        const double t_load = cli_seconds();
-        int nused = 0;
-        ewio_pass_ref refs[5];
-        for (int k = 0; k < 5; k++)
-            if (used[k].pass) refs[nused++] = used[k];
-        if (ewio_load_passes(j.f, refs, nused, j.err, sizeof j.err) != 0) {
-            cli_fail("%s", j.err);
-            goto done;
-        }
-        cli_timing.read += cli_seconds() - t_load;
         if (done_layers == 0) {
             first = lp;
             if (noisy_first && ewio_get_pass(j.f, layer, lp.color, "RGB", noisy_first, j.err, sizeof j.err) != 0) {
@@ -684,7 +699,7 @@ int cmd_denoise(int argc, char **argv) {
     ewio_set_attribute(j.f, "edgewise.version", ew_version_string());
     /* PNG/TIFF take only one pass: the first denoised layer's colour */
     const char *wpass = first.layer[0] ? "Combined" : first.color;
-    /* the results are in the file: the write's memory is its own */
+    /* the results are in the file or lent to it: the write's memory is its own */
     free(j.out);
     free(noisy_first);
     j.out = noisy_first = NULL;
@@ -701,6 +716,7 @@ done:
     cli_view_free(&o.view);
     ew_device_destroy(j.dev);
     ewio_free(j.f);
+    free_lent(&j);
     free(j.out);
     free(noisy_first);
     free(o.data_bytes);

@@ -51,7 +51,7 @@ constexpr long long kMaxPixels = 1LL << 28;
 constexpr int kMaxChannels = 4096;
 /* Pixels are moved between OIIO and our planar storage in bands of rows of
  * about this many floats, so no second whole-image copy is ever held. */
-constexpr size_t kBandFloats = size_t(4) << 20;
+constexpr size_t kBandFloats = size_t(1) << 20;
 
 /* An allocator that leaves new floats uninitialised: a plane is sized from
  * the header before its pixels are read, and zero-filling it would make the
@@ -80,6 +80,34 @@ struct Channel {
      * with, as channel part_ch of part `part`, whatever it holds now. */
     bool in_src = false;
     int part = 0, part_ch = 0;
+    /* Lent by the caller (ewio_lend_pass): pixel i is lent[i * lent_stride]
+     * in the caller's buffer, px is empty. */
+    const float *lent = nullptr;
+    size_t lent_stride = 0;
+};
+
+/* Whether c holds its pixels in memory (a plane of its own or a lent
+ * buffer); else they are on disk or were released. */
+bool in_memory(const Channel &c, size_t npix) { return c.lent || c.px.size() == npix; }
+
+/* Where c's pixels are in memory: pixel i at [i * *stride]. */
+const float *memory_pixels(const Channel &c, size_t *stride) {
+    *stride = c.lent ? c.lent_stride : 1;
+    return c.lent ? c.lent : c.px.data();
+}
+
+/* c's pixels, once they are elsewhere (a plane, the source, released):
+ * nothing of the caller's is pointed at any more. */
+void unlend(Channel &c) {
+    c.lent = nullptr;
+    c.lent_stride = 0;
+}
+
+/* Where SourceReader::read puts one channel's band: the band's first value
+ * (row y0), `xs` floats between a row's values and `ys` between rows. */
+struct BandDst {
+    float *p;
+    size_t xs, ys;
 };
 
 } // namespace
@@ -869,19 +897,19 @@ class SourceReader {
         return true;
     }
 
-    /* planes[k] (for chans[k]) receives rows y0..y1, width floats a row,
-     * `ystride` floats apart. */
-    bool read(int y0, int y1, float *const *planes, size_t ystride, std::string &why) {
+    /* dst[k] (for chans[k]) receives rows y0..y1. */
+    bool read(int y0, int y1, const BandDst *dst, std::string &why) {
         const size_t w = size_t(file_->width);
         for (Part &pt : parts_) {
             buf_.resize(size_t(y1 - y0) * w * pt.pxb);
             bool ok = in_->read_native_scanlines(pt.sub, 0, pt.y + y0, pt.y + y1, 0, pt.chb, pt.che, buf_.data());
             for (size_t j = 0; ok && j < pt.want.size(); j++) {
                 const size_t c = size_t(pt.want[j].second - pt.chb);
+                const BandDst &d = dst[pt.want[j].first];
                 ok = OIIO::convert_image(1, file_->width, y1 - y0, 1, buf_.data() + pt.off[c], pt.cf[c],
-                                         OIIO::stride_t(pt.pxb), OIIO::stride_t(w * pt.pxb), OIIO::AutoStride,
-                                         planes[pt.want[j].first], OIIO::TypeFloat, OIIO::stride_t(sizeof(float)),
-                                         OIIO::stride_t(ystride * sizeof(float)), OIIO::AutoStride);
+                                         OIIO::stride_t(pt.pxb), OIIO::stride_t(w * pt.pxb), OIIO::AutoStride, d.p,
+                                         OIIO::TypeFloat, OIIO::stride_t(d.xs * sizeof(float)),
+                                         OIIO::stride_t(d.ys * sizeof(float)), OIIO::AutoStride);
             }
             if (!ok) {
                 why = "cannot read " + q(file_->src_name) + ": corrupt or truncated image data (" +
@@ -915,7 +943,8 @@ class SourceReader {
     const ewio_file *file_ = nullptr;
     std::unique_ptr<ImageInput> in_;
     std::vector<Part> parts_;
-    std::vector<unsigned char> buf_;
+    /* every byte is written by the decode before it is read */
+    std::vector<unsigned char, NoInit<unsigned char>> buf_;
 };
 
 /* ----------------------------------------------------------------- write */
@@ -954,7 +983,7 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
         const size_t pxb = s.pixel_bytes(true);
         size_t rows = std::max<size_t>(1, kBandFloats * sizeof(float) / (size_t(w) * pxb));
         rows = std::min(rows, size_t(h));
-        std::vector<unsigned char> buf(rows * size_t(w) * pxb);
+        std::vector<unsigned char, NoInit<unsigned char>> buf(rows * size_t(w) * pxb);
         ok = true;
         for (int y0 = 0; ok && y0 < h; y0 += int(rows)) {
             const int y1 = std::min(h, y0 + int(rows));
@@ -1094,7 +1123,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     for (int c = 0; c < int(src.size()); c++)
         if (f.ch[size_t(src[size_t(c)])].on_disk) disk.push_back(c);
     for (int i : src)
-        if (!f.ch[size_t(i)].on_disk && f.ch[size_t(i)].px.size() != size_t(w) * size_t(h)) {
+        if (!f.ch[size_t(i)].on_disk && !in_memory(f.ch[size_t(i)], size_t(w) * size_t(h))) {
             msg = what + "the pixels of channel " + q(f.ch[size_t(i)].name) +
                   " were released (ewio_release_pass) and not set again";
             return 1;
@@ -1194,33 +1223,39 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     {
         const size_t rows = size_t(disk.empty() ? std::min<size_t>(size_t(h), std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch))))
                                                 : size_t(disk_in.band_rows(size_t(nch))));
-        std::vector<float> buf(rows * size_t(w) * size_t(nch));
-        std::vector<float> dbuf(rows * size_t(w) * disk.size());
-        std::vector<float *> dplanes(disk.size());
+        /* every float of a band is written before the band is encoded */
+        std::vector<float, NoInit<float>> buf(rows * size_t(w) * size_t(nch));
+        std::vector<float, NoInit<float>> dbuf(rows * size_t(w) * disk.size());
+        std::vector<BandDst> dplanes(disk.size());
         std::vector<const float *> from(size_t(nch), nullptr);
         for (size_t k = 0; k < disk.size(); k++) {
-            dplanes[k] = dbuf.data() + k * rows * size_t(w);
-            from[size_t(disk[k])] = dplanes[k];
+            dplanes[k] = BandDst{dbuf.data() + k * rows * size_t(w), 1, size_t(w)};
+            from[size_t(disk[k])] = dplanes[k].p;
         }
         for (int y0 = 0; y0 < h; y0 += int(rows)) {
             const int y1 = std::min(h, y0 + int(rows));
             const size_t b = size_t(y0) * size_t(w);
             const size_t n = size_t(y1 - y0) * size_t(w);
-            if (!disk.empty() && !disk_in.read(y0, y1, dplanes.data(), size_t(w), msg)) {
+            if (!disk.empty() && !disk_in.read(y0, y1, dplanes.data(), msg)) {
                 msg = what + msg;
                 return 1;
             }
             for (int c = 0; c < nch; c++) {
-                const float *s = from[size_t(c)] ? from[size_t(c)] : f.ch[size_t(src[size_t(c)])].px.data() + b;
+                size_t ss = 1;
+                const float *s = from[size_t(c)];
+                if (!s) {
+                    s = memory_pixels(f.ch[size_t(src[size_t(c)])], &ss);
+                    s += b * ss;
+                }
                 float *d = buf.data() + c;
                 if (clamp01) {
                     for (size_t i = 0; i < n; i++) {
-                        float v = s[i];
+                        float v = s[i * ss];
                         v = std::isnan(v) ? 0.0f : v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
                         d[i * size_t(nch)] = v;
                     }
                 } else {
-                    for (size_t i = 0; i < n; i++) d[i * size_t(nch)] = s[i];
+                    for (size_t i = 0; i < n; i++) d[i * size_t(nch)] = s[i * ss];
                 }
             }
             const bool ok = out->write_scanlines(spec.y + y0, spec.y + y1, 0, OIIO::TypeFloat,
@@ -1488,40 +1523,84 @@ int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, 
         return 1;
     }
     try {
-        std::vector<int> chans;
+        const size_t npix = size_t(f->width) * size_t(f->height), w = size_t(f->width);
+        /* What one pass over the file decodes: chans[k] into at[k] (its
+         * value at pixel (0, 0) and its strides) — a ref's dst, or a plane
+         * the file keeps (keep: the k that are) */
+        std::vector<int> chans, keep, late;
+        std::vector<BandDst> at;
         for (int r = 0; r < n; r++) {
             const std::string L = refs[r].layer ? refs[r].layer : "", P = refs[r].pass ? refs[r].pass : "";
+            if (refs[r].dst) {
+                if (!refs[r].comps || !*refs[r].comps) {
+                    set_err(err, errlen, "ewio_load_passes: a pass decoded into dst needs its comps");
+                    return 1;
+                }
+                const std::string C = refs[r].comps;
+                std::vector<int> idx;
+                std::string missing;
+                bool on_disk = true;
+                for (char c : C) {
+                    const int i = find_channel(*f, L, P, std::string(1, c));
+                    if (i < 0) missing += c;
+                    else on_disk = on_disk && f->ch[size_t(i)].on_disk;
+                    idx.push_back(i);
+                }
+                if (!missing.empty()) {
+                    set_err(err, errlen, missing_msg(*f, L, P, C, missing));
+                    return 1;
+                }
+                if (!on_disk) { /* in memory (not a scanline EXR, or set since): copied below */
+                    late.push_back(r);
+                    continue;
+                }
+                for (size_t k = 0; k < C.size(); k++) {
+                    chans.push_back(idx[k]);
+                    at.push_back(BandDst{refs[r].dst + k, C.size(), w * C.size()});
+                }
+                continue;
+            }
             for (size_t i = 0; i < f->ch.size(); i++) {
                 const Channel &c = f->ch[i];
                 if (!c.on_disk || c.layer != L || c.pass != P) continue;
                 if (refs[r].comps && !std::strstr(refs[r].comps, c.comp.c_str())) continue;
                 if (refs[r].comps && c.comp.size() != 1) continue;
-                if (std::find(chans.begin(), chans.end(), int(i)) == chans.end()) chans.push_back(int(i));
+                bool kept = false;
+                for (int k : keep) kept = kept || chans[size_t(k)] == int(i);
+                if (kept) continue;
+                keep.push_back(int(chans.size()));
+                chans.push_back(int(i));
+                at.push_back(BandDst{nullptr, 1, w});
             }
         }
-        if (chans.empty()) return 0;
-        const size_t npix = size_t(f->width) * size_t(f->height), w = size_t(f->width);
-        std::vector<Plane> px(chans.size());
-        for (Plane &pl : px) pl.resize(npix);
-        SourceReader rd;
-        std::string why;
-        if (!rd.open(*f, chans, why)) {
-            set_err(err, errlen, why);
-            return 1;
+        std::vector<Plane> px(keep.size());
+        for (size_t j = 0; j < keep.size(); j++) {
+            px[j].resize(npix);
+            at[size_t(keep[j])].p = px[j].data();
         }
-        std::vector<float *> planes(chans.size());
-        const int rows = rd.band_rows(chans.size());
-        for (int y0 = 0; y0 < f->height; y0 += rows) {
-            const int y1 = std::min(f->height, y0 + rows);
-            for (size_t k = 0; k < chans.size(); k++) planes[k] = px[k].data() + size_t(y0) * w;
-            if (!rd.read(y0, y1, planes.data(), w, why)) {
+        if (!chans.empty()) {
+            SourceReader rd;
+            std::string why;
+            if (!rd.open(*f, chans, why)) {
                 set_err(err, errlen, why);
                 return 1;
             }
+            std::vector<BandDst> band(at);
+            const int rows = rd.band_rows(chans.size());
+            for (int y0 = 0; y0 < f->height; y0 += rows) {
+                const int y1 = std::min(f->height, y0 + rows);
+                for (size_t k = 0; k < at.size(); k++) band[k].p = at[k].p + size_t(y0) * at[k].ys;
+                if (!rd.read(y0, y1, band.data(), why)) {
+                    set_err(err, errlen, why);
+                    return 1;
+                }
+            }
         }
-        for (size_t k = 0; k < chans.size(); k++) {
-            Channel &c = f->ch[size_t(chans[k])];
-            c.px.swap(px[k]);
+        for (int r : late)
+            if (ewio_get_pass(f, refs[r].layer, refs[r].pass, refs[r].comps, refs[r].dst, err, errlen) != 0) return 1;
+        for (size_t j = 0; j < keep.size(); j++) {
+            Channel &c = f->ch[size_t(chans[size_t(keep[j])])];
+            c.px.swap(px[j]);
             c.on_disk = false;
         }
         return 0;
@@ -1596,7 +1675,7 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
         for (size_t k = 0; k < n; k++) {
             const Channel &c = f->ch[size_t(idx[k])];
             if (c.on_disk) disk.push_back(int(k));
-            else if (c.px.size() != npix) {
+            else if (!in_memory(c, npix)) {
                 set_err(err, errlen, "ewio_get_pass: the pixels of " + display_pass(L, P) +
                                          " were released (ewio_release_pass) and not set again");
                 return 1;
@@ -1610,25 +1689,28 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
             set_err(err, errlen, why);
             return 1;
         }
+        /* the channels on disk are decoded straight into dst, band by band */
         const size_t w = size_t(f->width);
+        std::vector<BandDst> band(disk.size());
         const int rows = disk.empty() ? f->height : rd.band_rows(disk.size());
-        std::vector<float> band(disk.empty() ? 0 : size_t(rows) * w * disk.size());
-        std::vector<float *> planes(disk.size());
-        for (size_t j = 0; j < disk.size(); j++) planes[j] = band.data() + j * size_t(rows) * w;
-        for (int y0 = 0; y0 < f->height; y0 += rows) {
+        for (int y0 = 0; !disk.empty() && y0 < f->height; y0 += rows) {
             const int y1 = std::min(f->height, y0 + rows);
-            if (!disk.empty() && !rd.read(y0, y1, planes.data(), w, why)) {
+            for (size_t j = 0; j < disk.size(); j++) band[j] = BandDst{dst + size_t(y0) * w * n + size_t(disk[j]), n, w * n};
+            if (!rd.read(y0, y1, band.data(), why)) {
                 set_err(err, errlen, why);
                 return 1;
             }
-            const size_t b = size_t(y0) * w, m = size_t(y1 - y0) * w;
-            size_t j = 0;
-            for (size_t k = 0; k < n; k++) {
-                const bool from_disk = j < disk.size() && disk[j] == int(k);
-                const float *s = from_disk ? planes[j++] : f->ch[size_t(idx[k])].px.data() + b;
-                float *d = dst + b * n + k;
-                for (size_t i = 0; i < m; i++) d[i * n] = s[i];
+        }
+        size_t j = 0;
+        for (size_t k = 0; k < n; k++) {
+            if (j < disk.size() && disk[j] == int(k)) {
+                j++;
+                continue;
             }
+            size_t ss = 1;
+            const float *s = memory_pixels(f->ch[size_t(idx[k])], &ss);
+            float *d = dst + k;
+            for (size_t i = 0; i < npix; i++) d[i * n] = s[i * ss];
         }
         return 0;
     } catch (const std::bad_alloc &) {
@@ -1651,6 +1733,7 @@ int ewio_release_pass(ewio_file *f, const char *layer, const char *pass, const c
         }
         for (int i : idx) {
             Plane().swap(f->ch[size_t(i)].px);
+            unlend(f->ch[size_t(i)]);
             f->ch[size_t(i)].on_disk = false;
         }
         return 0;
@@ -1766,6 +1849,7 @@ int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass,
             }
             Channel &c = f->ch[size_t(i)];
             Plane().swap(c.px);
+            unlend(c);
             c.on_disk = true;
             c.in_src = true;
             c.part = refs[k].first;
@@ -1781,16 +1865,18 @@ int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass,
     return 1;
 }
 
-int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
-                  const float *src, char *err, size_t errlen) {
+namespace {
+/* ewio_set_pass (a copy of src) and ewio_lend_pass (src itself). */
+int put_pass(ewio_file *f, const char *layer, const char *pass, const char *comps, const float *src, bool lend,
+             const char *fn, char *err, size_t errlen) {
     clear_err(err, errlen);
     if (!f || !comps || !*comps || !src) {
-        set_err(err, errlen, "ewio_set_pass: invalid argument (NULL file/src or empty comps)");
+        set_err(err, errlen, std::string(fn) + ": invalid argument (NULL file/src or empty comps)");
         return 1;
     }
     try {
         const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
-        const std::string why = pass_names_problem(L, P, C, "ewio_set_pass");
+        const std::string why = pass_names_problem(L, P, C, fn);
         if (!why.empty()) {
             set_err(err, errlen, why);
             return 1;
@@ -1804,7 +1890,7 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
         for (size_t k = 0; k < n; k++) {
             const int i = find_channel(*f, L, P, std::string(1, C[k]));
             if (i < 0) nnew++;
-            if (i < 0 || f->ch[size_t(i)].px.size() != npix) data[k].resize(npix);
+            if (!lend && (i < 0 || f->ch[size_t(i)].px.size() != npix)) data[k].resize(npix);
         }
         std::vector<Channel> fresh;
         fresh.reserve(nnew);
@@ -1825,26 +1911,45 @@ int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char 
         size_t fi = 0;
         for (size_t k = 0; k < n; k++) {
             int i = find_channel(*f, L, P, std::string(1, C[k]));
-            Plane &dst = i >= 0 && data[k].empty() ? f->ch[size_t(i)].px : data[k];
-            for (size_t j = 0; j < npix; j++) dst[j] = src[j * n + k];
+            Channel *c;
             if (i >= 0) {
-                if (&dst != &f->ch[size_t(i)].px) f->ch[size_t(i)].px.swap(data[k]);
-                f->ch[size_t(i)].on_disk = false;
+                c = &f->ch[size_t(i)];
+            } else {
+                const size_t pos = new_channel_pos(*f, L, P);
+                f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(fresh[fi++]));
+                c = &f->ch[pos];
+            }
+            c->on_disk = false;
+            if (lend) {
+                Plane().swap(c->px);
+                c->lent = src + k;
+                c->lent_stride = n;
                 continue;
             }
-            const size_t pos = new_channel_pos(*f, L, P);
-            Channel &c = fresh[fi++];
-            c.px.swap(data[k]);
-            f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(c));
+            if (!data[k].empty()) c->px.swap(data[k]);
+            unlend(*c);
+            float *dst = c->px.data();
+            for (size_t j = 0; j < npix; j++) dst[j] = src[j * n + k];
         }
         f->layers.swap(layers);
         return 0;
     } catch (const std::bad_alloc &) {
-        set_err(err, errlen, "ewio_set_pass: out of memory");
+        set_err(err, errlen, std::string(fn) + ": out of memory");
     } catch (...) {
-        set_err(err, errlen, "ewio_set_pass: unexpected error");
+        set_err(err, errlen, std::string(fn) + ": unexpected error");
     }
     return 1;
+}
+} // namespace
+
+int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps, const float *src, char *err,
+                  size_t errlen) {
+    return put_pass(f, layer, pass, comps, src, false, "ewio_set_pass", err, errlen);
+}
+
+int ewio_lend_pass(ewio_file *f, const char *layer, const char *pass, const char *comps, const float *src, char *err,
+                   size_t errlen) {
+    return put_pass(f, layer, pass, comps, src, true, "ewio_lend_pass", err, errlen);
 }
 
 const char *ewio_get_attribute(const ewio_file *f, const char *name) {

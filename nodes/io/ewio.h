@@ -70,9 +70,14 @@ int ewio_open(const char *path, ewio_file **out, char *err, size_t errlen);
  * the file; comps NULL = every component of the pass) in one pass over
  * the file and keep them, so several ewio_get_pass calls do not each
  * decode it. Passes that do not exist are skipped (ewio_get_pass reports
- * them). 0 on success; on failure nothing is loaded. */
+ * them). A ref with `dst` is not kept: its pass is decoded into dst as
+ * ewio_get_pass would copy it (comps required; a missing component fails
+ * the call) and stays in the file — for the pass a caller works on in a
+ * buffer of its own, which then is neither held twice nor copied. 0 on
+ * success; on failure nothing is loaded (a dst may be partly written). */
 typedef struct ewio_pass_ref {
     const char *layer, *pass, *comps;
+    float *dst;
 } ewio_pass_ref;
 int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, size_t errlen);
 
@@ -143,6 +148,13 @@ int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const
  * components — names that would not read back as the same layer/pass. */
 int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
                   const float *src, char *err, size_t errlen);
+/* As ewio_set_pass, but the file points at src instead of copying it (and
+ * drops the pass's own pixels): src must stay valid and unchanged until the
+ * file is written for the last time or freed, or the pass is set, lent or
+ * released again. For a result that is only written: no second frame is
+ * allocated and filled for it. */
+int ewio_lend_pass(ewio_file *f, const char *layer, const char *pass, const char *comps,
+                   const float *src, char *err, size_t errlen);
 
 /* 1 if every component of the pass is in the file the data was read from
  * (a scanline EXR), which still holds the values it was read with whatever

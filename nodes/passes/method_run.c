@@ -8,43 +8,37 @@
 #include <time.h>
 
 void ew_layer_data_free(ew_layer_data *d) {
-    free(d->color);
-    free(d->albedo);
-    free(d->normal);
-    free(d->depth);
-    free(d->vector);
+    ew_host_free(d->color);
+    ew_host_free(d->albedo);
+    ew_host_free(d->normal);
+    ew_host_free(d->depth);
+    ew_host_free(d->vector);
     memset(d, 0, sizeof *d);
 }
 
-static float *read_pass(const ewio_file *f, const char *layer, const char *pass, const char *comps, char *err,
-                        size_t errlen, int *fail) {
-    if (!pass || *fail) return NULL;
-    size_t n = (size_t)ewio_width(f) * ewio_height(f) * strlen(comps);
-    float *buf = (float *)malloc(n * sizeof(float));
-    if (!buf) {
-        snprintf(err, errlen, "out of memory");
-        *fail = 1;
-        return NULL;
-    }
-    if (ewio_get_pass(f, layer, pass, comps, buf, err, errlen) != 0) {
-        free(buf);
-        *fail = 1;
-        return NULL;
-    }
-    return buf;
-}
-
-int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen) {
+int ew_layer_data_read(ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen) {
     memset(out, 0, sizeof *out);
     out->width = ewio_width(f);
     out->height = ewio_height(f);
-    int fail = 0;
-    out->color = read_pass(f, lp->layer, lp->color, "RGB", err, errlen, &fail);
-    out->albedo = read_pass(f, lp->layer, lp->albedo, "RGB", err, errlen, &fail);
-    out->normal = read_pass(f, lp->layer, lp->normal, "XYZ", err, errlen, &fail);
-    out->depth = read_pass(f, lp->layer, lp->depth, "Z", err, errlen, &fail);
-    if (!fail && !lp->skip_vector && ewio_has_pass(f, lp->layer, "Vector", "XY"))
-        out->vector = read_pass(f, lp->layer, "Vector", "XY", err, errlen, &fail);
+    /* every pass the layer has, decoded straight into its buffer in one
+     * pass over the file (the file keeps none of them: they stay in it) */
+    const int vec = !lp->skip_vector && ewio_has_pass(f, lp->layer, "Vector", "XY");
+    float **buf[5] = {&out->color, &out->albedo, &out->normal, &out->depth, &out->vector};
+    const char *pass[5] = {lp->color, lp->albedo, lp->normal, lp->depth, vec ? "Vector" : NULL};
+    static const char *const comps[5] = {"RGB", "RGB", "XYZ", "Z", "XY"};
+    ewio_pass_ref refs[5];
+    int nref = 0, fail = 0;
+    const size_t npix = (size_t)out->width * (size_t)out->height;
+    for (int k = 0; k < 5 && !fail; k++) {
+        if (!pass[k]) continue;
+        *buf[k] = (float *)ew_host_alloc(npix * strlen(comps[k]) * sizeof(float));
+        if (!*buf[k]) {
+            snprintf(err, errlen, "out of memory");
+            fail = 1;
+        }
+        refs[nref++] = (ewio_pass_ref){lp->layer, pass[k], comps[k], *buf[k]};
+    }
+    if (!fail) fail = ewio_load_passes(f, refs, nref, err, errlen) != 0;
     if (fail) ew_layer_data_free(out);
     char key[320];
     snprintf(key, sizeof key, "cycles.%s.samples", lp->layer);

@@ -52,7 +52,9 @@ typedef struct ew_layer_data {
                        given to methods with a "samples" parameter the spec leaves unset */
 } ew_layer_data;
 
-int ew_layer_data_read(const ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);
+/* The layer's passes, decoded from the file in one pass over it into new
+ * buffers (ew_host_alloc); the file itself keeps none of them. */
+int ew_layer_data_read(ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);
 void ew_layer_data_free(ew_layer_data *d);
 
 /* Run `spec` on the layer into out (3 per pixel; it may be in->color, the

@@ -533,8 +533,8 @@ TEST(open_leaves_passes_in_the_file) {
             CHECK(ewio_get_pass(d, "ViewLayer", passes[k][0], passes[k][1], pd, err, sizeof err) == 0);
             CHECK(memcmp(pg, pd, sizeof(float) * n * c) == 0);
         }
-        const ewio_pass_ref refs[] = {{"ViewLayer", "Combined", NULL}, {"ViewLayer", "Vector", "XY"},
-                                      {"ViewLayer", "Missing", NULL}};
+        const ewio_pass_ref refs[] = {{"ViewLayer", "Combined", NULL, NULL}, {"ViewLayer", "Vector", "XY", NULL},
+                                      {"ViewLayer", "Missing", NULL, NULL}};
         CHECK(ewio_load_passes(d, refs, 3, err, sizeof err) == 0);
     }
     /* the same edits on both: a pass replaced, one released and set, one set from the source */
@@ -575,6 +575,85 @@ TEST(open_leaves_passes_in_the_file) {
     CHECK_EQ_INT(count_entries(dir, ".tmp-"), 0);
     free(pg);
     free(pd);
+    ewio_free(g);
+    ewio_free(d);
+    rm_tree(dir);
+}
+
+/* A pass decoded into the caller's buffer by ewio_load_passes is what
+ * ewio_get_pass gives (from the file, and from memory for a file read
+ * whole) and stays in the file; a pass lent with ewio_lend_pass is written
+ * as ewio_set_pass's copy would be (the same bytes), follows later changes
+ * to the buffer until it is set or released again, and a new pass can be
+ * lent. 4096 x 300: several bands. */
+TEST(load_into_dst_and_lend) {
+    char dir[4096], src[4200], a[4200], b[4200], err[512];
+    CHECK(make_tmpdir(dir, sizeof dir));
+    const int w = 4096, h = 300;
+    ewio_file *f = make_blender_like(w, h, "ViewLayer");
+    CHECK(f != NULL);
+    snprintf(src, sizeof src, "%s/src.exr", dir);
+    CHECK(ewio_write(f, src, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    ewio_free(f);
+    const size_t n = (size_t)w * h;
+    float *want = malloc(sizeof(float) * n * 4), *got = malloc(sizeof(float) * n * 4),
+          *nrm = malloc(sizeof(float) * n * 3);
+    CHECK(want && got && nrm);
+    ewio_file *g = NULL, *d = NULL;
+    CHECK(ewio_read(src, &g, err, sizeof err) == 0);
+    CHECK(ewio_get_pass(g, "ViewLayer", "Combined", "BGRA", want, err, sizeof err) == 0);
+    for (int whole = 0; whole < 2; whole++) {
+        CHECK((whole ? ewio_read : ewio_open)(src, &d, err, sizeof err) == 0);
+        memset(got, 0xff, sizeof(float) * n * 4);
+        const ewio_pass_ref refs[] = {{"ViewLayer", "Combined", "BGRA", got},
+                                      {"ViewLayer", "Denoising Normal", NULL, NULL}};
+        CHECK(ewio_load_passes(d, refs, 2, err, sizeof err) == 0);
+        CHECK(memcmp(want, got, sizeof(float) * n * 4) == 0);
+        /* the kept pass is in memory now, the decoded one still reads */
+        CHECK(ewio_get_pass(g, "ViewLayer", "Denoising Normal", "XYZ", nrm, err, sizeof err) == 0);
+        CHECK(ewio_get_pass(d, "ViewLayer", "Denoising Normal", "XYZ", got, err, sizeof err) == 0);
+        CHECK(memcmp(nrm, got, sizeof(float) * n * 3) == 0);
+        CHECK(ewio_get_pass(d, "ViewLayer", "Combined", "BGRA", got, err, sizeof err) == 0);
+        CHECK(memcmp(want, got, sizeof(float) * n * 4) == 0);
+        const ewio_pass_ref bad[] = {{"ViewLayer", "Combined", "RGBQ", got}};
+        CHECK(ewio_load_passes(d, bad, 1, err, sizeof err) != 0);
+        CHECK_STR_CONTAINS(err, "Q");
+        ewio_free(d);
+        d = NULL;
+    }
+    /* lend: the same bytes as a copy, a new pass too */
+    CHECK(ewio_open(src, &d, err, sizeof err) == 0);
+    for (size_t i = 0; i < n * 3; i++) got[i] = (float)(i % 977) * 0.25f;
+    CHECK(ewio_set_pass(g, "ViewLayer", "Combined", "RGB", got, err, sizeof err) == 0);
+    CHECK(ewio_set_pass(g, "ViewLayer", "Extra", "RGB", got, err, sizeof err) == 0);
+    CHECK(ewio_lend_pass(d, "ViewLayer", "Combined", "RGB", nrm, err, sizeof err) == 0);
+    CHECK(ewio_lend_pass(d, "ViewLayer", "Extra", "RGB", nrm, err, sizeof err) == 0);
+    memcpy(nrm, got, sizeof(float) * n * 3); /* lent, not copied: the write sees this */
+    CHECK(ewio_get_pass(d, "ViewLayer", "Extra", "BR", want, err, sizeof err) == 0);
+    CHECK(want[0] == got[2] && want[1] == got[0] && want[2 * (n - 1)] == got[3 * (n - 1) + 2]);
+    snprintf(a, sizeof a, "%s/a.exr", dir);
+    snprintf(b, sizeof b, "%s/b.exr", dir);
+    CHECK(ewio_write(g, a, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    CHECK(ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
+    long la = 0, lb = 0;
+    unsigned char *ba = slurp(a, &la), *bb = slurp(b, &lb);
+    CHECK(ba && bb && la == lb && memcmp(ba, bb, (size_t)la) == 0);
+    free(ba);
+    free(bb);
+    /* set again: a copy of its own, the buffer no longer read; released: refused */
+    CHECK(ewio_set_pass(d, "ViewLayer", "Extra", "RGB", got, err, sizeof err) == 0);
+    memset(nrm, 0, sizeof(float) * n * 3);
+    CHECK(ewio_get_pass(d, "ViewLayer", "Extra", "RGB", want, err, sizeof err) == 0);
+    CHECK(memcmp(want, got, sizeof(float) * n * 3) == 0);
+    CHECK(ewio_release_pass(d, "ViewLayer", "Combined", "RGB") == 0);
+    CHECK(ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) != 0);
+    CHECK_STR_CONTAINS(err, "released");
+    CHECK(ewio_lend_pass(d, "ViewLayer", "Bad.Name", "RGB", nrm, err, sizeof err) != 0);
+    CHECK(ewio_lend_pass(d, "ViewLayer", "Combined", "RGB", NULL, err, sizeof err) != 0);
+    CHECK_EQ_INT(count_entries(dir, ".tmp-"), 0);
+    free(want);
+    free(got);
+    free(nrm);
     ewio_free(g);
     ewio_free(d);
     rm_tree(dir);

@@ -5,6 +5,7 @@
 #include "ew_test.h"
 
 #include <malloc.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -106,6 +107,25 @@ TEST(auto_estimate_covers_its_pick) {
             CHECK((double)est >= 0.9 * (double)grew);
         }
     ew_device_destroy(dev);
+}
+
+/* ew_host_alloc: 64-byte aligned, and a block of 2 MiB or more starts on a
+ * huge page's boundary (so all of it can be huge pages); every byte is the
+ * caller's; freed by ew_host_free, NULL freed as a no-op. */
+TEST(host_alloc) {
+    const size_t sizes[] = {0, 1, 100, (size_t)2 << 20, ((size_t)5 << 20) + 12};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        unsigned char *p = (unsigned char *)ew_host_alloc(sizes[k]);
+        CHECK(p != NULL);
+        CHECK((uintptr_t)p % 64 == 0);
+#if defined(__linux__)
+        if (sizes[k] >= ((size_t)2 << 20)) CHECK((uintptr_t)p % ((uintptr_t)2 << 20) == 0);
+#endif
+        memset(p, 0x5a, sizes[k]);
+        CHECK(sizes[k] == 0 || (p[0] == 0x5a && p[sizes[k] - 1] == 0x5a));
+        ew_host_free(p);
+    }
+    ew_host_free(NULL);
 }
 
 TEST(bad_calls) {

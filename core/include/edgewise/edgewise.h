@@ -162,6 +162,18 @@ typedef struct ew_image {
 /* A packed float view of a caller buffer of width*height*channels floats. */
 EW_API ew_image ew_image_packed(float *data, int32_t width, int32_t height, int32_t channels);
 
+/* Host memory for the frames a caller fills and passes as views (a file's
+ * pass decoded into it, a result written from it): aligned to 64 bytes,
+ * and on Linux, from 2 MiB up, to 2 MiB with transparent huge pages asked
+ * for when the kernel has free blocks of that size to give (in a virtual
+ * machine the first touch of every 4 KiB page costs microseconds, and a 4K
+ * frame is tens of thousands of them). Contents undefined; NULL when out of
+ * memory. Release with ew_host_free (NULL is a no-op); it is the C
+ * library's posix_memalign, so free() and realloc() take it too. Needs no
+ * device. */
+EW_API void *ew_host_alloc(size_t bytes);
+EW_API void ew_host_free(void *ptr);
+
 /* ---- progress --------------------------------------------------------- */
 /* Called with a fraction in [0,1]; return 0 to cancel, non-zero to go on.
  * May be called from a worker thread, one call at a time. The callback must
