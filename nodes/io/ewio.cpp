@@ -50,8 +50,27 @@ constexpr long long kMaxSide = 65536;
 constexpr long long kMaxPixels = 1LL << 28;
 constexpr int kMaxChannels = 4096;
 /* Pixels are moved between OIIO and our planar storage in bands of rows of
- * about this many floats, so no second whole-image copy is ever held. */
-constexpr size_t kBandFloats = size_t(1) << 20;
+ * about this many floats, so no second whole-image copy is ever held (and
+ * the band's buffer, faulted in once, stays small). */
+constexpr size_t kBandFloats = size_t(2) << 20;
+
+/* Rows of a band of `row_bytes` bytes a row, of an image `h` rows high:
+ * about kBandFloats floats, in whole 32-row chunks (a zip chunk is 16
+ * rows, a piz one 32): a chunk is decoded once, not once for each band it
+ * straddles, and every call hands OpenEXR whole chunks to work on in
+ * parallel. One chunk where the rows are wider than that, unless a chunk
+ * is far above the band's size (thousands of channels): then at least a row. */
+size_t band_rows_of(size_t row_bytes, size_t h) {
+    const size_t band = kBandFloats * sizeof(float);
+    size_t rows = band / std::max<size_t>(row_bytes, 1);
+    if (rows >= 32)
+        rows -= rows % 32;
+    else if (32 * row_bytes <= 8 * band)
+        rows = 32;
+    else
+        rows = std::max<size_t>(rows, 1);
+    return std::min(rows, std::max<size_t>(h, 1));
+}
 
 /* An allocator that leaves new floats uninitialised: a plane is sized from
  * the header before its pixels are read, and zero-filling it would make the
@@ -760,8 +779,7 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
                 off[size_t(c)] = pxb;
                 pxb += cf[size_t(c)].size();
             }
-            size_t rows = std::max<size_t>(1, kBandFloats * sizeof(float) / (w * pxb));
-            rows = std::min(rows, size_t(s.height));
+            const size_t rows = band_rows_of(w * pxb, size_t(s.height));
             std::vector<unsigned char> buf(rows * w * pxb);
             for (int y0 = 0; y0 < s.height; y0 += int(rows)) {
                 const int y1 = std::min(s.height, y0 + int(rows));
@@ -779,8 +797,7 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
                 }
             }
         } else {
-            size_t rows = std::max<size_t>(1, kBandFloats / (w * size_t(nch)));
-            rows = std::min(rows, size_t(s.height));
+            const size_t rows = band_rows_of(w * size_t(nch) * sizeof(float), size_t(s.height));
             std::vector<float> buf(rows * w * size_t(nch));
             for (int y0 = 0; y0 < s.height; y0 += int(rows)) {
                 const int y1 = std::min(s.height, y0 + int(rows));
@@ -906,10 +923,25 @@ class SourceReader {
             for (size_t j = 0; ok && j < pt.want.size(); j++) {
                 const size_t c = size_t(pt.want[j].second - pt.chb);
                 const BandDst &d = dst[pt.want[j].first];
-                ok = OIIO::convert_image(1, file_->width, y1 - y0, 1, buf_.data() + pt.off[c], pt.cf[c],
-                                         OIIO::stride_t(pt.pxb), OIIO::stride_t(w * pt.pxb), OIIO::AutoStride, d.p,
-                                         OIIO::TypeFloat, OIIO::stride_t(d.xs * sizeof(float)),
-                                         OIIO::stride_t(d.ys * sizeof(float)), OIIO::AutoStride);
+                if (d.xs == 1) {
+                    ok = OIIO::convert_image(1, file_->width, y1 - y0, 1, buf_.data() + pt.off[c], pt.cf[c],
+                                             OIIO::stride_t(pt.pxb), OIIO::stride_t(w * pt.pxb), OIIO::AutoStride,
+                                             d.p, OIIO::TypeFloat, OIIO::stride_t(sizeof(float)),
+                                             OIIO::stride_t(d.ys * sizeof(float)), OIIO::AutoStride);
+                    continue;
+                }
+                /* into an interleaved buffer: a row at a time through a
+                 * contiguous one (OIIO converts value by value into a
+                 * strided destination, several times slower) */
+                row_.resize(w);
+                for (int y = 0; ok && y < y1 - y0; y++) {
+                    ok = OIIO::convert_image(1, file_->width, 1, 1, buf_.data() + size_t(y) * w * pt.pxb + pt.off[c],
+                                             pt.cf[c], OIIO::stride_t(pt.pxb), OIIO::AutoStride, OIIO::AutoStride,
+                                             row_.data(), OIIO::TypeFloat, OIIO::AutoStride, OIIO::AutoStride,
+                                             OIIO::AutoStride);
+                    float *o = d.p + size_t(y) * d.ys;
+                    for (size_t x = 0; x < w; x++) o[x * d.xs] = row_[x];
+                }
             }
             if (!ok) {
                 why = "cannot read " + q(file_->src_name) + ": corrupt or truncated image data (" +
@@ -920,16 +952,11 @@ class SourceReader {
         return true;
     }
 
-    /* Rows a band of n float channels (and of the parts' stored channels
-     * it decodes) takes at about kBandFloats floats, in
-     * whole 32-row chunks (a zip or piz chunk is decoded once, not once for
-     * each band it straddles). */
+    /* Rows of a band of n float channels (and of the parts' stored
+     * channels it decodes): band_rows_of. */
     int band_rows(size_t n) const {
         for (const Part &pt : parts_) n = std::max(n, (pt.pxb + sizeof(float) - 1) / sizeof(float));
-        const int w = file_->width, h = file_->height;
-        size_t rows = std::max<size_t>(1, kBandFloats / (size_t(w) * std::max<size_t>(n, 1)));
-        if (rows > 32) rows -= rows % 32;
-        return int(std::min(rows, size_t(h)));
+        return int(band_rows_of(size_t(file_->width) * n * sizeof(float), size_t(file_->height)));
     }
 
   private:
@@ -943,8 +970,9 @@ class SourceReader {
     const ewio_file *file_ = nullptr;
     std::unique_ptr<ImageInput> in_;
     std::vector<Part> parts_;
-    /* every byte is written by the decode before it is read */
+    /* every byte is written by the decode (the conversion) before it is read */
     std::vector<unsigned char, NoInit<unsigned char>> buf_;
+    std::vector<float, NoInit<float>> row_;
 };
 
 /* ----------------------------------------------------------------- write */
@@ -981,8 +1009,7 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
         /* decoding is the check: the stored types, no conversion (OIIO's
          * converting read allocates 64 MiB a call) */
         const size_t pxb = s.pixel_bytes(true);
-        size_t rows = std::max<size_t>(1, kBandFloats * sizeof(float) / (size_t(w) * pxb));
-        rows = std::min(rows, size_t(h));
+        const size_t rows = band_rows_of(size_t(w) * pxb, size_t(h));
         std::vector<unsigned char, NoInit<unsigned char>> buf(rows * size_t(w) * pxb);
         ok = true;
         for (int y0 = 0; ok && y0 < h; y0 += int(rows)) {
@@ -1221,7 +1248,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         return 1;
     }
     {
-        const size_t rows = size_t(disk.empty() ? std::min<size_t>(size_t(h), std::max<size_t>(1, kBandFloats / (size_t(w) * size_t(nch))))
+        const size_t rows = size_t(disk.empty() ? band_rows_of(size_t(w) * size_t(nch) * sizeof(float), size_t(h))
                                                 : size_t(disk_in.band_rows(size_t(nch))));
         /* every float of a band is written before the band is encoded */
         std::vector<float, NoInit<float>> buf(rows * size_t(w) * size_t(nch));
