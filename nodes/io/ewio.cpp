@@ -346,6 +346,20 @@ std::string missing_msg(const ewio_file &f, const std::string &layer, const std:
     return m + "; " + layers_found(f);
 }
 
+/* The channels of pass (L, P)'s components C, in C's order, into idx (-1
+ * where absent); "" when all exist, else the message naming the missing. */
+std::string pass_channels(const ewio_file &f, const std::string &L, const std::string &P, const std::string &C,
+                          std::vector<int> &idx) {
+    std::string missing;
+    idx.clear();
+    for (char c : C) {
+        const int i = find_channel(f, L, P, std::string(1, c));
+        if (i < 0) missing += c;
+        idx.push_back(i);
+    }
+    return missing.empty() ? std::string() : missing_msg(f, L, P, C, missing);
+}
+
 /* ------------------------------------------------------------ dimensions */
 
 std::string gib(unsigned long long bytes) {
@@ -948,6 +962,18 @@ class SourceReader {
                       oiio_msg(in_->geterror(), "read failed") + ")";
                 return false;
             }
+        }
+        return true;
+    }
+
+    /* Every row, band by band: at[k] (for chans[k]) is where pixel (0, 0)
+     * goes, with its strides. */
+    bool read_all(const std::vector<BandDst> &at, std::string &why) {
+        std::vector<BandDst> band(at);
+        const int rows = band_rows(at.size());
+        for (int y0 = 0; y0 < file_->height; y0 += rows) {
+            for (size_t k = 0; k < at.size(); k++) band[k].p = at[k].p + size_t(y0) * at[k].ys;
+            if (!read(y0, std::min(file_->height, y0 + rows), band.data(), why)) return false;
         }
         return true;
     }
@@ -1565,18 +1591,13 @@ int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, 
                 }
                 const std::string C = refs[r].comps;
                 std::vector<int> idx;
-                std::string missing;
-                bool on_disk = true;
-                for (char c : C) {
-                    const int i = find_channel(*f, L, P, std::string(1, c));
-                    if (i < 0) missing += c;
-                    else on_disk = on_disk && f->ch[size_t(i)].on_disk;
-                    idx.push_back(i);
-                }
+                const std::string missing = pass_channels(*f, L, P, C, idx);
                 if (!missing.empty()) {
-                    set_err(err, errlen, missing_msg(*f, L, P, C, missing));
+                    set_err(err, errlen, missing);
                     return 1;
                 }
+                bool on_disk = true;
+                for (int i : idx) on_disk = on_disk && f->ch[size_t(i)].on_disk;
                 if (!on_disk) { /* in memory (not a scanline EXR, or set since): copied below */
                     late.push_back(r);
                     continue;
@@ -1608,19 +1629,9 @@ int ewio_load_passes(ewio_file *f, const ewio_pass_ref *refs, int n, char *err, 
         if (!chans.empty()) {
             SourceReader rd;
             std::string why;
-            if (!rd.open(*f, chans, why)) {
+            if (!rd.open(*f, chans, why) || !rd.read_all(at, why)) {
                 set_err(err, errlen, why);
                 return 1;
-            }
-            std::vector<BandDst> band(at);
-            const int rows = rd.band_rows(chans.size());
-            for (int y0 = 0; y0 < f->height; y0 += rows) {
-                const int y1 = std::min(f->height, y0 + rows);
-                for (size_t k = 0; k < at.size(); k++) band[k].p = at[k].p + size_t(y0) * at[k].ys;
-                if (!rd.read(y0, y1, band.data(), why)) {
-                    set_err(err, errlen, why);
-                    return 1;
-                }
             }
         }
         for (int r : late)
@@ -1687,14 +1698,9 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
     try {
         const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
         std::vector<int> idx;
-        std::string missing;
-        for (char c : C) {
-            int i = find_channel(*f, L, P, std::string(1, c));
-            if (i < 0) missing += c;
-            idx.push_back(i);
-        }
+        const std::string missing = pass_channels(*f, L, P, C, idx);
         if (!missing.empty()) {
-            set_err(err, errlen, missing_msg(*f, L, P, C, missing));
+            set_err(err, errlen, missing);
             return 1;
         }
         const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
@@ -1708,22 +1714,17 @@ int ewio_get_pass(const ewio_file *f, const char *layer, const char *pass, const
                 return 1;
             }
         }
-        SourceReader rd;
-        std::vector<int> chans;
-        for (int k : disk) chans.push_back(idx[size_t(k)]);
-        std::string why;
-        if (!disk.empty() && !rd.open(*f, chans, why)) {
-            set_err(err, errlen, why);
-            return 1;
-        }
         /* the channels on disk are decoded straight into dst, band by band */
-        const size_t w = size_t(f->width);
-        std::vector<BandDst> band(disk.size());
-        const int rows = disk.empty() ? f->height : rd.band_rows(disk.size());
-        for (int y0 = 0; !disk.empty() && y0 < f->height; y0 += rows) {
-            const int y1 = std::min(f->height, y0 + rows);
-            for (size_t j = 0; j < disk.size(); j++) band[j] = BandDst{dst + size_t(y0) * w * n + size_t(disk[j]), n, w * n};
-            if (!rd.read(y0, y1, band.data(), why)) {
+        if (!disk.empty()) {
+            std::vector<int> chans;
+            std::vector<BandDst> at;
+            for (int k : disk) {
+                chans.push_back(idx[size_t(k)]);
+                at.push_back(BandDst{dst + size_t(k), n, size_t(f->width) * n});
+            }
+            SourceReader rd;
+            std::string why;
+            if (!rd.open(*f, chans, why) || !rd.read_all(at, why)) {
                 set_err(err, errlen, why);
                 return 1;
             }

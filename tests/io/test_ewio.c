@@ -502,6 +502,36 @@ TEST(png_and_tiff_colour_only) {
 }
 
 /* Multi-part EXR: made with oiiotool (ewio itself writes single-part files). */
+/* A make_blender_like file of w x h written as dir/src.exr (its path in
+ * src): the source the ewio_open tests read. 0 on success. */
+static int write_blender_source(const char *dir, int w, int h, char *src, size_t srclen) {
+    char err[512];
+    ewio_file *f = make_blender_like(w, h, "ViewLayer");
+    if (!f) return 1;
+    snprintf(src, srclen, "%s/src.exr", dir);
+    const int rc = ewio_write(f, src, EWIO_KEEP, NULL, NULL, err, sizeof err);
+    if (rc) fprintf(stderr, "  write_blender_source: %s\n", err);
+    ewio_free(f);
+    return rc;
+}
+
+/* 1 when g written to a and d written to b are the same bytes; 0 when they
+ * differ or either write fails. */
+static int written_alike(const ewio_file *g, const char *a, const ewio_file *d, const char *b) {
+    char err[512];
+    if (ewio_write(g, a, EWIO_KEEP, NULL, NULL, err, sizeof err) != 0 ||
+        ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) != 0) {
+        fprintf(stderr, "  written_alike: %s\n", err);
+        return 0;
+    }
+    long la = 0, lb = 0;
+    unsigned char *ba = slurp(a, &la), *bb = slurp(b, &lb);
+    const int same = ba && bb && la == lb && memcmp(ba, bb, (size_t)la) == 0;
+    free(ba);
+    free(bb);
+    return same;
+}
+
 /* ewio_open leaves a scanline EXR's pixels in the file: each pass reads
  * as ewio_read reads it (decoded on demand, or loaded by
  * ewio_load_passes), a pass set from the source is the values read, and
@@ -512,11 +542,7 @@ TEST(open_leaves_passes_in_the_file) {
     char dir[4096], src[4200], a[4200], b[4200], err[512];
     CHECK(make_tmpdir(dir, sizeof dir));
     const int w = 4096, h = 300;
-    ewio_file *f = make_blender_like(w, h, "ViewLayer");
-    CHECK(f != NULL);
-    snprintf(src, sizeof src, "%s/src.exr", dir);
-    CHECK(ewio_write(f, src, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
-    ewio_free(f);
+    CHECK(write_blender_source(dir, w, h, src, sizeof src) == 0);
     ewio_file *g = NULL, *d = NULL;
     CHECK(ewio_read(src, &g, err, sizeof err) == 0);
     CHECK(ewio_open(src, &d, err, sizeof err) == 0);
@@ -555,13 +581,7 @@ TEST(open_leaves_passes_in_the_file) {
     CHECK(memcmp(pg, pd, sizeof(float) * n * 4) == 0); /* the values read, not the pattern set since */
     snprintf(a, sizeof a, "%s/a.exr", dir);
     snprintf(b, sizeof b, "%s/b.exr", dir);
-    CHECK(ewio_write(g, a, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
-    CHECK(ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
-    long la = 0, lb = 0;
-    unsigned char *ba = slurp(a, &la), *bb = slurp(b, &lb);
-    CHECK(ba && bb && la == lb && memcmp(ba, bb, (size_t)la) == 0);
-    free(ba);
-    free(bb);
+    CHECK(written_alike(g, a, d, b) == 1);
     /* the source changes under the file: refused, destination untouched */
     struct timespec ts[2] = {{1000000000, 0}, {1000000000, 0}};
     CHECK(utimensat(AT_FDCWD, src, ts, 0) == 0);
@@ -569,8 +589,10 @@ TEST(open_leaves_passes_in_the_file) {
     CHECK(strstr(err, "changed") != NULL);
     CHECK(ewio_get_pass(d, "ViewLayer", "Denoising Normal", "XYZ", pd, err, sizeof err) != 0);
     CHECK(strstr(err, "changed") != NULL);
-    unsigned char *bb2 = slurp(b, &lb);
-    CHECK(bb2 && lb == la);
+    long la = 0, lb = 0;
+    unsigned char *ba = slurp(a, &la), *bb2 = slurp(b, &lb);
+    CHECK(ba && bb2 && lb == la && memcmp(ba, bb2, (size_t)la) == 0);
+    free(ba);
     free(bb2);
     CHECK_EQ_INT(count_entries(dir, ".tmp-"), 0);
     free(pg);
@@ -590,11 +612,7 @@ TEST(load_into_dst_and_lend) {
     char dir[4096], src[4200], a[4200], b[4200], err[512];
     CHECK(make_tmpdir(dir, sizeof dir));
     const int w = 4096, h = 300;
-    ewio_file *f = make_blender_like(w, h, "ViewLayer");
-    CHECK(f != NULL);
-    snprintf(src, sizeof src, "%s/src.exr", dir);
-    CHECK(ewio_write(f, src, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
-    ewio_free(f);
+    CHECK(write_blender_source(dir, w, h, src, sizeof src) == 0);
     const size_t n = (size_t)w * h;
     float *want = malloc(sizeof(float) * n * 4), *got = malloc(sizeof(float) * n * 4),
           *nrm = malloc(sizeof(float) * n * 3);
@@ -633,13 +651,7 @@ TEST(load_into_dst_and_lend) {
     CHECK(want[0] == got[2] && want[1] == got[0] && want[2 * (n - 1)] == got[3 * (n - 1) + 2]);
     snprintf(a, sizeof a, "%s/a.exr", dir);
     snprintf(b, sizeof b, "%s/b.exr", dir);
-    CHECK(ewio_write(g, a, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
-    CHECK(ewio_write(d, b, EWIO_KEEP, NULL, NULL, err, sizeof err) == 0);
-    long la = 0, lb = 0;
-    unsigned char *ba = slurp(a, &la), *bb = slurp(b, &lb);
-    CHECK(ba && bb && la == lb && memcmp(ba, bb, (size_t)la) == 0);
-    free(ba);
-    free(bb);
+    CHECK(written_alike(g, a, d, b) == 1);
     /* set again: a copy of its own, the buffer no longer read; released: refused */
     CHECK(ewio_set_pass(d, "ViewLayer", "Extra", "RGB", got, err, sizeof err) == 0);
     memset(nrm, 0, sizeof(float) * n * 3);
