@@ -1047,6 +1047,38 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
     return ok;
 }
 
+/* Whether the EXR written at `path` is a w x h image of nch channels with
+ * all its pixel data (ewio_exr_chunks_check: its chunk table and every
+ * chunk's place and size, no pixel decoded). OpenEXR encoded every chunk
+ * from our floats and reports a failed write of one; what it does not report
+ * is a failure writing the chunk table on close — and a file cut short — both
+ * of which the check finds. A kind of file the check does not cover is
+ * decoded whole (read_back_ok). */
+bool written_exr_ok(const std::string &path, int w, int h, int nch, std::string &why) {
+    FILE *fp = fopen(path.c_str(), "rb");
+    struct stat st;
+    if (!fp || fstat(fileno(fp), &st) != 0) {
+        why = errno_text(errno);
+        if (fp) fclose(fp);
+        return false;
+    }
+    ewio_exr_layout lay;
+    char buf[256];
+    const int r = ewio_exr_chunks_check(fp, (long long)st.st_size, &lay, buf, sizeof buf);
+    fclose(fp);
+    if (r < 0) return read_back_ok(path, w, h, nch, why);
+    if (r > 0) {
+        why = buf;
+        return false;
+    }
+    if (lay.width != w || lay.height != h || lay.channels != nch) {
+        why = "it reads as " + std::to_string(lay.width) + "x" + std::to_string(lay.height) + " with " +
+              std::to_string(lay.channels) + " channels";
+        return false;
+    }
+    return true;
+}
+
 int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, const char *clayer,
                const char *cpass, std::string &msg) {
     const std::string path(cpath);
@@ -1349,11 +1381,14 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         }
     }
 
-    /* Read the whole file back before it may replace anything: some writers
-     * report short writes late or not at all (buffered output, PNG). */
+    /* Check the file before it may replace anything: some writers report
+     * short writes late or not at all (buffered output, PNG; OpenEXR's chunk
+     * table, written on close). An EXR's chunks are checked in place, the
+     * other formats decoded whole. */
     {
         std::string verr;
-        if (!read_back_ok(guard.path, w, h, nch, verr)) {
+        if (!(kind == Kind::EXR ? written_exr_ok(guard.path, w, h, nch, verr)
+                                : read_back_ok(guard.path, w, h, nch, verr))) {
             msg = what + "the written file does not read back (" + verr + ")";
             return 1;
         }

@@ -18,7 +18,7 @@ enum {
 };
 
 typedef struct part {
-    int have_window, have_tiles, tiled;
+    int have_window, have_tiles, tiled, deep;
     long long xmin, ymin, xmax, ymax;
     long long tx, ty;
     int compression; /* -1: not given */
@@ -27,6 +27,12 @@ typedef struct part {
 } part;
 
 static int get_bytes(FILE *f, unsigned char *b, size_t n) { return fread(b, 1, n, f) == n; }
+
+static long long le64(const unsigned char *b) {
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; i--) v = v << 8 | b[i];
+    return v > (uint64_t)INT64_MAX ? -1 : (long long)v;
+}
 
 static long long le32(const unsigned char *b) {
     return (long long)(int32_t)((uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24);
@@ -139,8 +145,13 @@ static long long fixed_size(const char *type) {
     return 0;
 }
 
-int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen) {
+/* The scan; *first gets the first part's header and *table where the
+ * offset tables begin (just after the headers). */
+static int scan(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen, part *first,
+                long long *table) {
     memset(out, 0, sizeof *out);
+    memset(first, 0, sizeof *first);
+    *table = -1;
     if (why && whylen) why[0] = '\0';
     unsigned char b[16];
     if (fseeko(f, 0, SEEK_SET) != 0 || !get_bytes(f, b, 8)) return 0;
@@ -151,7 +162,7 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
     long long left = file_size - 8, chunks = 0;
     char name[kNameMax], type[kNameMax];
     for (;;) {
-        part p = {0, 0, (flags & kTiledFlag) != 0, 0, 0, 0, 0, 0, 0, -1, -1, 0};
+        part p = {0, 0, (flags & kTiledFlag) != 0, 0, 0, 0, 0, 0, 0, 0, -1, -1, 0};
         int attrs = 0;
         for (;;) {
             const int nlen = get_name(f, name, &left);
@@ -198,6 +209,7 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
                 used = size < (long long)sizeof t - 1 ? size : (long long)sizeof t - 1;
                 if (!get_bytes(f, (unsigned char *)t, (size_t)used)) return 0;
                 p.tiled = !strcmp(t, "tiledimage") || !strcmp(t, "deeptile");
+                p.deep = !strcmp(t, "deepscanline") || !strcmp(t, "deeptile");
             } else if (!strcmp(type, "preview")) {
                 /* OpenEXR allocates width x height RGBA pixels before reading them */
                 if (size < 8 || !get_bytes(f, b, 8))
@@ -236,6 +248,7 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
             left -= size;
         }
         if (attrs == 0) break; /* the empty header that ends a multi-part list */
+        if (out->parts == 0) *first = p;
         out->parts++;
         out->channels += p.channels;
         if (p.have_window) {
@@ -258,10 +271,49 @@ int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, cha
         if (!multipart) break;
     }
     /* one 8-byte offset a chunk, after the last header */
+    *table = file_size - left;
     if (chunks > left / 8)
         return refuse(why, whylen,
                       "the header declares at least %lld chunks, but the %lld bytes after the headers cannot "
                       "hold their offset table (a damaged or truncated file)",
                       chunks, left);
+    return 0;
+}
+
+int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen) {
+    part first;
+    long long table;
+    return scan(f, file_size, out, why, whylen, &first, &table);
+}
+
+int ewio_exr_chunks_check(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen) {
+    part p;
+    long long table;
+    if (scan(f, file_size, out, why, whylen, &p, &table) != 0) return 1;
+    if (!out->is_exr) return refuse(why, whylen, "it is not an OpenEXR file");
+    if (out->parts != 1 || p.tiled || p.deep || !p.have_window || p.compression < 0 || p.compression > 9 ||
+        table < 0)
+        return -1;
+    const long long lines = lines_per_chunk(p.compression), n = ceil_div(p.ymax - p.ymin + 1, lines);
+    const long long table_end = table + 8 * n; /* n fits: the scan checked the table against the file */
+    unsigned char b[8];
+    for (long long i = 0; i < n; i++) {
+        if (fseeko(f, (off_t)(table + 8 * i), SEEK_SET) != 0 || !get_bytes(f, b, 8))
+            return refuse(why, whylen, "its chunk offset table is cut off");
+        const long long at = le64(b), y = p.ymin + i * lines;
+        /* each chunk: int32 first line, int32 byte count, the bytes */
+        if (at < table_end || at > file_size - 8)
+            return refuse(why, whylen,
+                          "the chunk of lines %lld.. is not in the file (offset %lld, the file has %lld bytes)", y,
+                          at, file_size);
+        if (fseeko(f, (off_t)at, SEEK_SET) != 0 || !get_bytes(f, b, 8))
+            return refuse(why, whylen, "the chunk of lines %lld.. is cut off", y);
+        const long long cy = le32(b), size = le32(b + 4);
+        if (cy != y) return refuse(why, whylen, "the chunk of lines %lld.. says it holds line %lld", y, cy);
+        if (size <= 0 || size > file_size - at - 8)
+            return refuse(why, whylen,
+                          "the chunk of lines %lld.. declares %lld bytes, but the file has %lld after its start", y,
+                          size, file_size - at - 8);
+    }
     return 0;
 }

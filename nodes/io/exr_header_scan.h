@@ -31,6 +31,18 @@ typedef struct ewio_exr_layout {
  * the end). A header that is merely malformed is left to OpenEXR to report. */
 int ewio_exr_header_scan(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen);
 
+/* Whether a file just written holds all its pixel data: after the scan, the
+ * chunk offset table of a one-part scanline file is read and every entry
+ * must point inside the file, past the table, at a chunk that names the
+ * lines it should hold and whose declared bytes the file holds. What a
+ * write that failed unnoticed leaves — a file cut off, an offset table left
+ * as the zeros OpenEXR writes first and fills in last, on close, where a
+ * failure is not reported — is found without decoding any pixel. Returns 0
+ * with the layout in *out when it holds, 1 with the reason in why[] when
+ * not, -1 for a file of a kind it does not cover (several parts, tiles,
+ * deep data, an unknown compression): then decode it to know. */
+int ewio_exr_chunks_check(FILE *f, long long file_size, ewio_exr_layout *out, char *why, size_t whylen);
+
 #ifdef __cplusplus
 }
 #endif

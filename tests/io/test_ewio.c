@@ -8,6 +8,7 @@
 #define _XOPEN_SOURCE 700
 #include "ew_test.h"
 #include "ewio.h"
+#include "exr_header_scan.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -1273,6 +1274,95 @@ TEST(written_files_keep_the_usual_modes) {
     CHECK_EQ_INT(mode_of(p), 0640);
     CHECK_EQ_INT(mode_of(t), 0604);
     CHECK_EQ_INT(count_entries(dir, ".tmp-"), 0);
+    ewio_free(f);
+    rm_tree(dir);
+}
+
+/* The check a written EXR passes before it replaces anything
+ * (ewio_exr_chunks_check): what a write that failed unnoticed leaves — the
+ * file cut short anywhere, the chunk table still the zeros OpenEXR writes
+ * first, a chunk out of its place — is refused; the file as written passes. */
+static int chunks_check_of(const unsigned char *b, long n, const char *p, ewio_exr_layout *lay) {
+    FILE *fp = fopen(p, "wb");
+    if (!fp) return 99;
+    if (n > 0 && fwrite(b, 1, (size_t)n, fp) != (size_t)n) n = -1;
+    fclose(fp);
+    if (n < 0) return 99;
+    fp = fopen(p, "rb");
+    char why[256] = "";
+    const int r = ewio_exr_chunks_check(fp, n, lay, why, sizeof why);
+    fclose(fp);
+    if (r == 1 && !why[0]) return 98; /* a refusal says why */
+    return r;
+}
+
+TEST(written_exr_chunks_checked) {
+    char dir[4096], p[4200], q[4200], err[512];
+    CHECK(make_tmpdir(dir, sizeof dir));
+    snprintf(p, sizeof p, "%s/w.exr", dir);
+    snprintf(q, sizeof q, "%s/damaged.exr", dir);
+    const int w = 37, h = 100, chunks = 7; /* zip: 16 lines a chunk */
+    ewio_file *f = NULL;
+    CHECK(ewio_create(w, h, &f, err, sizeof err) == 0);
+    float *px = malloc(sizeof(float) * w * h * 3);
+    CHECK(px != NULL);
+    uint32_t s = 777;
+    for (int i = 0; i < w * h * 3; i++) {
+        s = s * 1664525u + 1013904223u;
+        px[i] = (float)(s >> 8) / 16777216.0f;
+    }
+    CHECK(ewio_set_pass(f, "ViewLayer", "Combined", "RGB", px, err, sizeof err) == 0);
+    CHECK(ewio_write(f, p, EWIO_HALF, NULL, NULL, err, sizeof err) == 0);
+    long n = 0;
+    unsigned char *b = slurp(p, &n);
+    CHECK(b != NULL && n > 100);
+    ewio_exr_layout lay;
+    CHECK_EQ_INT(chunks_check_of(b, n, q, &lay), 0);
+    CHECK_EQ_INT((int)lay.width, w);
+    CHECK_EQ_INT((int)lay.height, h);
+    CHECK_EQ_INT((int)lay.channels, 3);
+    /* the table: 7 offsets, the first pointing just past it */
+    long table = -1;
+    for (long i = 8; i + 8 <= n && table < 0; i++) {
+        uint64_t v = 0;
+        for (int k = 7; k >= 0; k--) v = v << 8 | b[i + k];
+        if (v == (uint64_t)(i + 8 * chunks)) table = i;
+    }
+    CHECK(table > 0);
+    /* cut short anywhere past the magic number: never passes; past the
+     * table, refused with a reason */
+    int passed = 0, refused_past_table = 1;
+    for (long len = 8; len < n; len += len < table + 8 * chunks ? 7 : 13) {
+        const int r = chunks_check_of(b, len, q, &lay);
+        passed += r == 0;
+        if (len >= table + 8 * chunks) refused_past_table = refused_past_table && r == 1;
+    }
+    CHECK_EQ_INT(chunks_check_of(b, n - 1, q, &lay), 1);
+    CHECK_EQ_INT(passed, 0);
+    CHECK(refused_past_table);
+    /* the table as OpenEXR leaves it until close: zeros */
+    unsigned char *d = malloc((size_t)n);
+    CHECK(d != NULL);
+    memcpy(d, b, (size_t)n);
+    memset(d + table, 0, 8 * chunks);
+    CHECK_EQ_INT(chunks_check_of(d, n, q, &lay), 1);
+    /* one entry pointing at another chunk */
+    memcpy(d, b, (size_t)n);
+    memcpy(d + table + 8 * 3, b + table + 8 * 4, 8);
+    CHECK_EQ_INT(chunks_check_of(d, n, q, &lay), 1);
+    /* the last chunk declaring more bytes than the file holds */
+    memcpy(d, b, (size_t)n);
+    uint64_t last = 0;
+    for (int k = 7; k >= 0; k--) last = last << 8 | b[table + 8 * (chunks - 1) + k];
+    CHECK(last + 8 <= (uint64_t)n);
+    const uint32_t more = (uint32_t)(n - (long)last - 8 + 1);
+    for (int k = 0; k < 4; k++) d[last + 4 + (uint64_t)k] = (unsigned char)(more >> (8 * k));
+    CHECK_EQ_INT(chunks_check_of(d, n, q, &lay), 1);
+    /* not an EXR at all */
+    CHECK_EQ_INT(chunks_check_of((const unsigned char *)"hello, world", 12, q, &lay), 1);
+    free(d);
+    free(b);
+    free(px);
     ewio_free(f);
     rm_tree(dir);
 }
