@@ -523,13 +523,15 @@ ew_result ew_harm_execute(ew_op *op) {
             op->images[ci] = ew_image_packed(s->fed, s->w, s->h, s->cc);
         }
     }
+    /* the radiance and the rejected radiance are dead while the method
+     * runs (its output and the residual statistics overwrite them after it):
+     * their pages go before the clamp's plane is zeroed, so the two are
+     * not resident together */
+    ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
-        r = dev->backend->mem_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
+        r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
         if (r != EW_OK) return r;
     }
-    /* the radiance and the rejected radiance are dead while the method
-     * runs (its output and the residual statistics overwrite them after it) */
-    ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     /* the pilot reads what the method reads, before the method may write
      * its output over the colour */
     float *pilot = NULL;

@@ -15,11 +15,18 @@
 #include "src/internal.h"
 #include "src/cpu_clones.h" /* EW_MULTIVERSION */
 
+/* From this size up a block is made as the host's frames are (ew_host_alloc:
+ * aligned to 2 MiB, in huge pages where the kernel has them free), since a
+ * VM pays every 4 KiB page's first touch in the hypervisor; the alignment
+ * adds up to 2 MiB of address space to the block, under 1/16 of it here. */
+#define HUGE_BLOCK ((size_t)32 << 20)
+
 void *ew_cpu_mem_alloc(ew_device *dev, size_t bytes) {
     (void)dev;
     /* 64-byte aligned like cudaMalloc's 256: rows of floats start on a cache line */
     void *p = NULL;
     size_t n = (bytes + 63) & ~(size_t)63;
+    if (n >= HUGE_BLOCK) return ew_host_alloc(n);
     if (posix_memalign(&p, 64, n ? n : 64) != 0) return NULL;
     return p;
 }
