@@ -1360,6 +1360,21 @@ TEST(written_exr_chunks_checked) {
     CHECK_EQ_INT(chunks_check_of(d, n, q, &lay), 1);
     /* not an EXR at all */
     CHECK_EQ_INT(chunks_check_of((const unsigned char *)"hello, world", 12, q, &lay), 1);
+    /* every codec's chunks of lines are checked in place, none left to the
+     * whole decode (-1) */
+    static const char *const codecs[] = {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"};
+    for (size_t k = 0; k < sizeof codecs / sizeof codecs[0]; k++) {
+        CHECK(ewio_set_attribute(f, "compression", codecs[k]) == 0);
+        CHECK(ewio_write(f, p, EWIO_HALF, NULL, NULL, err, sizeof err) == 0);
+        long m = 0;
+        unsigned char *c = slurp(p, &m);
+        CHECK(c != NULL);
+        const int r = chunks_check_of(c, m, q, &lay);
+        if (r != 0) fprintf(stderr, "  compression %s: check %d\n", codecs[k], r);
+        CHECK_EQ_INT(r, 0);
+        CHECK_EQ_INT(chunks_check_of(c, m - 1, q, &lay), 1);
+        free(c);
+    }
     free(d);
     free(b);
     free(px);
