@@ -29,6 +29,8 @@ EXR (pyramid, the filter on a plain image).
     /usr/bin/python3 bench/bench_e2e.py --cli build/bin/edgewise --out /tmp/ew_e2e
     # two builds, alternating case by case:
     /usr/bin/python3 bench/bench_e2e.py --cli before=OLD/bin/edgewise --cli after=build/bin/edgewise
+    # the one-shot figures as the medians of 5 runs of each build (still one run of the bench):
+    /usr/bin/python3 bench/bench_e2e.py --cli before=OLD/bin/edgewise --cli after=build/bin/edgewise --repeat 5
     # peak memory only (one plain one-shot run per case, no warm runs or graphs), e.g. at 4K:
     /usr/bin/python3 bench/bench_e2e.py --peak-rss --sizes 3840x2160 --cli before=... --cli after=...
 """
@@ -120,6 +122,11 @@ def one_shot(cli, method, src, out):
             "minflt": ru.ru_minflt, "startup": v[0], "read": v[1], "compute": v[2], "write": v[3], "warm": warm}
 
 
+def median_run(runs):
+    """The median of each figure over repeated one-shot runs of one build (one run: itself)."""
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
 def graph(cli, method, src, d, frames):
     _, _, nodes = METHODS[method]
     seq = os.path.join(d, "seq_%s" % os.path.basename(src)[:-4])
@@ -189,7 +196,10 @@ def main():
     ap.add_argument("--json", help="also write the figures here")
     ap.add_argument("--peak-rss", action="store_true",
                     help="only the plain one-shot run of each case (as a user types it): peak RSS, CPU time, faults")
-    ap.add_argument("--repeat", type=int, default=1, help="--peak-rss: runs of each case, builds alternating")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs of each one-shot case, builds alternating: the figures are their medians (a single "
+                         "one-shot's compute moves +-15%% from run to run on a shared machine); with --peak-rss, "
+                         "each run is printed")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     clis = []
@@ -224,13 +234,17 @@ def main():
             os.remove(dst)
         for method in methods:
             kind = METHODS[method][0]
-            for label, cli in clis:  # builds alternate case by case: the same load for both
-                out = os.path.join(a.out, "out_%s.exr" % method)
-                o = one_shot(cli, method, inputs[kind], out)
-                os.remove(out)
+            out = os.path.join(a.out, "out_%s.exr" % method)
+            runs = {label: [] for label, _ in clis}
+            for _ in range(a.repeat):
+                for label, cli in clis:  # builds alternate case by case: the same load for both
+                    runs[label].append(one_shot(cli, method, inputs[kind], out))
+                    os.remove(out)
+            for label, cli in clis:
+                o = median_run(runs[label])
                 g = graph(cli, method, inputs[kind], a.out, nframes)
                 r = {"build": label, "method": method, "size": "%dx%d" % size, "input": kind, "rgb_mb": rgb_mb,
-                     "copy": copies[kind], "frames": nframes, "one": o, "graph": g}
+                     "copy": copies[kind], "frames": nframes, "one": o, "one_runs": runs[label], "graph": g}
                 r["ratios"] = {
                     "compute/warm": o["compute"] / o["warm"],
                     "whole/(copy+warm)": o["wall"] / (copies[kind] + o["warm"]),
