@@ -1013,6 +1013,12 @@ TypeDesc exr_type(TypeDesc t) {
     return OIIO::TypeFloat;
 }
 
+/* What a written file turned out to be, where it is not what was written. */
+std::string reads_as(long long w, long long h, long long nch) {
+    return "it reads as " + std::to_string(w) + "x" + std::to_string(h) + " with " + std::to_string(nch) +
+           " channels";
+}
+
 /* Whether `path` opens as a w x h image with nch channels whose pixels all
  * decode. Reads in bands of rows, so it needs little memory. */
 bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &why) {
@@ -1023,8 +1029,7 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
     }
     const ImageSpec s = in->spec();
     if (s.width != w || s.height != h || s.nchannels != nch) {
-        why = "it reads as " + std::to_string(s.width) + "x" + std::to_string(s.height) + " with " +
-              std::to_string(s.nchannels) + " channels";
+        why = reads_as(s.width, s.height, s.nchannels);
         return false;
     }
     bool ok;
@@ -1055,7 +1060,7 @@ bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &w
  * of which the check finds. A kind of file the check does not cover is
  * decoded whole (read_back_ok). */
 bool written_exr_ok(const std::string &path, int w, int h, int nch, std::string &why) {
-    FILE *fp = fopen(path.c_str(), "rb");
+    FILE *fp = fopen(path.c_str(), "rbe");
     struct stat st;
     if (!fp || fstat(fileno(fp), &st) != 0) {
         why = errno_text(errno);
@@ -1072,8 +1077,7 @@ bool written_exr_ok(const std::string &path, int w, int h, int nch, std::string 
         return false;
     }
     if (lay.width != w || lay.height != h || lay.channels != nch) {
-        why = "it reads as " + std::to_string(lay.width) + "x" + std::to_string(lay.height) + " with " +
-              std::to_string(lay.channels) + " channels";
+        why = reads_as(lay.width, lay.height, lay.channels);
         return false;
     }
     return true;

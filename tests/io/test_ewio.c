@@ -1282,6 +1282,13 @@ TEST(written_files_keep_the_usual_modes) {
  * (ewio_exr_chunks_check): what a write that failed unnoticed leaves — the
  * file cut short anywhere, the chunk table still the zeros OpenEXR writes
  * first, a chunk out of its place — is refused; the file as written passes. */
+/* The little-endian 8-byte value at b (an EXR chunk offset). */
+static uint64_t le64_at(const unsigned char *b) {
+    uint64_t v = 0;
+    for (int k = 7; k >= 0; k--) v = v << 8 | b[k];
+    return v;
+}
+
 static int chunks_check_of(const unsigned char *b, long n, const char *p, ewio_exr_layout *lay) {
     FILE *fp = fopen(p, "wb");
     if (!fp) return 99;
@@ -1323,11 +1330,8 @@ TEST(written_exr_chunks_checked) {
     CHECK_EQ_INT((int)lay.channels, 3);
     /* the table: 7 offsets, the first pointing just past it */
     long table = -1;
-    for (long i = 8; i + 8 <= n && table < 0; i++) {
-        uint64_t v = 0;
-        for (int k = 7; k >= 0; k--) v = v << 8 | b[i + k];
-        if (v == (uint64_t)(i + 8 * chunks)) table = i;
-    }
+    for (long i = 8; i + 8 <= n && table < 0; i++)
+        if (le64_at(b + i) == (uint64_t)(i + 8 * chunks)) table = i;
     CHECK(table > 0);
     /* cut short anywhere past the magic number: never passes; past the
      * table, refused with a reason */
@@ -1352,8 +1356,7 @@ TEST(written_exr_chunks_checked) {
     CHECK_EQ_INT(chunks_check_of(d, n, q, &lay), 1);
     /* the last chunk declaring more bytes than the file holds */
     memcpy(d, b, (size_t)n);
-    uint64_t last = 0;
-    for (int k = 7; k >= 0; k--) last = last << 8 | b[table + 8 * (chunks - 1) + k];
+    const uint64_t last = le64_at(b + table + 8 * (chunks - 1));
     CHECK(last + 8 <= (uint64_t)n);
     const uint32_t more = (uint32_t)(n - (long)last - 8 + 1);
     for (int k = 0; k < 4; k++) d[last + 4 + (uint64_t)k] = (unsigned char)(more >> (8 * k));
