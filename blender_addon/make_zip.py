@@ -4,7 +4,8 @@
 
 The zip holds edgewise_denoise/ (the add-on), edgewise_denoise/edgewise/ (the
 project's Python package, python/edgewise) and, next to that package,
-libedgewise.so(.0) and libedgewise_nodes.so(.0) from --lib-dir. The libraries
+libedgewise.so(.0), libedgewise_nodes.so(.0) and libedgewise_oiio.so (PNG, TIFF
+and JPEG files, loaded when one is read or written) from --lib-dir. The libraries
 are for this platform only (Linux x86-64 built here, linking the system's
 OpenImageIO/OpenColorIO): build the zip on the platform it is for.
 """
@@ -15,7 +16,7 @@ import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-LIBS = ("libedgewise.so", "libedgewise.so.0", "libedgewise_nodes.so", "libedgewise_nodes.so.0")
+LIBS = ("libedgewise.so", "libedgewise.so.0", "libedgewise_nodes.so", "libedgewise_nodes.so.0", "libedgewise_oiio.so")
 
 
 def main():

@@ -2,9 +2,10 @@
  * edgewise — the command-line program. It is small on purpose: --version,
  * --help and a bare `edgewise` are answered here, by a process that loads
  * only libedgewise; every command is in libedgewise_cli.so (cli_main.c),
- * loaded when one is run. That library brings OpenImageIO, OpenColorIO and
- * the ~260 shared libraries they pull in, whose loading and relocation is
- * most of a command's start-up (measured with --timings).
+ * loaded when one is run. That library brings OpenEXR and OpenColorIO;
+ * OpenImageIO and the ~260 shared libraries it pulls in come only with a
+ * PNG, TIFF or JPEG file (nodes/io/codec.h), and their loading and
+ * relocation is then most of a command's start-up (measured with --timings).
  */
 #define _GNU_SOURCE /* dladdr */
 #include <dlfcn.h>

@@ -1,19 +1,19 @@
 /*
- * ewio.cpp — the OpenImageIO shim behind ewio.h.
- *
- * Everything in here is C++ only because OpenImageIO is; the interface is the
- * plain C one in ewio.h. Rules kept throughout:
+ * ewio.cpp — the image model behind ewio.h and everything around a file:
+ * limits, channel naming, metadata, temporaries, the written file's check
+ * and the atomic rename. The pixels and headers of a format are a codec's
+ * (codec.h): OpenEXR's own library for EXR, the OpenImageIO module for the
+ * rest. Rules kept throughout:
  *   - no exception leaves an extern "C" function (each body is wrapped);
  *   - nothing is printed, nothing exits;
  *   - a failing call leaves its outputs untouched (ewio_read returns no
  *     partial file, ewio_write leaves the destination as it was);
- *   - no global mutable state.
+ *   - no global mutable state but the temporaries' table (for a signal
+ *     handler) and the I/O thread count.
  */
 #include "ewio.h"
+#include "codec.h"
 #include "exr_header_scan.h"
-
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <atomic>
@@ -30,6 +30,7 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -39,38 +40,17 @@
 
 namespace {
 
-using OIIO::ImageInput;
-using OIIO::ImageOutput;
-using OIIO::ImageSpec;
-using OIIO::ParamValue;
-using OIIO::ParamValueList;
-using OIIO::TypeDesc;
+using ewio::Attr;
+using ewio::BandDst;
+using ewio::Codec;
+using ewio::PixType;
+using ewio::band_rows_of;
+using ewio::first_line;
+using ewio::one_line;
 
 constexpr long long kMaxSide = 65536;
 constexpr long long kMaxPixels = 1LL << 28;
 constexpr int kMaxChannels = 4096;
-/* Pixels are moved between OIIO and our planar storage in bands of rows of
- * about this many floats, so no second whole-image copy is ever held (and
- * the band's buffer, faulted in once, stays small). */
-constexpr size_t kBandFloats = size_t(2) << 20;
-
-/* Rows of a band of `row_bytes` bytes a row, of an image `h` rows high:
- * about kBandFloats floats, in whole 32-row chunks (a zip chunk is 16
- * rows, a piz one 32): a chunk is decoded once, not once for each band it
- * straddles, and every call hands OpenEXR whole chunks to work on in
- * parallel. One chunk where the rows are wider than that, unless a chunk
- * is far above the band's size (thousands of channels): then at least a row. */
-size_t band_rows_of(size_t row_bytes, size_t h) {
-    const size_t band = kBandFloats * sizeof(float);
-    size_t rows = band / std::max<size_t>(row_bytes, 1);
-    if (rows >= 32)
-        rows -= rows % 32;
-    else if (32 * row_bytes <= 8 * band)
-        rows = 32;
-    else
-        rows = std::max<size_t>(rows, 1);
-    return std::min(rows, std::max<size_t>(h, 1));
-}
 
 /* An allocator that leaves new floats uninitialised: a plane is sized from
  * the header before its pixels are read, and zero-filling it would make the
@@ -89,7 +69,7 @@ using Plane = std::vector<float, NoInit<float>>;
 
 struct Channel {
     std::string name, layer, pass, comp;
-    TypeDesc type; /* the type it was read with (or half for new channels) */
+    PixType type = PixType::HALF; /* the type it was read with (half for new channels) */
     Plane px; /* width*height, row-major */
     /* Left in the source file (ewio_open): px is empty and the pixels are
      * decoded from channel part_ch of part `part` when they are asked for
@@ -122,13 +102,6 @@ void unlend(Channel &c) {
     c.lent_stride = 0;
 }
 
-/* Where SourceReader::read puts one channel's band: the band's first value
- * (row y0), `xs` floats between a row's values and `ys` between rows. */
-struct BandDst {
-    float *p;
-    size_t xs, ys;
-};
-
 } // namespace
 
 struct ewio_file {
@@ -137,10 +110,11 @@ struct ewio_file {
     int x = 0, y = 0, full_x = 0, full_y = 0, full_width = 0, full_height = 0;
     std::vector<Channel> ch;
     std::vector<std::string> layers;
-    ParamValueList attribs;
+    std::vector<Attr> attribs; /* the header's metadata, as OpenEXR stores it */
     std::map<std::string, std::string> attr_text; /* name -> text, for ewio_get_attribute */
     std::string exr_compression; /* "" = default (zip) */
     bool has_src = false;
+    bool src_exr = false; /* the source is an EXR (its channels decode through OpenEXR) */
     dev_t src_dev = 0;
     ino_t src_ino = 0;
     std::string src_real; /* realpath() of the source, "" if unknown */
@@ -154,35 +128,6 @@ struct ewio_file {
 namespace {
 
 /* ---------------------------------------------------------------- errors */
-
-/* One line: newlines become "; ", trailing blanks dropped. */
-std::string one_line(const std::string &s) {
-    std::string o;
-    o.reserve(s.size());
-    for (char c : s) {
-        if (c == '\n' || c == '\r') {
-            while (!o.empty() && (o.back() == ' ' || o.back() == '\t')) o.pop_back();
-            if (!o.empty() && o.back() != ' ' && o.back() != ';') o += "; ";
-        } else {
-            o += c;
-        }
-    }
-    while (!o.empty() && (o.back() == ' ' || o.back() == ';' || o.back() == '\t')) o.pop_back();
-    return o;
-}
-
-/* First non-empty line of an OIIO message (write errors can repeat per block). */
-std::string first_line(const std::string &s) {
-    size_t b = 0;
-    while (b < s.size()) {
-        size_t e = s.find('\n', b);
-        if (e == std::string::npos) e = s.size();
-        std::string line = one_line(s.substr(b, e - b));
-        if (!line.empty()) return line;
-        b = e + 1;
-    }
-    return std::string();
-}
 
 void set_err(char *err, size_t errlen, const std::string &msg) noexcept {
     if (!err || errlen == 0) return;
@@ -221,12 +166,6 @@ std::string errno_text(int e) {
     if (strerror_r(e, buf, sizeof buf) != 0) return "error " + std::to_string(e);
     return buf;
 #endif
-}
-
-/* Error reported by OIIO, prefixed; falls back to `fallback` if empty. */
-std::string oiio_msg(const std::string &m, const char *fallback) {
-    std::string l = first_line(m);
-    return l.empty() ? std::string(fallback) : l;
 }
 
 /* ------------------------------------------------------- channel naming */
@@ -403,14 +342,17 @@ std::string check_bytes(long long w, long long h, long long channels) {
 }
 
 /* An OpenEXR file's headers against its size and the limits, before
- * OpenImageIO opens it ("" when plausible or not an EXR file). */
-std::string exr_header_check(const char *path, long long size) {
+ * OpenEXR opens it ("" when plausible or not an EXR file); *is_exr: the file
+ * starts with EXR's magic number. */
+std::string exr_header_check(const char *path, long long size, bool *is_exr) {
+    *is_exr = false;
     FILE *fp = fopen(path, "rbe");
     if (!fp) return std::string(); /* the open that follows reports it */
     ewio_exr_layout lay;
     char why[256];
     const int bad = ewio_exr_header_scan(fp, size, &lay, why, sizeof why);
     fclose(fp);
+    *is_exr = lay.is_exr;
     if (bad) return why;
     if (!lay.is_exr) {
         /* OpenImageIO would try its every other reader on the bytes, some
@@ -434,13 +376,16 @@ std::string exr_header_check(const char *path, long long size) {
 
 /* ----------------------------------------------------------- attributes */
 
-void set_attr_text(ewio_file &f, const ParamValue &p) {
-    f.attr_text[p.name().string()] = p.get_string(4096);
-}
-
 void rebuild_attr_text(ewio_file &f) {
     f.attr_text.clear();
-    for (const ParamValue &p : f.attribs) set_attr_text(f, p);
+    for (const Attr &a : f.attribs) f.attr_text[a.name] = ewio::attr_text(a);
+    if (!f.exr_compression.empty()) f.attr_text["compression"] = f.exr_compression;
+}
+
+Attr *find_attr(ewio_file &f, const std::string &n) {
+    for (Attr &a : f.attribs)
+        if (a.name == n) return &a;
+    return nullptr;
 }
 
 /* ------------------------------------------------------------ file paths */
@@ -614,26 +559,38 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
 
     /* OpenEXR allocates what its headers declare while opening; what the
      * file cannot hold, or the limits refuse, stops here first. */
-    std::string d = exr_header_check(path, (long long)st.st_size);
+    bool is_exr = false;
+    std::string d = exr_header_check(path, (long long)st.st_size, &is_exr);
     if (!d.empty()) {
         msg = "cannot read " + q(p) + ": " + d;
         return 1;
     }
 
-    auto in = ImageInput::open(p);
+    const Codec *codec = &ewio::exr_codec();
+    std::string why;
+    if (!is_exr && !(codec = ewio::oiio_codec(why))) {
+        msg = "cannot read " + q(p) + ": not an OpenEXR file, and " + why;
+        return 1;
+    }
+    std::unique_ptr<ewio::Reader> in = codec->open_reader(p, why);
     if (!in) {
         msg = "cannot read " + q(p) + ": not an image file or unsupported format (" +
-              oiio_msg(OIIO::geterror(), "no reader accepted it") + ")";
+              (why.empty() ? std::string("no reader accepted it") : why) + ")";
+        return 1;
+    }
+    const std::vector<ewio::PartHeader> &parts = in->parts();
+    if (parts.empty()) {
+        msg = "cannot read " + q(p) + ": not an image file or unsupported format (no image in it)";
         return 1;
     }
 
     std::unique_ptr<ewio_file> f(new ewio_file);
-    const ImageSpec s0 = in->spec();
+    const ewio::PartHeader &s0 = parts[0];
     if (s0.deep) {
         msg = "cannot read " + q(p) + ": deep images are not supported";
         return 1;
     }
-    if (s0.depth > 1) {
+    if (s0.volume) {
         msg = "cannot read " + q(p) + ": volume (3D) images are not supported";
         return 1;
     }
@@ -642,28 +599,25 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
         msg = "cannot read " + q(p) + ": " + d;
         return 1;
     }
-    f->width = s0.width;
-    f->height = s0.height;
+    f->width = int(s0.width);
+    f->height = int(s0.height);
     f->x = s0.x;
     f->y = s0.y;
     f->full_x = s0.full_x;
     f->full_y = s0.full_y;
-    f->full_width = s0.full_width > 0 ? s0.full_width : s0.width;
-    f->full_height = s0.full_height > 0 ? s0.full_height : s0.height;
+    f->full_width = s0.full_width > 0 && s0.full_width <= INT32_MAX ? int(s0.full_width) : f->width;
+    f->full_height = s0.full_height > 0 && s0.full_height <= INT32_MAX ? int(s0.full_height) : f->height;
     const size_t npix = size_t(s0.width) * size_t(s0.height);
-    const std::string fmt = in->format_name();
 
     /* Every part's header before any pixel memory: a part that cannot be
      * kept beside the first (another size or origin, deep, 3D) refuses the
      * file with the reason rather than silently leaving that part out of
      * the output, and the whole read is checked against the memory limit. */
     long long total_channels = 0;
-    for (int sub = 0;; sub++) {
-        if (sub > 0 && !in->seek_subimage(sub, 0)) break;
-        const ImageSpec s = in->spec();
-        const std::string nm = s.get_string_attribute("oiio:subimagename");
-        const std::string part = "part " + std::to_string(sub + 1) + (nm.empty() ? "" : " " + q(nm));
-        if (sub > 0 && (s.deep || s.depth > 1)) {
+    for (size_t sub = 0; sub < parts.size(); sub++) {
+        const ewio::PartHeader &s = parts[sub];
+        const std::string part = "part " + std::to_string(sub + 1) + (s.name.empty() ? "" : " " + q(s.name));
+        if (sub > 0 && (s.deep || s.volume)) {
             msg = "cannot read " + q(p) + ": " + part + " is a " + (s.deep ? "deep" : "volume (3D)") +
                   " image, which is not supported";
             return 1;
@@ -677,29 +631,33 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
                   "layer in one part); extract the parts first";
             return 1;
         }
-        total_channels += std::max(0, s.nchannels);
+        if (!s.problem.empty()) {
+            msg = "cannot read " + q(p) + ": " + (parts.size() > 1 ? part + ": " : std::string()) + s.problem;
+            return 1;
+        }
+        total_channels += (long long)s.channels.size();
         if (total_channels > kMaxChannels) {
             msg = "cannot read " + q(p) + ": too many channels (limit " + std::to_string(kMaxChannels) + ")";
             return 1;
         }
     }
-    (void)in->geterror(); /* clear the "no such subimage" noise of the scan's end */
     d = check_bytes(s0.width, s0.height, total_channels);
     if (!d.empty()) {
         msg = "cannot read " + q(p) + ": " + d;
         return 1;
     }
+    f->attribs = in->attributes();
     if (hdr) {
-        hdr->width = s0.width;
-        hdr->height = s0.height;
+        hdr->width = f->width;
+        hdr->height = f->height;
         hdr->channels = int(total_channels);
         /* the render's sample count when every layer's agrees */
         long long spp = 0;
-        for (const ParamValue &pv : s0.extra_attribs) {
-            const std::string nm = pv.name().string();
+        for (const Attr &a : f->attribs) {
+            const std::string &nm = a.name;
             if (nm.compare(0, 7, "cycles.") != 0 || nm.size() < 15 || nm.compare(nm.size() - 8, 8, ".samples") != 0)
                 continue;
-            const std::string v = pv.get_string();
+            const std::string v = ewio::attr_text(a);
             char *end = nullptr;
             errno = 0;
             long long k = strtoll(v.c_str(), &end, 10);
@@ -710,42 +668,27 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
         hdr->samples = spp > 0 ? int(spp) : 0;
         return 0;
     }
-    if (!in->seek_subimage(0, 0)) {
-        msg = "cannot read " + q(p) + ": " + oiio_msg(in->geterror(), "cannot go back to the first part");
-        return 1;
-    }
 
-    /* Subimages: multi-part EXR parts of the same size and origin are merged. */
-    int nparts = 0;
-    for (int sub = 0;; sub++, nparts++) {
-        if (sub > 0 && !in->seek_subimage(sub, 0)) break;
-        const ImageSpec s = in->spec();
-        if (sub > 0 && (s.deep || s.depth > 1 || s.width != s0.width ||
-                        s.height != s0.height || s.x != s0.x || s.y != s0.y))
-            continue;
-        if (s.nchannels <= 0) {
+    /* Parts: multi-part EXR parts of the same size and origin are merged. */
+    for (size_t sub = 0; sub < parts.size(); sub++) {
+        const ewio::PartHeader &s = parts[sub];
+        const int nch = int(s.channels.size());
+        if (nch <= 0) {
             if (sub == 0) {
                 msg = "cannot read " + q(p) + ": the image has no channels";
                 return 1;
             }
             continue;
         }
-        if (int(f->ch.size()) + s.nchannels > kMaxChannels) {
-            msg = "cannot read " + q(p) + ": too many channels (limit " +
-                  std::to_string(kMaxChannels) + ")";
-            return 1;
-        }
-        const int nch = s.nchannels;
-        const std::string partname = s.get_string_attribute("oiio:subimagename");
         const size_t first = f->ch.size();
         for (int c = 0; c < nch; c++) {
             Channel ch;
-            ch.name = c < int(s.channelnames.size()) ? s.channelnames[size_t(c)] : std::string();
+            ch.name = s.channels[size_t(c)];
             if (ch.name.empty()) ch.name = "channel" + std::to_string(c);
             bool dup = false;
             for (const Channel &o : f->ch) dup = dup || o.name == ch.name;
-            if (dup && sub > 0 && !partname.empty()) {
-                ch.name = partname + "." + ch.name;
+            if (dup && sub > 0 && !s.name.empty()) {
+                ch.name = s.name + "." + ch.name;
                 dup = false;
                 for (const Channel &o : f->ch) dup = dup || o.name == ch.name;
             }
@@ -754,103 +697,47 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
                 return 1;
             }
             split_name(ch.name, ch.layer, ch.pass, ch.comp);
-            ch.type = s.channelformat(c);
-            ch.part = sub;
+            ch.type = s.types[size_t(c)];
+            ch.part = int(sub);
             ch.part_ch = c;
             f->ch.push_back(std::move(ch));
         }
         /* A scanline EXR part's pixels can be decoded later, channel by
          * channel and band by band: ewio_open leaves them in the file. */
-        if (fmt == "openexr" && s.tile_width == 0)
+        if (is_exr && s.decodes_later)
             for (size_t c = first; c < f->ch.size(); c++) f->ch[c].in_src = true;
-        if (defer && fmt == "openexr" && s.tile_width == 0) {
+        if (defer && is_exr && s.decodes_later) {
             for (size_t c = first; c < f->ch.size(); c++) f->ch[c].on_disk = true;
             continue;
         }
         for (size_t c = first; c < f->ch.size(); c++) f->ch[c].px.resize(npix);
 
         const size_t w = size_t(s.width);
-        if (s.tile_width > 0) {
-            /* Tiled: one whole-image read (OIIO assembles the tiles). */
-            std::vector<float> buf(npix * size_t(nch));
-            if (!in->read_image(sub, 0, 0, nch, OIIO::TypeFloat, buf.data())) {
-                msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
-                      oiio_msg(in->geterror(), "read failed") + ")";
+        std::vector<int> chans(static_cast<size_t>(nch));
+        std::vector<BandDst> band(static_cast<size_t>(nch));
+        for (int c = 0; c < nch; c++) chans[size_t(c)] = c;
+        /* a tiled part in one band: the codec assembles the tiles */
+        const size_t rows = s.tiled ? size_t(s.height) : band_rows_of(w * size_t(nch) * sizeof(float), size_t(s.height));
+        for (long long y0 = 0; y0 < s.height; y0 += (long long)rows) {
+            const long long y1 = std::min<long long>(s.height, y0 + (long long)rows);
+            for (int c = 0; c < nch; c++)
+                band[size_t(c)] = BandDst{f->ch[first + size_t(c)].px.data() + size_t(y0) * w, 1, w};
+            if (!in->read(int(sub), int(y0), int(y1), chans.data(), band.data(), band.size(), why)) {
+                msg = "cannot read " + q(p) + ": corrupt or truncated image data (" + why + ")";
                 return 1;
             }
-            for (size_t i = 0; i < npix; i++)
-                for (int c = 0; c < nch; c++)
-                    f->ch[first + size_t(c)].px[i] = buf[i * size_t(nch) + size_t(c)];
-        } else if (fmt == "openexr") {
-            /* The stored types (half, float, uint), converted here plane by
-             * plane: OIIO's converting read_scanlines allocates a 64 MiB
-             * buffer on every call, whatever the band. */
-            std::vector<TypeDesc> cf(size_t(nch), OIIO::TypeFloat);
-            std::vector<size_t> off(static_cast<size_t>(nch));
-            size_t pxb = 0;
-            for (int c = 0; c < nch; c++) {
-                cf[size_t(c)] = s.channelformat(c);
-                off[size_t(c)] = pxb;
-                pxb += cf[size_t(c)].size();
-            }
-            const size_t rows = band_rows_of(w * pxb, size_t(s.height));
-            std::vector<unsigned char> buf(rows * w * pxb);
-            for (int y0 = 0; y0 < s.height; y0 += int(rows)) {
-                const int y1 = std::min(s.height, y0 + int(rows));
-                bool ok = in->read_native_scanlines(sub, 0, s.y + y0, s.y + y1, 0, 0, nch, buf.data());
-                for (int c = 0; ok && c < nch; c++)
-                    ok = OIIO::convert_image(1, s.width, y1 - y0, 1, buf.data() + off[size_t(c)], cf[size_t(c)],
-                                             OIIO::stride_t(pxb), OIIO::stride_t(w * pxb), OIIO::AutoStride,
-                                             f->ch[first + size_t(c)].px.data() + size_t(y0) * w,
-                                             OIIO::TypeFloat, OIIO::stride_t(sizeof(float)),
-                                             OIIO::stride_t(w * sizeof(float)), OIIO::AutoStride);
-                if (!ok) {
-                    msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
-                          oiio_msg(in->geterror(), "read failed") + ")";
-                    return 1;
-                }
-            }
-        } else {
-            const size_t rows = band_rows_of(w * size_t(nch) * sizeof(float), size_t(s.height));
-            std::vector<float> buf(rows * w * size_t(nch));
-            for (int y0 = 0; y0 < s.height; y0 += int(rows)) {
-                const int y1 = std::min(s.height, y0 + int(rows));
-                if (!in->read_scanlines(sub, 0, s.y + y0, s.y + y1, 0, 0, nch, OIIO::TypeFloat,
-                                        buf.data())) {
-                    msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
-                          oiio_msg(in->geterror(), "read failed") + ")";
-                    return 1;
-                }
-                const size_t base = size_t(y0) * w;
-                const size_t n = size_t(y1 - y0) * w;
-                for (int c = 0; c < nch; c++) {
-                    float *dst = f->ch[first + size_t(c)].px.data() + base;
-                    const float *src = buf.data() + c;
-                    for (size_t i = 0; i < n; i++) dst[i] = src[i * size_t(nch)];
-                }
-            }
-        }
-        if (in->has_error()) { /* e.g. libjpeg's "premature end" is only a warning */
-            msg = "cannot read " + q(p) + ": corrupt or truncated image data (" +
-                  oiio_msg(in->geterror(), "read failed") + ")";
-            return 1;
         }
     }
-    (void)in->geterror(); /* clear the "no such subimage" noise of the loop end */
-    in->close();
-
-    /* Header metadata, less what describes the file's layout rather than
-     * the image (the output is always one part, chunked by its writer). */
-    f->attribs = s0.extra_attribs;
-    f->attribs.remove("oiio:subimages");
-    f->attribs.remove("oiio:subimagename");
-    f->attribs.remove("openexr:chunkCount");
-    if (nparts > 1) f->attribs.remove("name"); /* EXR part name */
-    if (fmt == "openexr") f->exr_compression = s0.get_string_attribute("compression");
+    /* (the codec's metadata leaves out what describes the file's layout
+     * rather than the image: the output is always one part, chunked by its
+     * writer) */
+    if (is_exr) f->exr_compression = in->compression();
+    in.reset();
     rebuild_attr_text(*f);
     rebuild_layers(*f);
 
     f->has_src = true;
+    f->src_exr = is_exr;
     f->src_dev = st.st_dev;
     f->src_ino = st.st_ino;
     f->src_real = real_path(p);
@@ -865,18 +752,19 @@ int read_impl(const char *path, ewio_file **out, std::string &msg, ewio_header *
 /* ------------------------------------------------- channels left on disk */
 
 /* Decodes channels that ewio_open left in the source file, band by band of
- * rows, converted to float exactly as read_impl converts them (the stored
- * type through convert_image): what comes out is what an ewio_read would
- * have held. Refuses a source that is no longer the file that was read
- * (another inode, size or modification time). */
+ * rows, converted to float as read_impl converts them (OpenEXR's own
+ * conversion of the stored type): what comes out is what an ewio_read
+ * would have held. Refuses a source that is no longer the file that was
+ * read (another inode, size or modification time). */
 class SourceReader {
   public:
     bool open(const ewio_file &f, const std::vector<int> &chans, std::string &why) {
         file_ = &f;
         const std::string &p = f.src_path;
         struct stat a, b;
-        const bool before = stat(p.c_str(), &a) == 0;
-        in_ = before ? ImageInput::open(p) : nullptr;
+        std::string err;
+        const bool before = f.src_exr && stat(p.c_str(), &a) == 0;
+        if (before) in_ = ewio::exr_codec().open_reader(p, err);
         const bool after = in_ && stat(p.c_str(), &b) == 0;
         auto same = [&](const struct stat &s) {
             return s.st_dev == f.src_dev && s.st_ino == f.src_ino && s.st_size == f.src_size &&
@@ -886,12 +774,19 @@ class SourceReader {
             why = "cannot read " + q(f.src_name) +
                   " again: it changed or went away since it was first read (the passes a command does not "
                   "use are read from it when they are written)";
-            if (!in_) why += " (" + oiio_msg(OIIO::geterror(), "cannot open it") + ")";
+            if (before && !in_) why += " (" + first_line(err, "cannot open it") + ")";
             in_.reset();
             return false;
         }
+        const std::vector<ewio::PartHeader> &ps = in_->parts();
         for (size_t k = 0; k < chans.size(); k++) {
             const Channel &c = f.ch[size_t(chans[k])];
+            if (c.part < 0 || size_t(c.part) >= ps.size() || ps[size_t(c.part)].width != f.width ||
+                ps[size_t(c.part)].height != f.height || !ps[size_t(c.part)].decodes_later ||
+                size_t(c.part_ch) >= ps[size_t(c.part)].channels.size()) {
+                why = "cannot read " + q(f.src_name) + " again: it no longer has the layout it was first read with";
+                return false;
+            }
             Part *pt = nullptr;
             for (Part &q2 : parts_)
                 if (q2.sub == c.part) pt = &q2;
@@ -899,67 +794,21 @@ class SourceReader {
                 parts_.push_back(Part());
                 pt = &parts_.back();
                 pt->sub = c.part;
-                pt->chb = pt->che = c.part_ch;
             }
-            pt->chb = std::min(pt->chb, c.part_ch);
-            pt->che = std::max(pt->che, c.part_ch + 1);
-            pt->want.push_back({int(k), c.part_ch});
-        }
-        for (Part &pt : parts_) {
-            if (!in_->seek_subimage(pt.sub, 0)) {
-                why = "cannot read " + q(f.src_name) + " again: " + oiio_msg(in_->geterror(), "a part is missing");
-                return false;
-            }
-            const ImageSpec s = in_->spec();
-            if (s.width != f.width || s.height != f.height || s.tile_width > 0 || pt.che > s.nchannels) {
-                why = "cannot read " + q(f.src_name) + " again: it no longer has the layout it was first read with";
-                return false;
-            }
-            pt.y = s.y;
-            pt.pxb = 0;
-            pt.off.assign(size_t(pt.che - pt.chb), 0);
-            pt.cf.assign(size_t(pt.che - pt.chb), OIIO::TypeFloat);
-            for (int c = pt.chb; c < pt.che; c++) {
-                pt.cf[size_t(c - pt.chb)] = s.channelformat(c);
-                pt.off[size_t(c - pt.chb)] = pt.pxb;
-                pt.pxb += s.channelformat(c).size();
-            }
+            pt->want.push_back(int(k));
+            pt->chans.push_back(c.part_ch);
         }
         return true;
     }
 
     /* dst[k] (for chans[k]) receives rows y0..y1. */
     bool read(int y0, int y1, const BandDst *dst, std::string &why) {
-        const size_t w = size_t(file_->width);
         for (Part &pt : parts_) {
-            buf_.resize(size_t(y1 - y0) * w * pt.pxb);
-            bool ok = in_->read_native_scanlines(pt.sub, 0, pt.y + y0, pt.y + y1, 0, pt.chb, pt.che, buf_.data());
-            for (size_t j = 0; ok && j < pt.want.size(); j++) {
-                const size_t c = size_t(pt.want[j].second - pt.chb);
-                const BandDst &d = dst[pt.want[j].first];
-                if (d.xs == 1) {
-                    ok = OIIO::convert_image(1, file_->width, y1 - y0, 1, buf_.data() + pt.off[c], pt.cf[c],
-                                             OIIO::stride_t(pt.pxb), OIIO::stride_t(w * pt.pxb), OIIO::AutoStride,
-                                             d.p, OIIO::TypeFloat, OIIO::stride_t(sizeof(float)),
-                                             OIIO::stride_t(d.ys * sizeof(float)), OIIO::AutoStride);
-                    continue;
-                }
-                /* into an interleaved buffer: a row at a time through a
-                 * contiguous one (OIIO converts value by value into a
-                 * strided destination, several times slower) */
-                row_.resize(w);
-                for (int y = 0; ok && y < y1 - y0; y++) {
-                    ok = OIIO::convert_image(1, file_->width, 1, 1, buf_.data() + size_t(y) * w * pt.pxb + pt.off[c],
-                                             pt.cf[c], OIIO::stride_t(pt.pxb), OIIO::AutoStride, OIIO::AutoStride,
-                                             row_.data(), OIIO::TypeFloat, OIIO::AutoStride, OIIO::AutoStride,
-                                             OIIO::AutoStride);
-                    float *o = d.p + size_t(y) * d.ys;
-                    for (size_t x = 0; x < w; x++) o[x * d.xs] = row_[x];
-                }
-            }
-            if (!ok) {
-                why = "cannot read " + q(file_->src_name) + ": corrupt or truncated image data (" +
-                      oiio_msg(in_->geterror(), "read failed") + ")";
+            pt.dst.clear();
+            for (int k : pt.want) pt.dst.push_back(dst[k]);
+            std::string e;
+            if (!in_->read(pt.sub, y0, y1, pt.chans.data(), pt.dst.data(), pt.dst.size(), e)) {
+                why = "cannot read " + q(file_->src_name) + ": corrupt or truncated image data (" + e + ")";
                 return false;
             }
         }
@@ -978,27 +827,21 @@ class SourceReader {
         return true;
     }
 
-    /* Rows of a band of n float channels (and of the parts' stored
-     * channels it decodes): band_rows_of. */
+    /* Rows of a band of n float channels: band_rows_of. */
     int band_rows(size_t n) const {
-        for (const Part &pt : parts_) n = std::max(n, (pt.pxb + sizeof(float) - 1) / sizeof(float));
         return int(band_rows_of(size_t(file_->width) * n * sizeof(float), size_t(file_->height)));
     }
 
   private:
     struct Part {
-        int sub = 0, chb = 0, che = 0, y = 0;
-        size_t pxb = 0;
-        std::vector<TypeDesc> cf;
-        std::vector<size_t> off;
-        std::vector<std::pair<int, int>> want; /* (index into chans, channel in the part) */
+        int sub = 0;
+        std::vector<int> want;  /* indices into chans */
+        std::vector<int> chans; /* their channels in the part */
+        std::vector<BandDst> dst;
     };
     const ewio_file *file_ = nullptr;
-    std::unique_ptr<ImageInput> in_;
+    std::unique_ptr<ewio::Reader> in_;
     std::vector<Part> parts_;
-    /* every byte is written by the decode (the conversion) before it is read */
-    std::vector<unsigned char, NoInit<unsigned char>> buf_;
-    std::vector<float, NoInit<float>> row_;
 };
 
 /* ----------------------------------------------------------------- write */
@@ -1006,11 +849,10 @@ class SourceReader {
 enum class Kind { EXR, PNG, TIFF, JPEG };
 
 /* EXR stores half, float and uint only. */
-TypeDesc exr_type(TypeDesc t) {
-    if (t == OIIO::TypeHalf || t == OIIO::TypeFloat) return t;
-    if (t.basetype == TypeDesc::UINT32) return TypeDesc(TypeDesc::UINT32);
-    if (t.basetype == TypeDesc::UINT8 || t.basetype == TypeDesc::INT8) return OIIO::TypeHalf;
-    return OIIO::TypeFloat;
+PixType exr_type(PixType t) {
+    if (t == PixType::HALF || t == PixType::FLOAT || t == PixType::U32) return t;
+    if (t == PixType::U8 || t == PixType::I8) return PixType::HALF;
+    return PixType::FLOAT;
 }
 
 /* What a written file turned out to be, where it is not what was written. */
@@ -1020,36 +862,9 @@ std::string reads_as(long long w, long long h, long long nch) {
 }
 
 /* Whether `path` opens as a w x h image with nch channels whose pixels all
- * decode. Reads in bands of rows, so it needs little memory. */
-bool read_back_ok(const std::string &path, int w, int h, int nch, std::string &why) {
-    auto in = ImageInput::open(path);
-    if (!in) {
-        why = oiio_msg(OIIO::geterror(), "cannot open it");
-        return false;
-    }
-    const ImageSpec s = in->spec();
-    if (s.width != w || s.height != h || s.nchannels != nch) {
-        why = reads_as(s.width, s.height, s.nchannels);
-        return false;
-    }
-    bool ok;
-    if (s.tile_width > 0) {
-        std::vector<float> buf(size_t(w) * size_t(h) * size_t(nch));
-        ok = in->read_image(0, 0, 0, nch, OIIO::TypeFloat, buf.data());
-    } else {
-        /* decoding is the check: the stored types, no conversion (OIIO's
-         * converting read allocates 64 MiB a call) */
-        const size_t pxb = s.pixel_bytes(true);
-        const size_t rows = band_rows_of(size_t(w) * pxb, size_t(h));
-        std::vector<unsigned char, NoInit<unsigned char>> buf(rows * size_t(w) * pxb);
-        ok = true;
-        for (int y0 = 0; ok && y0 < h; y0 += int(rows)) {
-            const int y1 = std::min(h, y0 + int(rows));
-            ok = in->read_native_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0, nch, buf.data());
-        }
-    }
-    if (!ok) why = oiio_msg(in->geterror(), "cannot read its pixels");
-    return ok;
+ * decode, through `codec`. Reads in bands of rows, so it needs little memory. */
+bool read_back_ok(const Codec &codec, const std::string &path, int w, int h, int nch, std::string &why) {
+    return codec.read_back(path, w, h, nch, why);
 }
 
 /* Whether the EXR written at `path` is a w x h image of nch channels with
@@ -1071,7 +886,7 @@ bool written_exr_ok(const std::string &path, int w, int h, int nch, std::string 
     char buf[256];
     const int r = ewio_exr_chunks_check(fp, (long long)st.st_size, &lay, buf, sizeof buf);
     fclose(fp);
-    if (r < 0) return read_back_ok(path, w, h, nch, why);
+    if (r < 0) return read_back_ok(ewio::exr_codec(), path, w, h, nch, why);
     if (r > 0) {
         why = buf;
         return false;
@@ -1145,7 +960,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     /* ---- what to write */
     const int w = f.width, h = f.height;
     std::vector<int> src;      /* channel index per output channel */
-    std::vector<TypeDesc> fmts; /* per output channel */
+    std::vector<PixType> fmts; /* per output channel */
     std::vector<std::string> names;
     bool clamp01 = false;
     if (kind == Kind::EXR) {
@@ -1156,8 +971,8 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         for (size_t i = 0; i < f.ch.size(); i++) {
             src.push_back(int(i));
             names.push_back(f.ch[i].name);
-            fmts.push_back(type == EWIO_HALF    ? OIIO::TypeHalf
-                           : type == EWIO_FLOAT ? OIIO::TypeFloat
+            fmts.push_back(type == EWIO_HALF    ? PixType::HALF
+                           : type == EWIO_FLOAT ? PixType::FLOAT
                                                 : exr_type(f.ch[i].type));
         }
     } else {
@@ -1186,20 +1001,20 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         }
         bool all8 = true, all16 = true;
         for (int i : pick) {
-            all8 = all8 && f.ch[size_t(i)].type.basetype == TypeDesc::UINT8;
-            all16 = all16 && f.ch[size_t(i)].type.basetype == TypeDesc::UINT16;
+            all8 = all8 && f.ch[size_t(i)].type == PixType::U8;
+            all16 = all16 && f.ch[size_t(i)].type == PixType::U16;
         }
-        TypeDesc t = OIIO::TypeUInt8;
-        if (kind == Kind::PNG && type == EWIO_KEEP && all16) t = OIIO::TypeUInt16;
+        PixType t = PixType::U8;
+        if (kind == Kind::PNG && type == EWIO_KEEP && all16) t = PixType::U16;
         if (kind == Kind::TIFF) {
             if (type == EWIO_HALF)
-                t = OIIO::TypeHalf;
+                t = PixType::HALF;
             else if (type == EWIO_FLOAT)
-                t = OIIO::TypeFloat;
+                t = PixType::FLOAT;
             else
-                t = all8 ? OIIO::TypeUInt8 : all16 ? OIIO::TypeUInt16 : OIIO::TypeFloat;
+                t = all8 ? PixType::U8 : all16 ? PixType::U16 : PixType::FLOAT;
         }
-        clamp01 = t == OIIO::TypeUInt8 || t == OIIO::TypeUInt16;
+        clamp01 = t == PixType::U8 || t == PixType::U16;
         static const char *rgba[] = {"R", "G", "B", "A"};
         for (size_t k = 0; k < pick.size(); k++) {
             src.push_back(pick[k]);
@@ -1218,20 +1033,11 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
             return 1;
         }
 
-    TypeDesc widest = fmts[0];
-    bool mixed = false;
-    for (const TypeDesc &t : fmts) {
-        mixed = mixed || t != fmts[0];
-        if (t.size() > widest.size()) widest = t;
-    }
-    ImageSpec spec(w, h, nch, widest);
-    spec.channelnames = names;
-    if (mixed) spec.channelformats = fmts;
-    spec.alpha_channel = -1;
-    spec.z_channel = -1;
-    for (int c = 0; c < nch; c++) {
-        if (names[size_t(c)] == "A") spec.alpha_channel = c;
-    }
+    ewio::WriteSpec spec;
+    spec.width = w;
+    spec.height = h;
+    spec.names = names;
+    spec.types = fmts;
     if (kind == Kind::EXR) {
         spec.x = f.x;
         spec.y = f.y;
@@ -1239,40 +1045,37 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
         spec.full_y = f.full_y;
         spec.full_width = f.full_width;
         spec.full_height = f.full_height;
-        for (const ParamValue &pv : f.attribs) {
-            const std::string n = pv.name().string();
-            if (n == "compression" || n == "oiio:subimages" || n == "oiio:subimagename")
-                continue;
-            spec.extra_attribs.add_or_replace(pv);
+        /* Metadata of another format's reader under its own prefix
+         * ("png:", "tiff:"...) does not describe an EXR. */
+        for (const Attr &a : f.attribs) {
+            const size_t colon = a.name.find(':');
+            const std::string prefix = colon == std::string::npos ? std::string() : a.name.substr(0, colon);
+            static const char *const foreign[] = {"oiio", "png", "tiff", "jpeg", "openexr", "bmp", "gif", "targa"};
+            bool skip = false;
+            for (const char *fp : foreign) skip = skip || strcasecmp(prefix.c_str(), fp) == 0;
+            if (!skip) spec.attrs.push_back(a);
         }
-        spec.attribute("compression",
-                       f.exr_compression.empty() ? std::string("zip") : f.exr_compression);
+        spec.compression = f.exr_compression.empty() ? std::string("zip") : f.exr_compression;
     } else {
-        /* Plain text metadata only (Cycles' samples, camera, scene...). */
-        for (const ParamValue &pv : f.attribs) {
-            const std::string n = pv.name().string();
-            if (pv.type() != OIIO::TypeString || n == "compression" ||
-                n.find(':') != std::string::npos)
-                continue;
-            spec.extra_attribs.add_or_replace(pv);
-        }
+        spec.full_width = w;
+        spec.full_height = h;
+        spec.attrs = f.attribs; /* the codec keeps plain text */
     }
 
-    /* JPEG is encoded into memory and written out by us: on a write error
-     * (disk full, file size limit) OIIO 2.4's JPEG writer leaves libjpeg's
-     * default handler in place, which prints and calls exit(). Declared
-     * before `out`, which may still write into it while being destroyed. */
-    std::unique_ptr<OIIO::Filesystem::IOVecOutput> mem;
-    auto out = ImageOutput::create(path); /* format chosen by the destination's extension */
-    if (!out) {
-        msg = what + "no writer for " + q("." + ext) + " (" +
-              oiio_msg(OIIO::geterror(), "OpenImageIO has no such format") + ")";
-        return 1;
+    const Codec *codec = &ewio::exr_codec();
+    {
+        std::string why;
+        if (kind != Kind::EXR && !(codec = ewio::oiio_codec(why))) {
+            msg = what + "no writer for " + q("." + ext) + " (" + why + ")";
+            return 1;
+        }
     }
-    if (kind == Kind::JPEG) {
-        mem.reset(new OIIO::Filesystem::IOVecOutput());
-        if (!out->supports("ioproxy") || !out->set_ioproxy(mem.get())) {
-            msg = what + "this OpenImageIO cannot encode JPEG to memory (no I/O proxy support)";
+    std::unique_ptr<ewio::Writer> out;
+    {
+        std::string why;
+        out = codec->create_writer(ext, why);
+        if (!out) {
+            msg = what + "no writer for " + q("." + ext) + " (" + why + ")";
             return 1;
         }
     }
@@ -1305,9 +1108,12 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
             return 1;
         }
     }
-    if (!out->open(guard.path, spec)) {
-        msg = what + oiio_msg(out->geterror(), "could not open the output");
-        return 1;
+    {
+        std::string why;
+        if (!out->open(guard.path, spec, why)) {
+            msg = what + why;
+            return 1;
+        }
     }
     {
         const size_t rows = size_t(disk.empty() ? band_rows_of(size_t(w) * size_t(nch) * sizeof(float), size_t(h))
@@ -1347,40 +1153,19 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
                     for (size_t i = 0; i < n; i++) d[i * size_t(nch)] = s[i * ss];
                 }
             }
-            const bool ok = out->write_scanlines(spec.y + y0, spec.y + y1, 0, OIIO::TypeFloat,
-                                                 buf.data());
-            if (!ok || out->has_error()) {
-                msg = what + oiio_msg(out->geterror(), "writing pixels failed");
+            std::string why;
+            if (!out->write(y0, y1, buf.data(), why)) {
+                msg = what + why;
                 return 1;
             }
         }
     }
-    /* close()'s own result decides here, not has_error(): OIIO 2.4's TIFF
-     * writer logs "failed TIFFWriteCustomDirectory() of the Exif data" on
-     * every close although the file is fine. The read-back below is what
-     * vouches for the file. */
-    if (!out->close()) {
-        msg = what + oiio_msg(out->geterror(), "closing the output failed");
-        return 1;
-    }
-    out.reset();
-    if (mem) {
-        const std::vector<unsigned char> &bytes = mem->buffer();
-        int fd = open(guard.path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
-        size_t done = 0;
-        int e = fd < 0 ? errno : 0;
-        while (fd >= 0 && done < bytes.size()) {
-            ssize_t n = write(fd, bytes.data() + done, bytes.size() - done);
-            if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) {
-                e = n < 0 ? errno : EIO;
-                break;
-            }
-            done += size_t(n);
-        }
-        if (fd >= 0 && close(fd) != 0 && e == 0) e = errno;
-        if (e != 0 || done != bytes.size()) {
-            msg = what + "writing the temporary file failed (" + errno_text(e ? e : EIO) + ")";
+    {
+        std::string why;
+        const bool closed = out->close(why);
+        out.reset();
+        if (!closed) {
+            msg = what + why;
             return 1;
         }
     }
@@ -1392,7 +1177,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     {
         std::string verr;
         if (!(kind == Kind::EXR ? written_exr_ok(guard.path, w, h, nch, verr)
-                                : read_back_ok(guard.path, w, h, nch, verr))) {
+                                : read_back_ok(*codec, guard.path, w, h, nch, verr))) {
             msg = what + "the written file does not read back (" + verr + ")";
             return 1;
         }
@@ -1500,6 +1285,24 @@ int write_text_impl(const char *cpath, const char *text, size_t len, std::string
 
 } // namespace
 
+/* ------------------------------------------------------------- threads */
+
+namespace {
+/* ewio_set_threads' count (0: not set, the machine's): the OpenImageIO
+ * module takes it when it is loaded later. */
+std::atomic<int> g_io_threads{0};
+
+int machine_threads() {
+    const unsigned n = std::thread::hardware_concurrency();
+    return n > 0 ? int(std::min(n, 256u)) : 1;
+}
+} // namespace
+
+int ewio::io_threads() {
+    const int t = g_io_threads.load();
+    return t > 0 ? t : machine_threads();
+}
+
 /* ================================================================ C API */
 
 extern "C" {
@@ -1530,9 +1333,10 @@ void ewio_remove_temporaries(void) {
 
 void ewio_set_threads(int n) {
     try {
-        const int t = n > 0 ? n : 0; /* OIIO and OpenEXR: 0 = the hardware's count */
-        OIIO::attribute("threads", t);
-        OIIO::attribute("exr_threads", t);
+        const int t = n > 0 ? n : machine_threads();
+        g_io_threads.store(t);
+        ewio::exr_codec().set_threads(t);
+        if (const Codec *c = ewio::oiio_codec_loaded()) c->set_threads(t);
     } catch (...) {
     }
 }
@@ -1909,7 +1713,7 @@ int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass,
                 c.pass = P;
                 c.comp = std::string(1, C[k]);
                 c.name = join_name(L, P, c.comp);
-                c.type = OIIO::TypeHalf; /* as ewio_set_pass's new channels */
+                c.type = PixType::HALF; /* as ewio_set_pass's new channels */
                 const size_t pos = new_channel_pos(*f, L, P);
                 f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(c));
                 i = int(pos);
@@ -1968,7 +1772,7 @@ int put_pass(ewio_file *f, const char *layer, const char *pass, const char *comp
             c.pass = P;
             c.comp = std::string(1, C[k]);
             c.name = join_name(L, P, c.comp);
-            c.type = OIIO::TypeHalf;
+            c.type = PixType::HALF;
             fresh.push_back(std::move(c));
         }
         f->ch.reserve(f->ch.size() + nnew);
@@ -2034,34 +1838,36 @@ int ewio_set_attribute(ewio_file *f, const char *name, const char *value) {
     try {
         const std::string n = name;
         if (!value) {
-            f->attribs.remove(n);
+            f->attribs.erase(std::remove_if(f->attribs.begin(), f->attribs.end(),
+                                            [&](const Attr &a) { return a.name == n; }),
+                             f->attribs.end());
             f->attr_text.erase(n);
             if (n == "compression") f->exr_compression.clear();
             return 0;
         }
         const std::string v = value;
-        const ParamValue *old = f->attribs.find_pv(n);
-        bool done = false;
-        if (old && old->type() == OIIO::TypeInt && !v.empty()) {
+        if (n == "compression") { /* the EXR's compression, not a header attribute of its own */
+            f->exr_compression = v;
+            f->attr_text[n] = v;
+            return 0;
+        }
+        Attr *old = find_attr(*f, n);
+        Attr now = ewio::attr_string(n, v);
+        if (old && old->type == "int" && !v.empty()) {
             char *end = nullptr;
             errno = 0;
             long x = strtol(v.c_str(), &end, 10);
-            if (*end == '\0' && errno == 0 && x >= INT32_MIN && x <= INT32_MAX) {
-                f->attribs.attribute(n, int(x));
-                done = true;
-            }
-        } else if (old && old->type() == OIIO::TypeFloat && !v.empty()) {
+            if (*end == '\0' && errno == 0 && x >= INT32_MIN && x <= INT32_MAX) now = ewio::attr_int(n, int32_t(x));
+        } else if (old && old->type == "float" && !v.empty()) {
             char *end = nullptr;
             float x = strtof(v.c_str(), &end);
-            if (*end == '\0') {
-                f->attribs.attribute(n, x);
-                done = true;
-            }
+            if (*end == '\0') now = ewio::attr_float(n, x);
         }
-        if (!done) f->attribs.attribute(n, OIIO::string_view(v));
-        if (n == "compression") f->exr_compression = v;
-        const ParamValue *pv = f->attribs.find_pv(n);
-        if (pv) set_attr_text(*f, *pv);
+        if (old)
+            *old = now;
+        else
+            f->attribs.push_back(now);
+        f->attr_text[n] = ewio::attr_text(now);
         return 0;
     } catch (...) {
         return 1;
@@ -2123,7 +1929,7 @@ int ewio_pass_read_as_integer(const ewio_file *f, const char *layer, const char 
     for (const Channel &c : f->ch)
         if (c.layer == l && c.pass == p) {
             any = true;
-            if (c.type.basetype != TypeDesc::UINT8 && c.type.basetype != TypeDesc::UINT16) return 0;
+            if (c.type != PixType::U8 && c.type != PixType::U16) return 0;
         }
     return any ? 1 : 0;
 }

@@ -1,6 +1,7 @@
 /*
- * ewio.h — C interface to the OpenImageIO shim (ewio.cpp), the only place
- * that reads or writes image files.
+ * ewio.h — C interface to image files (ewio.cpp), the only place that reads
+ * or writes them: EXR through OpenEXR, every other format through
+ * OpenImageIO, loaded the first time such a file is met (codec.h).
  *
  * A file is loaded whole into memory: every channel as float32 (remembering
  * the type it was stored with), plus the header metadata, so it can be
@@ -39,8 +40,8 @@ extern "C" {
 
 typedef struct ewio_file ewio_file;
 
-/* Read a whole image file (EXR, multilayer EXR, PNG, TIFF, anything OIIO
- * reads). Fails cleanly on missing, unreadable, truncated or non-image files,
+/* Read a whole image file (EXR, multilayer EXR, PNG, TIFF, anything
+ * OpenImageIO reads). Fails cleanly on missing, unreadable, truncated or non-image files,
  * on zero/negative dimensions, on images above 65536 px per side or
  * ewio_max_pixels() pixels, and on files whose every channel as float would
  * take more than ewio_max_memory() bytes — all checked from the headers

@@ -640,6 +640,19 @@ TEST(load_into_dst_and_lend) {
         ewio_free(d);
         d = NULL;
     }
+    /* a channel asked for twice in one load (a pass and its alpha) reaches
+     * both buffers, however the decoder holds its destinations */
+    CHECK(ewio_open(src, &d, err, sizeof err) == 0);
+    memset(got, 0xff, sizeof(float) * n * 4);
+    memset(nrm, 0xff, sizeof(float) * n);
+    const ewio_pass_ref twice[] = {{"ViewLayer", "Combined", "BGRA", got}, {"ViewLayer", "Combined", "A", nrm}};
+    CHECK(ewio_load_passes(d, twice, 2, err, sizeof err) == 0);
+    CHECK(memcmp(want, got, sizeof(float) * n * 4) == 0);
+    size_t alpha_wrong = 0;
+    for (size_t i = 0; i < n; i++) alpha_wrong += memcmp(&nrm[i], &want[4 * i + 3], sizeof(float)) != 0;
+    CHECK(alpha_wrong == 0);
+    ewio_free(d);
+    d = NULL;
     /* lend: the same bytes as a copy, a new pass too */
     CHECK(ewio_open(src, &d, err, sizeof err) == 0);
     for (size_t i = 0; i < n * 3; i++) got[i] = (float)(i % 977) * 0.25f;

@@ -1,0 +1,542 @@
+/*
+ * exr_codec.cpp — OpenEXR files through OpenEXR's own library (codec.h).
+ *
+ * Reads every part's header, decodes bands of rows of chosen channels
+ * straight into ewio's planes (OpenEXR converts half and uint to float and
+ * writes with any strides, so no band buffer is needed), and writes one
+ * scanline part from bands of interleaved floats. Exceptions stay inside:
+ * every entry point turns them into a reason.
+ */
+#include "codec.h"
+
+#include <OpenEXR/ImfAttribute.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfCompression.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfOpaqueAttribute.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfPartType.h>
+#include <OpenEXR/ImfThreading.h>
+#include <Imath/half.h>
+
+#include <immintrin.h>
+
+#include <atomic>
+#include <charconv>
+#include <cstdio>
+#include <mutex>
+#include <strings.h>
+#include <thread>
+
+namespace ewio {
+namespace {
+
+/* ------------------------------------------------------------ threads */
+
+std::atomic<int> g_threads{0}; /* 0: not set yet, the machine's count */
+std::once_flag g_pool_once;
+
+int machine_threads() {
+    const unsigned n = std::thread::hardware_concurrency();
+    return n > 0 ? int(std::min(n, 256u)) : 1;
+}
+
+/* OpenEXR's pool has no threads until told (0 = decode in the caller's
+ * thread): every use goes through here first. */
+void ensure_pool() {
+    std::call_once(g_pool_once, [] {
+        if (g_threads.load() == 0) Imf::setGlobalThreadCount(machine_threads());
+    });
+}
+
+void exr_set_threads(int n) {
+    g_threads.store(n);
+    std::call_once(g_pool_once, [] {});
+    Imf::setGlobalThreadCount(n);
+}
+
+/* ------------------------------------------------------- attributes */
+
+/* An attribute's bytes, as OpenEXR writes them into a header. */
+class StringOStream final : public Imf::OStream {
+  public:
+    StringOStream() : Imf::OStream("attribute") {}
+    void write(const char c[], int n) override {
+        if (pos_ + size_t(n) > s_.size()) s_.resize(pos_ + size_t(n));
+        std::memcpy(&s_[pos_], c, size_t(n));
+        pos_ += size_t(n);
+    }
+    uint64_t tellp() override { return pos_; }
+    void seekp(uint64_t pos) override { pos_ = size_t(pos); }
+    std::string s_;
+
+  private:
+    size_t pos_ = 0;
+};
+
+class StringIStream final : public Imf::IStream {
+  public:
+    explicit StringIStream(const std::string &s) : Imf::IStream("attribute"), s_(s) {}
+    bool read(char c[], int n) override {
+        if (pos_ + size_t(n) > s_.size()) throw std::runtime_error("attribute value cut short");
+        std::memcpy(c, s_.data() + pos_, size_t(n));
+        pos_ += size_t(n);
+        return pos_ < s_.size();
+    }
+    uint64_t tellg() override { return pos_; }
+    void seekg(uint64_t pos) override { pos_ = size_t(pos); }
+    void clear() override {}
+
+  private:
+    const std::string &s_;
+    size_t pos_ = 0;
+};
+
+/* What describes the file's layout rather than the image: the output is
+ * one scanline part whose writer sets these itself. */
+bool layout_attr(const std::string &n) {
+    static const char *const names[] = {"channels",  "compression", "dataWindow", "displayWindow",
+                                        "lineOrder", "tiles",       "type",       "name",
+                                        "version",   "chunkCount",  "maxSamplesPerPixel"};
+    for (const char *k : names)
+        if (n == k) return true;
+    return false;
+}
+
+std::unique_ptr<Imf::Attribute> make_attribute(const Attr &a) {
+    std::unique_ptr<Imf::Attribute> at;
+    if (Imf::Attribute::knownType(a.type.c_str()))
+        at.reset(Imf::Attribute::newAttribute(a.type.c_str()));
+    else
+        at.reset(new Imf::OpaqueAttribute(a.type.c_str()));
+    StringIStream is(a.value);
+    at->readValueFrom(is, int(a.value.size()), 2);
+    return at;
+}
+
+/* ---------------------------------------------------- compression names */
+
+struct CompName {
+    const char *name;
+    Imf::Compression c;
+};
+const CompName kComp[] = {{"none", Imf::NO_COMPRESSION},   {"rle", Imf::RLE_COMPRESSION},
+                          {"zips", Imf::ZIPS_COMPRESSION}, {"zip", Imf::ZIP_COMPRESSION},
+                          {"piz", Imf::PIZ_COMPRESSION},   {"pxr24", Imf::PXR24_COMPRESSION},
+                          {"b44", Imf::B44_COMPRESSION},   {"b44a", Imf::B44A_COMPRESSION},
+                          {"dwaa", Imf::DWAA_COMPRESSION}, {"dwab", Imf::DWAB_COMPRESSION}};
+
+std::string comp_name(Imf::Compression c) {
+    for (const CompName &k : kComp)
+        if (k.c == c) return k.name;
+    return "zip";
+}
+
+/* "zip", "dwaa:45" (a level after the colon, as OpenImageIO spells it) */
+bool parse_comp(const std::string &s, Imf::Compression *c, float *level) {
+    const size_t colon = s.find(':');
+    const std::string n = s.substr(0, colon);
+    *level = -1.0f;
+    if (colon != std::string::npos) {
+        const char *b = s.c_str() + colon + 1;
+        char *end = nullptr;
+        *level = std::strtof(b, &end);
+        if (end == b || *end) *level = -1.0f;
+    }
+    for (const CompName &k : kComp)
+        if (strcasecmp(n.c_str(), k.name) == 0) {
+            *c = k.c;
+            return true;
+        }
+    return false;
+}
+
+PixType pix_type(Imf::PixelType t) {
+    return t == Imf::HALF ? PixType::HALF : t == Imf::UINT ? PixType::U32 : PixType::FLOAT;
+}
+
+/* --------------------------------------------------------------- read */
+
+/* OpenEXR lists channels by name; they are ordered as OpenImageIO orders
+ * them (and ewio always has): by layer, then the reserved names in this
+ * order (R, Red, G... case-insensitive) before the layer's other channels,
+ * then by name. */
+int special_index(const std::string &suffix) {
+    static const char *const special[] = {"R",    "Red", "G",  "Green", "B",  "Blue", "X",
+                                          "Y",    "Z",   "real", "imag", "A", "Alpha", "AR",
+                                          "RA",   "AG",  "GA", "AB",    "BA", "Depth", "Zback"};
+    for (size_t i = 0; i < sizeof special / sizeof *special; i++)
+        if (strcasecmp(suffix.c_str(), special[i]) == 0) return int(i);
+    return 10000;
+}
+
+struct Chan {
+    std::string name, layer, suffix;
+    int special;
+    Imf::PixelType type;
+};
+
+void order_channels(std::vector<Chan> &v) {
+    for (Chan &c : v) {
+        const size_t dot = c.name.rfind('.');
+        c.layer = dot == std::string::npos ? std::string() : c.name.substr(0, dot + 1);
+        c.suffix = dot == std::string::npos ? c.name : c.name.substr(dot + 1);
+        c.special = special_index(c.suffix);
+    }
+    std::stable_sort(v.begin(), v.end(), [](const Chan &a, const Chan &b) {
+        if (a.layer != b.layer) return a.layer < b.layer;
+        if (a.special != b.special) return a.special < b.special;
+        return a.suffix < b.suffix;
+    });
+}
+
+class ExrReader final : public Reader {
+  public:
+    bool open(const std::string &path, std::string &why) {
+        ensure_pool();
+        file_.reset(new Imf::MultiPartInputFile(path.c_str(), Imf::globalThreadCount()));
+        const int n = file_->parts();
+        in_.resize(size_t(n));
+        for (int i = 0; i < n; i++) {
+            const Imf::Header &h = file_->header(i);
+            PartHeader ph;
+            const Imath::Box2i dw = h.dataWindow(), disp = h.displayWindow();
+            ph.width = (long long)dw.max.x - dw.min.x + 1;
+            ph.height = (long long)dw.max.y - dw.min.y + 1;
+            ph.x = dw.min.x;
+            ph.y = dw.min.y;
+            ph.full_x = disp.min.x;
+            ph.full_y = disp.min.y;
+            ph.full_width = (long long)disp.max.x - disp.min.x + 1;
+            ph.full_height = (long long)disp.max.y - disp.min.y + 1;
+            ph.deep = h.hasType() && Imf::isDeepData(h.type());
+            ph.tiled = h.hasTileDescription();
+            ph.decodes_later = !ph.deep && !ph.tiled;
+            ph.name = h.hasName() ? h.name() : std::string();
+            std::vector<Chan> ch;
+            for (Imf::ChannelList::ConstIterator c = h.channels().begin(); c != h.channels().end(); ++c) {
+                if (c.channel().xSampling != 1 || c.channel().ySampling != 1)
+                    ph.problem = "channel '" + std::string(c.name()) + "' is subsampled (" +
+                                 std::to_string(c.channel().xSampling) + "x" +
+                                 std::to_string(c.channel().ySampling) + "), which is not supported";
+                ch.push_back(Chan{c.name(), "", "", 0, c.channel().type});
+            }
+            order_channels(ch);
+            for (const Chan &c : ch) {
+                ph.channels.push_back(c.name);
+                ph.types.push_back(pix_type(c.type));
+            }
+            parts_.push_back(std::move(ph));
+        }
+        (void)why;
+        return true;
+    }
+
+    const std::vector<PartHeader> &parts() const override { return parts_; }
+
+    std::vector<Attr> attributes() const override {
+        std::vector<Attr> out;
+        const Imf::Header &h = file_->header(0);
+        for (Imf::Header::ConstIterator i = h.begin(); i != h.end(); ++i) {
+            if (layout_attr(i.name())) continue;
+            StringOStream os;
+            i.attribute().writeValueTo(os, 2);
+            out.push_back(Attr{i.name(), i.attribute().typeName(), os.s_});
+        }
+        return out;
+    }
+
+    std::string compression() const override { return comp_name(file_->header(0).compression()); }
+
+    bool read(int part, int y0, int y1, const int *chans, const BandDst *dst, size_t n, std::string &why) override {
+        try {
+            if (!in_[size_t(part)]) in_[size_t(part)].reset(new Imf::InputPart(*file_, part));
+            Imf::InputPart &in = *in_[size_t(part)];
+            const PartHeader &ph = parts_[size_t(part)];
+            Imf::FrameBuffer fb;
+            /* a channel asked for twice (a pass and its alpha, say) is decoded
+             * once, into its first destination, and copied to the others:
+             * a frame buffer holds one slice per name */
+            std::vector<std::pair<size_t, size_t>> again; /* (k, the first k of its channel) */
+            for (size_t k = 0; k < n; k++) {
+                size_t first = k;
+                for (size_t j = 0; j < k && first == k; j++)
+                    if (chans[j] == chans[k]) first = j;
+                if (first != k) {
+                    again.emplace_back(k, first);
+                    continue;
+                }
+                /* OpenEXR finds pixel (x, y) at base + x * xStride + y * yStride,
+                 * in the file's coordinates: the base is the band's first value
+                 * moved back by the data window's origin and the band's top row
+                 * (integer arithmetic: the base itself lies outside the band) */
+                const size_t xs = dst[k].xs * sizeof(float), ys = dst[k].ys * sizeof(float);
+                const uintptr_t base = reinterpret_cast<uintptr_t>(dst[k].p) - uintptr_t(intptr_t(ph.x) * intptr_t(xs)) -
+                                       uintptr_t(intptr_t(ph.y + y0) * intptr_t(ys));
+                fb.insert(ph.channels[size_t(chans[k])],
+                          Imf::Slice(Imf::FLOAT, reinterpret_cast<char *>(base), xs, ys, 1, 1, 0.0));
+            }
+            in.setFrameBuffer(fb);
+            in.readPixels(ph.y + y0, ph.y + y1 - 1);
+            const size_t w = size_t(ph.width);
+            for (const auto &a : again)
+                for (int y = 0; y < y1 - y0; y++) {
+                    const BandDst &from = dst[a.second], &to = dst[a.first];
+                    for (size_t x = 0; x < w; x++)
+                        to.p[size_t(y) * to.ys + x * to.xs] = from.p[size_t(y) * from.ys + x * from.xs];
+                }
+            return true;
+        } catch (const std::bad_alloc &) {
+            throw;
+        } catch (const std::exception &e) {
+            why = first_line(e.what(), "read failed");
+            return false;
+        }
+    }
+
+  private:
+    std::unique_ptr<Imf::MultiPartInputFile> file_;
+    std::vector<std::unique_ptr<Imf::InputPart>> in_;
+    std::vector<PartHeader> parts_;
+};
+
+std::unique_ptr<Reader> exr_open_reader(const std::string &path, std::string &why) {
+    try {
+        std::unique_ptr<ExrReader> r(new ExrReader);
+        if (!r->open(path, why)) return nullptr;
+        return r;
+    } catch (const std::bad_alloc &) {
+        throw;
+    } catch (const std::exception &e) {
+        why = first_line(e.what(), "OpenEXR cannot read it");
+        return nullptr;
+    }
+}
+
+/* -------------------------------------------------------------- write */
+
+/* float -> half, rounding to nearest even (as Imath's half(float) does):
+ * with the F16C instructions where the CPU has them */
+__attribute__((target("avx,f16c"))) void to_half_f16c(const float *s, uint16_t *d, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(d + i), _mm256_cvtps_ph(_mm256_loadu_ps(s + i), 0));
+    for (; i < n; i++) d[i] = half(s[i]).bits();
+}
+
+void to_half(const float *s, uint16_t *d, size_t n) {
+    static const bool f16c = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+    if (f16c) {
+        to_half_f16c(s, d, n);
+        return;
+    }
+    for (size_t i = 0; i < n; i++) d[i] = half(s[i]).bits();
+}
+
+/* float -> uint as OpenEXR converts it: negative and NaN to 0, clamped above */
+void to_uint(const float *s, uint32_t *d, size_t n) {
+    for (size_t i = 0; i < n; i++) {
+        const float v = s[i];
+        d[i] = !(v > 0.0f) ? 0u : v >= 4294967295.0f ? 4294967295u : uint32_t(v);
+    }
+}
+
+class ExrWriter final : public Writer {
+  public:
+    bool open(const std::string &path, const WriteSpec &s, std::string &why) override {
+        try {
+            ensure_pool();
+            const Imath::Box2i disp(Imath::V2i(s.full_x, s.full_y),
+                                    Imath::V2i(s.full_x + s.full_width - 1, s.full_y + s.full_height - 1));
+            const Imath::Box2i data(Imath::V2i(s.x, s.y), Imath::V2i(s.x + s.width - 1, s.y + s.height - 1));
+            Imf::Header h(disp, data);
+            for (const Attr &a : s.attrs) {
+                if (layout_attr(a.name)) continue;
+                h.insert(a.name.c_str(), *make_attribute(a));
+            }
+            Imf::Compression c = Imf::ZIP_COMPRESSION;
+            float level = -1.0f;
+            if (!s.compression.empty() && !parse_comp(s.compression, &c, &level)) {
+                why = "unknown EXR compression '" + s.compression +
+                      "' (none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)";
+                return false;
+            }
+            h.compression() = c;
+            if (level > 0.0f && (c == Imf::DWAA_COMPRESSION || c == Imf::DWAB_COMPRESSION))
+                h.dwaCompressionLevel() = level;
+            else if (level >= 0.0f && (c == Imf::ZIP_COMPRESSION || c == Imf::ZIPS_COMPRESSION))
+                h.zipCompressionLevel() = int(level);
+            for (size_t i = 0; i < s.names.size(); i++) {
+                const PixType t = s.types[i];
+                h.channels().insert(s.names[i], Imf::Channel(t == PixType::HALF  ? Imf::HALF
+                                                             : t == PixType::U32 ? Imf::UINT
+                                                                                 : Imf::FLOAT));
+            }
+            spec_ = s;
+            out_.reset(new Imf::OutputFile(path.c_str(), h, Imf::globalThreadCount()));
+            return true;
+        } catch (const std::bad_alloc &) {
+            throw;
+        } catch (const std::exception &e) {
+            why = first_line(e.what(), "could not open the output");
+            return false;
+        }
+    }
+
+    /* OpenEXR writes each channel from a slice of its own type (it converts
+     * on reading only): the band's floats become planes of half, float or
+     * uint here. */
+    bool write(int y0, int y1, const float *px, std::string &why) override {
+        try {
+            const size_t nch = spec_.names.size(), w = size_t(spec_.width), n = size_t(y1 - y0) * w;
+            planes_.resize(nch * n * sizeof(float));
+            Imf::FrameBuffer fb;
+            for (size_t c = 0; c < nch; c++) {
+                char *plane = planes_.data() + c * n * sizeof(float);
+                const PixType t = spec_.types[c];
+                const size_t vs = t == PixType::HALF ? 2 : 4;
+                gather_.resize(n);
+                for (size_t i = 0; i < n; i++) gather_[i] = px[i * nch + c];
+                if (t == PixType::HALF)
+                    to_half(gather_.data(), reinterpret_cast<uint16_t *>(plane), n);
+                else if (t == PixType::U32)
+                    to_uint(gather_.data(), reinterpret_cast<uint32_t *>(plane), n);
+                else
+                    std::memcpy(plane, gather_.data(), n * sizeof(float));
+                const uintptr_t base = reinterpret_cast<uintptr_t>(plane) - uintptr_t(intptr_t(spec_.x) * intptr_t(vs)) -
+                                       uintptr_t(intptr_t(spec_.y + y0) * intptr_t(w * vs));
+                fb.insert(spec_.names[c], Imf::Slice(t == PixType::HALF  ? Imf::HALF
+                                                     : t == PixType::U32 ? Imf::UINT
+                                                                         : Imf::FLOAT,
+                                                     reinterpret_cast<char *>(base), vs, w * vs));
+            }
+            out_->setFrameBuffer(fb);
+            out_->writePixels(y1 - y0);
+            return true;
+        } catch (const std::bad_alloc &) {
+            throw;
+        } catch (const std::exception &e) {
+            why = first_line(e.what(), "writing pixels failed");
+            return false;
+        }
+    }
+
+    /* OpenEXR writes the chunk table in its destructor, which swallows a
+     * failure: ewio checks the written file's chunks afterwards. */
+    bool close(std::string &why) override {
+        try {
+            out_.reset();
+            return true;
+        } catch (const std::exception &e) {
+            why = first_line(e.what(), "closing the output failed");
+            return false;
+        }
+    }
+
+  private:
+    WriteSpec spec_;
+    std::unique_ptr<Imf::OutputFile> out_;
+    std::vector<char> planes_;
+    std::vector<float> gather_;
+};
+
+std::unique_ptr<Writer> exr_create_writer(const std::string &, std::string &) {
+    return std::unique_ptr<Writer>(new ExrWriter);
+}
+
+/* Every chunk decoded, in bands into a throwaway buffer. */
+bool exr_read_back(const std::string &path, long long w, long long h, long long nch, std::string &why) {
+    std::unique_ptr<Reader> r = exr_open_reader(path, why);
+    if (!r) return false;
+    const std::vector<PartHeader> &ps = r->parts();
+    long long n = 0;
+    for (const PartHeader &p : ps) n += (long long)p.channels.size();
+    if (ps.size() != 1 || ps[0].width != w || ps[0].height != h || n != nch) {
+        why = "it reads as " + std::to_string(ps.empty() ? 0 : ps[0].width) + "x" +
+              std::to_string(ps.empty() ? 0 : ps[0].height) + " with " + std::to_string(n) + " channels";
+        return false;
+    }
+    const size_t rows = band_rows_of(size_t(w) * size_t(nch) * sizeof(float), size_t(h));
+    std::vector<float> buf(rows * size_t(w) * size_t(nch));
+    std::vector<int> chans(static_cast<size_t>(nch));
+    std::vector<BandDst> dst(static_cast<size_t>(nch));
+    for (size_t c = 0; c < size_t(nch); c++) {
+        chans[c] = int(c);
+        dst[c] = BandDst{buf.data() + c, size_t(nch), size_t(w) * size_t(nch)};
+    }
+    for (long long y0 = 0; y0 < h; y0 += (long long)rows)
+        if (!r->read(0, int(y0), int(std::min<long long>(h, y0 + (long long)rows)), chans.data(), dst.data(),
+                     dst.size(), why))
+            return false;
+    return true;
+}
+
+/* --------------------------------------------------------- attr text */
+
+template <class T> T get_le(const std::string &v, size_t at) {
+    unsigned char b[sizeof(T)];
+    for (size_t i = 0; i < sizeof(T); i++) b[i] = (unsigned char)v[at + i];
+    T x;
+    std::memcpy(&x, b, sizeof(T)); /* the machine is little-endian, as the file */
+    return x;
+}
+
+template <class T> std::string num(T x) {
+    char b[64];
+    const auto r = std::to_chars(b, b + sizeof b, x);
+    return std::string(b, r.ptr);
+}
+
+template <class T> std::string nums(const std::string &v, size_t count) {
+    if (v.size() < count * sizeof(T)) return std::string();
+    std::string o;
+    for (size_t i = 0; i < count; i++) o += (i ? ", " : "") + num(get_le<T>(v, i * sizeof(T)));
+    return o;
+}
+
+} // namespace
+
+std::string attr_text(const Attr &a) {
+    const std::string &t = a.type, &v = a.value;
+    if (t == "string") return v;
+    if (t == "int") return nums<int32_t>(v, 1);
+    if (t == "float") return nums<float>(v, 1);
+    if (t == "double") return nums<double>(v, 1);
+    if (t == "v2i") return nums<int32_t>(v, 2);
+    if (t == "v2f") return nums<float>(v, 2);
+    if (t == "v2d") return nums<double>(v, 2);
+    if (t == "v3i") return nums<int32_t>(v, 3);
+    if (t == "v3f") return nums<float>(v, 3);
+    if (t == "v3d") return nums<double>(v, 3);
+    if (t == "box2i") return nums<int32_t>(v, 4);
+    if (t == "box2f") return nums<float>(v, 4);
+    if (t == "m33f") return nums<float>(v, 9);
+    if (t == "m33d") return nums<double>(v, 9);
+    if (t == "m44f") return nums<float>(v, 16);
+    if (t == "m44d") return nums<double>(v, 16);
+    if (t == "chromaticities") return nums<float>(v, 8);
+    if (t == "floatvector") return nums<float>(v, v.size() / 4);
+    if (t == "rational" && v.size() >= 8) return num(get_le<int32_t>(v, 0)) + "/" + num(get_le<uint32_t>(v, 4));
+    if (t == "stringvector") {
+        std::string o;
+        for (size_t at = 0; at + 4 <= v.size();) {
+            const size_t n = get_le<uint32_t>(v, at);
+            if (n > v.size() - at - 4) break;
+            o += (o.empty() ? "" : ", ") + v.substr(at + 4, n);
+            at += 4 + n;
+        }
+        return o;
+    }
+    return std::string();
+}
+
+const Codec &exr_codec() {
+    static const Codec c = {exr_open_reader, exr_create_writer, exr_read_back, exr_set_threads};
+    return c;
+}
+
+} // namespace ewio
