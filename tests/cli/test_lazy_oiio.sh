@@ -8,6 +8,8 @@ samples=$2
 t=$(mktemp -d)
 trap 'rm -rf "$t"' EXIT
 src="$samples/cornell/f0001_spp0004.exr"
+# a sanitizer build links OpenImageIO in (nodes/io/CMakeLists.txt says why)
+if [ -n "${EW_OIIO_LINKED:-}" ]; then echo "skipped: OpenImageIO is linked in this build"; exit 77; fi
 
 LD_DEBUG=files "$cli" denoise "$src" -o "$t/o.exr" -q 2> "$t/exr.txt" || {
     grep -v '^ *[0-9]*:' "$t/exr.txt"; echo "FAIL: denoise to EXR failed"; exit 1; }
