@@ -1,6 +1,6 @@
 /*
  * node_io.c — nodes that move pixels in and out of a graph: read and write
- * image files (through the OpenImageIO shim, ewio), and "input"/"output",
+ * image files (through ewio), and "input"/"output",
  * which exchange caller memory (the C API and Python's numpy arrays).
  */
 #include <stdio.h>

@@ -1,6 +1,7 @@
-/* Fuzz target for image files through the OpenImageIO shim (ewio.h):
- * OpenImageIO itself is not ours, but our use of what it returns is — data
- * windows, channel counts and names, parts, layer/pass splitting. Any bytes
+/* Fuzz target for image files through ewio (ewio.h: OpenEXR, and OpenImageIO
+ * for other formats): those libraries are not ours, but our use of what they
+ * return is — data windows, channel counts and names, parts, attributes,
+ * layer/pass splitting. Any bytes
  * either read into a file whose every channel can be fetched, or are refused
  * with a message; never a crash, and never more memory than the limit set
  * below (the header checks run before any pixel memory). The check of a

@@ -1,5 +1,5 @@
 /*
- * test_ewio.c — tests of the OpenImageIO shim (nodes/io/ewio.h).
+ * test_ewio.c — tests of the image-file layer (nodes/io/ewio.h).
  *
  * Every fixture is made at run time in a fresh mkdtemp() directory. Real
  * Cycles renders are used when present ($EW_SHARED_DATA, $EW_SAMPLE_DIR),
