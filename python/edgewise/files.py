@@ -1,6 +1,6 @@
 """Image files to numpy arrays and back: the passes of a layer of a
 (multilayer) EXR, PNG, TIFF or JPEG, read and written through the same
-OpenImageIO code as the CLI and graphs (libedgewise_nodes)."""
+file code as the CLI and graphs (libedgewise_nodes: OpenEXR, OpenImageIO for the rest)."""
 import ctypes
 import json
 import os
