@@ -2,10 +2,11 @@
  * oiio_module.cpp — finds and loads libedgewise_oiio.so (oiio_codec.cpp) the
  * first time a file that is not an EXR is read or written.
  *
- * The module lies beside the library or program this code is linked into
- * (build/lib beside libedgewise_nodes.so, the installed lib directory), or
- * in ../lib from a program in bin/; a program linking ewio statically from
- * the build tree (tests, tools) also finds it in the build's lib directory.
+ * The module lies beside the library this code is linked into (build/lib
+ * beside libedgewise_nodes.so, the installed lib directory, the Blender
+ * add-on's package), or in ../lib from a program in bin/ (the tests and tools
+ * that link ewio statically): looked up from where this code was loaded,
+ * never from the build tree a copy was made in.
  */
 #include "codec.h"
 
@@ -16,6 +17,7 @@
 #include <mutex>
 
 #include <dlfcn.h>
+#include <unistd.h>
 
 namespace ewio {
 namespace {
@@ -42,16 +44,15 @@ std::string dir_of(const std::string &p) {
             dirs.push_back(dir_of(real) + "/../lib");
         }
     }
-#ifdef EW_OIIO_MODULE_DIRS
-    /* the build's and the install's lib directories, ':'-separated */
-    const std::string more = EW_OIIO_MODULE_DIRS;
-    for (size_t b = 0; b <= more.size();) {
-        size_t e = more.find(':', b);
-        if (e == std::string::npos) e = more.size();
-        if (e > b) dirs.push_back(more.substr(b, e - b));
-        b = e + 1;
+    /* linked into the program itself, dladdr names it as it was invoked
+     * (through $PATH: no directory at all): the kernel's name for it then */
+    char exe[PATH_MAX];
+    const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n > 0) {
+        exe[n] = '\0';
+        dirs.push_back(dir_of(exe));
+        dirs.push_back(dir_of(exe) + "/../lib");
     }
-#endif
     std::string tried;
     for (const std::string &d : dirs) {
         const std::string p = d + "/libedgewise_oiio.so";
