@@ -23,6 +23,7 @@
 #include <OpenEXR/ImfThreading.h>
 #include <Imath/half.h>
 
+#include <cpuid.h>
 #include <immintrin.h>
 
 #include <atomic>
@@ -328,8 +329,14 @@ __attribute__((target("avx,f16c"))) void to_half_f16c(const float *s, uint16_t *
     for (; i < n; i++) d[i] = half(s[i]).bits();
 }
 
+/* CPUID's F16C bit (clang's __builtin_cpu_supports does not know "f16c") */
+bool has_f16c() {
+    unsigned a, b, c, d;
+    return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) && __builtin_cpu_supports("avx");
+}
+
 void to_half(const float *s, uint16_t *d, size_t n) {
-    static const bool f16c = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+    static const bool f16c = has_f16c();
     if (f16c) {
         to_half_f16c(s, d, n);
         return;
