@@ -1303,6 +1303,121 @@ int ewio::io_threads() {
     return t > 0 ? t : machine_threads();
 }
 
+/* ------------------------------------- helpers of the C API below (C++ linkage) */
+
+namespace {
+/* Where a new channel of pass P goes: after the pass's last channel, else
+ * the layer's, else at the end. */
+size_t new_channel_pos(const ewio_file &f, const std::string &L, const std::string &P) {
+    size_t pos = f.ch.size();
+    int last_pass = -1, last_layer = -1;
+    for (size_t j = 0; j < f.ch.size(); j++) {
+        if (f.ch[j].layer != L) continue;
+        last_layer = int(j);
+        if (f.ch[j].pass == P) last_pass = int(j);
+    }
+    if (last_pass >= 0)
+        pos = size_t(last_pass) + 1;
+    else if (last_layer >= 0)
+        pos = size_t(last_layer) + 1;
+    return pos;
+}
+
+/* "" when (L, P, C) names channels that read back as that layer, pass and
+ * those components; else why not (ewio_set_pass's rules). */
+std::string pass_names_problem(const std::string &L, const std::string &P, const std::string &C, const char *fn) {
+    if (!L.empty() && P.empty())
+        return std::string(fn) + ": a pass name is required for layer " + q(L) + " (\"" + L + ".R\" would read back as pass " +
+               q(L) + ")";
+    for (size_t i = 0; i < C.size(); i++) {
+        std::string l2, p2, c2;
+        const std::string name = join_name(L, P, std::string(1, C[i]));
+        split_name(name, l2, p2, c2);
+        if (C.find(C[i]) != i || l2 != L || p2 != P || c2 != std::string(1, C[i]))
+            return std::string(fn) + ": " + display_pass(L, P) + " components " + q(C) + ": channel name " + q(name) +
+                   " is ambiguous (dots in the pass name or component, or a repeated component)";
+    }
+    return "";
+}
+} // namespace
+
+namespace {
+/* ewio_set_pass (a copy of src) and ewio_lend_pass (src itself). */
+int put_pass(ewio_file *f, const char *layer, const char *pass, const char *comps, const float *src, bool lend,
+             const char *fn, char *err, size_t errlen) {
+    clear_err(err, errlen);
+    if (!f || !comps || !*comps || !src) {
+        set_err(err, errlen, std::string(fn) + ": invalid argument (NULL file/src or empty comps)");
+        return 1;
+    }
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
+        const std::string why = pass_names_problem(L, P, C, fn);
+        if (!why.empty()) {
+            set_err(err, errlen, why);
+            return 1;
+        }
+        const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
+        /* Prepare everything that allocates before changing the file: planes
+         * for new channels and for released ones; a channel that has its
+         * pixels is overwritten where it is (no second copy of the pass). */
+        std::vector<Plane> data(n);
+        size_t nnew = 0;
+        for (size_t k = 0; k < n; k++) {
+            const int i = find_channel(*f, L, P, std::string(1, C[k]));
+            if (i < 0) nnew++;
+            if (!lend && (i < 0 || f->ch[size_t(i)].px.size() != npix)) data[k].resize(npix);
+        }
+        std::vector<Channel> fresh;
+        fresh.reserve(nnew);
+        for (size_t k = 0; k < n; k++) {
+            if (find_channel(*f, L, P, std::string(1, C[k])) >= 0) continue;
+            Channel c;
+            c.layer = L;
+            c.pass = P;
+            c.comp = std::string(1, C[k]);
+            c.name = join_name(L, P, c.comp);
+            c.type = PixType::HALF;
+            fresh.push_back(std::move(c));
+        }
+        f->ch.reserve(f->ch.size() + nnew);
+        std::vector<std::string> layers = f->layers;
+        if (!has_layer(*f, L)) layers.push_back(L);
+        /* Commit: nothing below allocates. */
+        size_t fi = 0;
+        for (size_t k = 0; k < n; k++) {
+            int i = find_channel(*f, L, P, std::string(1, C[k]));
+            Channel *c;
+            if (i >= 0) {
+                c = &f->ch[size_t(i)];
+            } else {
+                const size_t pos = new_channel_pos(*f, L, P);
+                f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(fresh[fi++]));
+                c = &f->ch[pos];
+            }
+            c->on_disk = false;
+            if (lend) {
+                Plane().swap(c->px);
+                c->lent = src + k;
+                c->lent_stride = n;
+                continue;
+            }
+            if (!data[k].empty()) c->px.swap(data[k]);
+            unlend(*c);
+            float *dst = c->px.data();
+            for (size_t j = 0; j < npix; j++) dst[j] = src[j * n + k];
+        }
+        f->layers.swap(layers);
+        return 0;
+    } catch (const std::bad_alloc &) {
+        set_err(err, errlen, std::string(fn) + ": out of memory");
+    } catch (...) {
+        set_err(err, errlen, std::string(fn) + ": unexpected error");
+    }
+    return 1;
+}
+} // namespace
+
 /* ================================================================ C API */
 
 extern "C" {
@@ -1625,41 +1740,6 @@ int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const
     }
 }
 
-namespace {
-/* Where a new channel of pass P goes: after the pass's last channel, else
- * the layer's, else at the end. */
-size_t new_channel_pos(const ewio_file &f, const std::string &L, const std::string &P) {
-    size_t pos = f.ch.size();
-    int last_pass = -1, last_layer = -1;
-    for (size_t j = 0; j < f.ch.size(); j++) {
-        if (f.ch[j].layer != L) continue;
-        last_layer = int(j);
-        if (f.ch[j].pass == P) last_pass = int(j);
-    }
-    if (last_pass >= 0)
-        pos = size_t(last_pass) + 1;
-    else if (last_layer >= 0)
-        pos = size_t(last_layer) + 1;
-    return pos;
-}
-
-/* "" when (L, P, C) names channels that read back as that layer, pass and
- * those components; else why not (ewio_set_pass's rules). */
-std::string pass_names_problem(const std::string &L, const std::string &P, const std::string &C, const char *fn) {
-    if (!L.empty() && P.empty())
-        return std::string(fn) + ": a pass name is required for layer " + q(L) + " (\"" + L + ".R\" would read back as pass " +
-               q(L) + ")";
-    for (size_t i = 0; i < C.size(); i++) {
-        std::string l2, p2, c2;
-        const std::string name = join_name(L, P, std::string(1, C[i]));
-        split_name(name, l2, p2, c2);
-        if (C.find(C[i]) != i || l2 != L || p2 != P || c2 != std::string(1, C[i]))
-            return std::string(fn) + ": " + display_pass(L, P) + " components " + q(C) + ": channel name " + q(name) +
-                   " is ambiguous (dots in the pass name or component, or a repeated component)";
-    }
-    return "";
-}
-} // namespace
 
 int ewio_pass_in_source(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
     if (!f || !comps || !*comps) return 0;
@@ -1736,82 +1816,6 @@ int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass,
     return 1;
 }
 
-namespace {
-/* ewio_set_pass (a copy of src) and ewio_lend_pass (src itself). */
-int put_pass(ewio_file *f, const char *layer, const char *pass, const char *comps, const float *src, bool lend,
-             const char *fn, char *err, size_t errlen) {
-    clear_err(err, errlen);
-    if (!f || !comps || !*comps || !src) {
-        set_err(err, errlen, std::string(fn) + ": invalid argument (NULL file/src or empty comps)");
-        return 1;
-    }
-    try {
-        const std::string L = layer ? layer : "", P = pass ? pass : "", C = comps;
-        const std::string why = pass_names_problem(L, P, C, fn);
-        if (!why.empty()) {
-            set_err(err, errlen, why);
-            return 1;
-        }
-        const size_t n = C.size(), npix = size_t(f->width) * size_t(f->height);
-        /* Prepare everything that allocates before changing the file: planes
-         * for new channels and for released ones; a channel that has its
-         * pixels is overwritten where it is (no second copy of the pass). */
-        std::vector<Plane> data(n);
-        size_t nnew = 0;
-        for (size_t k = 0; k < n; k++) {
-            const int i = find_channel(*f, L, P, std::string(1, C[k]));
-            if (i < 0) nnew++;
-            if (!lend && (i < 0 || f->ch[size_t(i)].px.size() != npix)) data[k].resize(npix);
-        }
-        std::vector<Channel> fresh;
-        fresh.reserve(nnew);
-        for (size_t k = 0; k < n; k++) {
-            if (find_channel(*f, L, P, std::string(1, C[k])) >= 0) continue;
-            Channel c;
-            c.layer = L;
-            c.pass = P;
-            c.comp = std::string(1, C[k]);
-            c.name = join_name(L, P, c.comp);
-            c.type = PixType::HALF;
-            fresh.push_back(std::move(c));
-        }
-        f->ch.reserve(f->ch.size() + nnew);
-        std::vector<std::string> layers = f->layers;
-        if (!has_layer(*f, L)) layers.push_back(L);
-        /* Commit: nothing below allocates. */
-        size_t fi = 0;
-        for (size_t k = 0; k < n; k++) {
-            int i = find_channel(*f, L, P, std::string(1, C[k]));
-            Channel *c;
-            if (i >= 0) {
-                c = &f->ch[size_t(i)];
-            } else {
-                const size_t pos = new_channel_pos(*f, L, P);
-                f->ch.insert(f->ch.begin() + std::ptrdiff_t(pos), std::move(fresh[fi++]));
-                c = &f->ch[pos];
-            }
-            c->on_disk = false;
-            if (lend) {
-                Plane().swap(c->px);
-                c->lent = src + k;
-                c->lent_stride = n;
-                continue;
-            }
-            if (!data[k].empty()) c->px.swap(data[k]);
-            unlend(*c);
-            float *dst = c->px.data();
-            for (size_t j = 0; j < npix; j++) dst[j] = src[j * n + k];
-        }
-        f->layers.swap(layers);
-        return 0;
-    } catch (const std::bad_alloc &) {
-        set_err(err, errlen, std::string(fn) + ": out of memory");
-    } catch (...) {
-        set_err(err, errlen, std::string(fn) + ": unexpected error");
-    }
-    return 1;
-}
-} // namespace
 
 int ewio_set_pass(ewio_file *f, const char *layer, const char *pass, const char *comps, const float *src, char *err,
                   size_t errlen) {
