@@ -52,6 +52,12 @@ inline size_t band_rows_of(size_t row_bytes, size_t h) {
     return std::min(rows, std::max<size_t>(h, 1));
 }
 
+/* What a written file turned out to be, where it is not what was written. */
+inline std::string reads_as(long long w, long long h, long long nch) {
+    return "it reads as " + std::to_string(w) + "x" + std::to_string(h) + " with " + std::to_string(nch) +
+           " channels";
+}
+
 /* One header attribute as OpenEXR writes it: its type name ("string",
  * "int", "float", "v2f", "m44f", "chromaticities", ...) and its value's
  * bytes (little-endian; a string's bytes without terminator). */
@@ -140,8 +146,8 @@ class Writer {
 struct Codec {
     /* nullptr with a reason when the file is not one this codec reads */
     std::unique_ptr<Reader> (*open_reader)(const std::string &path, std::string &why);
-    /* ext: the destination's lower-case extension ("png", "tif"...) */
-    std::unique_ptr<Writer> (*create_writer)(const std::string &ext, std::string &why);
+    /* a writer; the format follows the path given to its open() */
+    std::unique_ptr<Writer> (*create_writer)();
     /* Whether `path` opens as a w x h image with nch channels whose pixels
      * all decode (in bands: little memory). */
     bool (*read_back)(const std::string &path, long long w, long long h, long long nch, std::string &why);

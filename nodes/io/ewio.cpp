@@ -47,6 +47,7 @@ using ewio::PixType;
 using ewio::band_rows_of;
 using ewio::first_line;
 using ewio::one_line;
+using ewio::reads_as;
 
 constexpr long long kMaxSide = 65536;
 constexpr long long kMaxPixels = 1LL << 28;
@@ -855,25 +856,13 @@ PixType exr_type(PixType t) {
     return PixType::FLOAT;
 }
 
-/* What a written file turned out to be, where it is not what was written. */
-std::string reads_as(long long w, long long h, long long nch) {
-    return "it reads as " + std::to_string(w) + "x" + std::to_string(h) + " with " + std::to_string(nch) +
-           " channels";
-}
-
-/* Whether `path` opens as a w x h image with nch channels whose pixels all
- * decode, through `codec`. Reads in bands of rows, so it needs little memory. */
-bool read_back_ok(const Codec &codec, const std::string &path, int w, int h, int nch, std::string &why) {
-    return codec.read_back(path, w, h, nch, why);
-}
-
 /* Whether the EXR written at `path` is a w x h image of nch channels with
  * all its pixel data (ewio_exr_chunks_check: its chunk table and every
  * chunk's place and size, no pixel decoded). OpenEXR encoded every chunk
  * from our floats and reports a failed write of one; what it does not report
  * is a failure writing the chunk table on close — and a file cut short — both
  * of which the check finds. A kind of file the check does not cover is
- * decoded whole (read_back_ok). */
+ * decoded whole (the codec's read_back). */
 bool written_exr_ok(const std::string &path, int w, int h, int nch, std::string &why) {
     FILE *fp = fopen(path.c_str(), "rbe");
     struct stat st;
@@ -886,7 +875,7 @@ bool written_exr_ok(const std::string &path, int w, int h, int nch, std::string 
     char buf[256];
     const int r = ewio_exr_chunks_check(fp, (long long)st.st_size, &lay, buf, sizeof buf);
     fclose(fp);
-    if (r < 0) return read_back_ok(ewio::exr_codec(), path, w, h, nch, why);
+    if (r < 0) return ewio::exr_codec().read_back(path, w, h, nch, why);
     if (r > 0) {
         why = buf;
         return false;
@@ -1070,15 +1059,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
             return 1;
         }
     }
-    std::unique_ptr<ewio::Writer> out;
-    {
-        std::string why;
-        out = codec->create_writer(ext, why);
-        if (!out) {
-            msg = what + "no writer for " + q("." + ext) + " (" + why + ")";
-            return 1;
-        }
-    }
+    std::unique_ptr<ewio::Writer> out = codec->create_writer();
 
     /* ---- temporary file next to the destination */
     TempGuard guard;
@@ -1177,7 +1158,7 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     {
         std::string verr;
         if (!(kind == Kind::EXR ? written_exr_ok(guard.path, w, h, nch, verr)
-                                : read_back_ok(*codec, guard.path, w, h, nch, verr))) {
+                                : codec->read_back(guard.path, w, h, nch, verr))) {
             msg = what + "the written file does not read back (" + verr + ")";
             return 1;
         }

@@ -26,36 +26,26 @@
 #include <cpuid.h>
 #include <immintrin.h>
 
-#include <atomic>
 #include <charconv>
 #include <cstdio>
 #include <mutex>
 #include <strings.h>
-#include <thread>
 
 namespace ewio {
 namespace {
 
 /* ------------------------------------------------------------ threads */
 
-std::atomic<int> g_threads{0}; /* 0: not set yet, the machine's count */
 std::once_flag g_pool_once;
 
-int machine_threads() {
-    const unsigned n = std::thread::hardware_concurrency();
-    return n > 0 ? int(std::min(n, 256u)) : 1;
-}
-
 /* OpenEXR's pool has no threads until told (0 = decode in the caller's
- * thread): every use goes through here first. */
+ * thread): every use goes through here first, with ewio's count (the
+ * machine's unless ewio_set_threads said otherwise). */
 void ensure_pool() {
-    std::call_once(g_pool_once, [] {
-        if (g_threads.load() == 0) Imf::setGlobalThreadCount(machine_threads());
-    });
+    std::call_once(g_pool_once, [] { Imf::setGlobalThreadCount(io_threads()); });
 }
 
 void exr_set_threads(int n) {
-    g_threads.store(n);
     std::call_once(g_pool_once, [] {});
     Imf::setGlobalThreadCount(n);
 }
@@ -197,7 +187,7 @@ void order_channels(std::vector<Chan> &v) {
 
 class ExrReader final : public Reader {
   public:
-    bool open(const std::string &path, std::string &why) {
+    explicit ExrReader(const std::string &path) {
         ensure_pool();
         file_.reset(new Imf::MultiPartInputFile(path.c_str(), Imf::globalThreadCount()));
         const int n = file_->parts();
@@ -233,8 +223,6 @@ class ExrReader final : public Reader {
             }
             parts_.push_back(std::move(ph));
         }
-        (void)why;
-        return true;
     }
 
     const std::vector<PartHeader> &parts() const override { return parts_; }
@@ -307,9 +295,7 @@ class ExrReader final : public Reader {
 
 std::unique_ptr<Reader> exr_open_reader(const std::string &path, std::string &why) {
     try {
-        std::unique_ptr<ExrReader> r(new ExrReader);
-        if (!r->open(path, why)) return nullptr;
-        return r;
+        return std::unique_ptr<Reader>(new ExrReader(path));
     } catch (const std::bad_alloc &) {
         throw;
     } catch (const std::exception &e) {
@@ -451,7 +437,7 @@ class ExrWriter final : public Writer {
     std::vector<float> gather_;
 };
 
-std::unique_ptr<Writer> exr_create_writer(const std::string &, std::string &) {
+std::unique_ptr<Writer> exr_create_writer() {
     return std::unique_ptr<Writer>(new ExrWriter);
 }
 
@@ -463,8 +449,7 @@ bool exr_read_back(const std::string &path, long long w, long long h, long long 
     long long n = 0;
     for (const PartHeader &p : ps) n += (long long)p.channels.size();
     if (ps.size() != 1 || ps[0].width != w || ps[0].height != h || n != nch) {
-        why = "it reads as " + std::to_string(ps.empty() ? 0 : ps[0].width) + "x" +
-              std::to_string(ps.empty() ? 0 : ps[0].height) + " with " + std::to_string(n) + " channels";
+        why = reads_as(ps.empty() ? 0 : ps[0].width, ps.empty() ? 0 : ps[0].height, n);
         return false;
     }
     const size_t rows = band_rows_of(size_t(w) * size_t(nch) * sizeof(float), size_t(h));

@@ -257,7 +257,7 @@ class OiioWriter final : public Writer {
     std::unique_ptr<ImageOutput> out_;
 };
 
-std::unique_ptr<Writer> oiio_create_writer(const std::string &, std::string &) {
+std::unique_ptr<Writer> oiio_create_writer() {
     return std::unique_ptr<Writer>(new OiioWriter);
 }
 
@@ -269,8 +269,7 @@ bool oiio_read_back(const std::string &path, long long w, long long h, long long
     }
     const ImageSpec s = in->spec();
     if (s.width != w || s.height != h || s.nchannels != nch) {
-        why = "it reads as " + std::to_string(s.width) + "x" + std::to_string(s.height) + " with " +
-              std::to_string(s.nchannels) + " channels";
+        why = reads_as(s.width, s.height, s.nchannels);
         return false;
     }
     bool ok;
