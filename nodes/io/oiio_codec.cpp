@@ -110,7 +110,6 @@ class OiioReader final : public Reader {
             }
         }
         (void)in_->geterror(); /* the "no such subimage" noise of the scan's end */
-        cur_ = -1;
         return true;
     }
 
@@ -120,15 +119,12 @@ class OiioReader final : public Reader {
     bool read(int part, int y0, int y1, const int *chans, const BandDst *dst, size_t n, std::string &why) override {
         const PartHeader &ph = parts_[size_t(part)];
         const size_t w = size_t(ph.width), nch = ph.channels.size();
-        bool ok = true;
-        if (cur_ != part) {
-            ok = in_->seek_subimage(part, 0);
-            cur_ = part;
-        }
+        bool ok;
         buf_.resize(size_t(y1 - y0) * w * nch);
-        if (ok && ph.tiled) /* OpenImageIO assembles the tiles: the whole image in one band */
+        /* the reads name their subimage: OpenImageIO seeks to it itself */
+        if (ph.tiled) /* OpenImageIO assembles the tiles: the whole image in one band */
             ok = y0 == 0 && y1 == int(ph.height) && in_->read_image(part, 0, 0, int(nch), OIIO::TypeFloat, buf_.data());
-        else if (ok)
+        else
             ok = in_->read_scanlines(part, 0, ph.y + y0, ph.y + y1, 0, 0, int(nch), OIIO::TypeFloat, buf_.data());
         if (!ok || in_->has_error()) { /* e.g. libjpeg's "premature end" is only a warning */
             why = oiio_msg(in_->geterror(), "read failed");
@@ -150,7 +146,6 @@ class OiioReader final : public Reader {
     std::vector<PartHeader> parts_;
     std::vector<Attr> attrs_;
     std::vector<float> buf_;
-    int cur_ = -1;
 };
 
 std::unique_ptr<Reader> oiio_open_reader(const std::string &path, std::string &why) {
