@@ -89,12 +89,14 @@ enum {
 
 typedef struct ew_harm_args {
     int width, height;
-    int channels;           /* floats per pixel of color and clamped (>= 3; the ones past RGB are copied) */
+    int channels;           /* floats per pixel of color (>= 3) */
+    int clamped_channels;   /* floats per pixel of clamped: 3 (a method that reads RGB only), or 0: as color
+                               (the ones past RGB copied) */
     const float *color;     /* the caller's colour, packed */
     const float *albedo;    /* 3 per pixel, or NULL: no demodulation */
     float *radiance;        /* 3 per pixel: DEMOD writes it */
     const float *rejected;  /* 3 per pixel: radiance after the outlier rejection (REMOD reads it) */
-    float *clamped;         /* channels per pixel: REMOD writes it (the method's input, and the blend's) */
+    float *clamped;         /* clamped_channels per pixel: REMOD writes it (the method's input, and the blend's) */
     float *out;             /* 3 per pixel: the method's output; BLEND rewrites it in place */
     float *stats;           /* EW_HARM_STATS_FLOATS per pixel: STATS writes r^2, the neighbour product, its
                                square, and in linear units the residual's diagonal Haar detail squared
@@ -129,6 +131,9 @@ typedef struct ew_harm_args {
                                PILOT_SQ overwrites its first two floats a pixel */
     float pilot_share;      /* PILOT_V: the pilot's alpha taken this share (0: none, 1: all) */
 } ew_harm_args;
+
+/* floats per pixel of clamped */
+EW_HD int ew_harm_cch(const ew_harm_args *a) { return a->clamped_channels ? a->clamped_channels : a->channels; }
 
 EW_HD int ew_harm_finite3(const float *v) { return ew_finitef(v[0]) && ew_finitef(v[1]) && ew_finitef(v[2]); }
 
@@ -187,7 +192,7 @@ EW_HD float ew_harm_finite_or0(float v) {
 EW_HD float ew_harm_tone_diff(float c, float o) { return ew_harm_tone(c) - ew_harm_tone(o); }
 
 EW_HD float ew_harm_residual(const ew_harm_args *a, long j, int c) {
-    return ew_harm_tone_diff(a->clamped[j * a->channels + c], a->out[j * 3 + c]);
+    return ew_harm_tone_diff(a->clamped[j * ew_harm_cch(a) + c], a->out[j * 3 + c]);
 }
 
 EW_HD void ew_harm_demod_px(long j, const ew_harm_args *a) {
@@ -197,16 +202,16 @@ EW_HD void ew_harm_demod_px(long j, const ew_harm_args *a) {
 /* The caller's own pixel where the rejection kept the radiance (no
  * rounding through / and *), else the rejected radiance remodulated. */
 EW_HD void ew_harm_remod_px(long j, const ew_harm_args *a) {
-    const long cc = a->channels;
+    const long cc = a->channels, ck = ew_harm_cch(a);
     const float *r1 = a->rejected + j * 3;
     const int same = ew_harm_kept(a->radiance + j * 3, r1);
-    for (long c = 0; c < cc; c++)
-        a->clamped[j * cc + c] = same || c >= 3 ? a->color[j * cc + c] : r1[c] * ew_harm_albedo(a, j, (int)c);
+    for (long c = 0; c < ck; c++)
+        a->clamped[j * ck + c] = same || c >= 3 ? a->color[j * cc + c] : r1[c] * ew_harm_albedo(a, j, (int)c);
 }
 
 /* the residual input - output in linear units, non-finite as 0 */
 EW_HD float ew_harm_lin_residual(const ew_harm_args *a, long j, int c) {
-    return ew_harm_finite_or0(a->clamped[j * a->channels + c] - a->out[j * 3 + c]);
+    return ew_harm_finite_or0(a->clamped[j * ew_harm_cch(a) + c] - a->out[j * 3 + c]);
 }
 
 /* The statistics of (x, y) from its residuals (3 floats each, T then
@@ -319,7 +324,7 @@ EW_HD float ew_harm_alpha(float sq, float cross, float cross2, float hh2, float 
 /* BLEND's mix at pixel j for its alpha: alpha 1, the method's output
  * exactly; a missing sample, the method's reconstruction */
 EW_HD void ew_harm_blend_mix(long j, const ew_harm_args *a, float alpha) {
-    const float *in = a->clamped + j * a->channels;
+    const float *in = a->clamped + j * ew_harm_cch(a);
     float *o = a->out + j * 3;
     if (alpha >= 1.0f || !ew_harm_finite3(in)) return;
     /* the blend gives the pixel 1 - alpha of the input back, and with it
@@ -462,7 +467,7 @@ EW_HD void ew_harm_give_px(int x, int y, const ew_harm_args *a) {
 /* The luminance of what the rejection took from a pixel (color - clamped,
  * each channel's positive part) */
 EW_HD float ew_harm_excess_lum(long j, const ew_harm_args *a) {
-    const float *c0 = a->color + j * a->channels, *c1 = a->clamped + j * a->channels;
+    const float *c0 = a->color + j * a->channels, *c1 = a->clamped + j * ew_harm_cch(a);
     float ex[3];
     for (int c = 0; c < 3; c++) {
         const float e = c0[c] - c1[c];
@@ -483,7 +488,7 @@ EW_HD void ew_harm_excess_px(long j, const ew_harm_args *a) {
  * give_cap x the luminance it left and take_limit, as a grey of it into
  * give[3 j ..] (the frame's luminance sum adds it up) */
 EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
-    const float *c1 = a->clamped + j * a->channels;
+    const float *c1 = a->clamped + j * ew_harm_cch(a);
     const float le = a->excess ? a->excess[j] : ew_harm_excess_lum(j, a), lk = ew_maxf(ew_luminance(c1), 0.0f);
     const float lr = ew_minf(ew_minf(le, a->give_cap * lk), a->take_limit);
     for (int c = 0; c < 3; c++) a->give[j * 3 + c] = lr > 0.0f ? lr : 0.0f;
@@ -540,7 +545,7 @@ EW_HD void ew_harm_spread_v_px(int x, int y, const ew_harm_args *a) {
  * worst frames below their input (-0.16 against -0.12 dB at 64 spp; the
  * worst 64x64 region of a glossy frame -0.34 against -0.16): not taken. */
 EW_HD void ew_harm_pilot_sq_px(long j, const ew_harm_args *a) {
-    const float *in = a->clamped + j * a->channels, *o = a->out + j * 3;
+    const float *in = a->clamped + j * ew_harm_cch(a), *o = a->out + j * 3;
     float *p = a->pilot + j * 3;
     float n = 0.0f, d = 0.0f;
     for (int c = 0; c < 3; c++) {

@@ -152,12 +152,18 @@ static int slot(const ew_op *op, const char *name) {
     return -1;
 }
 
+/* Floats a pixel of the rejected colour the method reads: a denoiser reads
+ * RGB only, so its copy has no alpha (and a method on the CPU reads it in
+ * place, packed as it packs its own); a filter used as a denoiser may
+ * filter alpha too (op_alpha.c). */
+static int clamped_channels(int cc, int pre) { return pre == 1 ? 3 : cc; }
+
 /* The stage's device floats for a colour of cc channels (see the commit);
  * own: which of colour, albedo, normal it packs itself; kept: the
  * rejection's excess plane. */
 static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept) {
     return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
-                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)cc + 3 + (size_t)kept);
+                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)clamped_channels(cc, pre) + 3 + (size_t)kept);
 }
 
 /* Colour, albedo and normal read from the caller's views where they are
@@ -237,11 +243,11 @@ ew_result ew_harm_commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     /* col (cc), albedo, normal (those not read in place), a (radiance, then
      * the method's output), b (rejected radiance, then the residual
-     * statistics), clamped (cc), removed (3), the rejection's excess (1, kept) */
+     * statistics), clamped (clamped_channels), removed (3), the rejection's excess (1, kept) */
     const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
-    const size_t hclamp = pre ? stage : 0; /* the colour the method reads */
+    const size_t hclamp = pre ? ew_dev_stage_floats(dev, n, clamped_channels(cc, pre)) : 0; /* the colour the method reads */
     s = (ew_harm_state *)calloc(1, sizeof *s + row_bytes + (stage + hclamp) * sizeof(float));
     if (s) s->dmem = ew_dev_alloc(dev, row_bytes + floats * sizeof(float));
     op->harm = s;
@@ -266,7 +272,7 @@ ew_result ew_harm_commit(ew_op *op) {
     s->nrm = !has_n ? NULL : own & 4 ? m : (float *)in[2]; m += has_n && (own & 4) ? n * 3 : 0;
     s->a = m; m += n * 3;
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
-    s->clamped = pre ? m : NULL; m += pre ? n * (size_t)cc : 0;
+    s->clamped = pre ? m : NULL; m += pre ? n * (size_t)clamped_channels(cc, pre) : 0;
     s->fed = pre == 2 ? m : s->clamped; m += pre == 2 ? n * (size_t)cc : 0;
     s->removed = m; m += n * 3;
     s->excess = kept ? m : NULL; /* past b: not among the pages released while the method runs */
@@ -489,6 +495,7 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.width = s->w;
     ha.height = s->h;
     ha.channels = s->cc;
+    ha.clamped_channels = s->pre ? clamped_channels(s->cc, s->pre) : 0;
     ha.color = s->col;
     ha.albedo = s->alb;
     ha.radiance = s->a;
@@ -511,16 +518,17 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.kappa = HARM_BLEND_KAPPA - (HARM_BLEND_KAPPA - HARM_QUIET_KAPPA) * quiet;
     ha.fade = fade_of(noise);
     const ew_image saved = op->images[ci];
+    const int ck = clamped_channels(s->cc, s->pre);
     if (s->pre) {
         r = reject(op, s, &ha);
         if (r != EW_OK) return r;
         /* the method reads the clamped colour where it reads views from */
         if (s->hclamp) {
-            r = dev->backend->mem_download(dev, s->hclamp, s->fed, (size_t)s->w * s->h * s->cc * sizeof(float));
+            r = dev->backend->mem_download(dev, s->hclamp, s->fed, (size_t)s->w * s->h * ck * sizeof(float));
             if (r != EW_OK) return r;
-            op->images[ci] = ew_image_packed(s->hclamp, s->w, s->h, s->cc);
+            op->images[ci] = ew_image_packed(s->hclamp, s->w, s->h, ck);
         } else {
-            op->images[ci] = ew_image_packed(s->fed, s->w, s->h, s->cc);
+            op->images[ci] = ew_image_packed(s->fed, s->w, s->h, ck);
         }
     }
     /* the radiance and the rejected radiance are dead while the method

@@ -482,6 +482,29 @@ TEST(views_read_in_place_give_the_copies_output) {
         CHECK(strcmp(what[0], what[1]) == 0);
         if (budget == 1) CHECK_STR_CONTAINS(what[1], "tiles");
         CHECK(memcmp(ref, im.out, sizeof(float) * n * 3) == 0);
+        /* an RGBA colour (alpha past RGB) into an RGBA output: the same RGB
+         * (the do-no-harm stage hands the method its rejected colour as RGB) */
+        for (long j = 0; j < n; j++) c4[j * 4 + 3] = 0.5f;
+        float *o4 = calloc((size_t)n * 4, sizeof(float));
+        c = ew_image_packed(c4, W, H, 4);
+        o = ew_image_packed(o4, W, H, 4);
+        a = ew_image_packed(im.albedo, W, H, 3);
+        nv = ew_image_packed(im.normal, W, H, 3);
+        z = ew_image_packed(im.depth, W, H, 1);
+        CHECK(ew_denoiser_create(dev, "nbg", &d) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "normal", &nv) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
+        CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
+        CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget) == EW_OK);
+        CHECK(ew_denoiser_commit(d) == EW_OK);
+        CHECK(ew_denoiser_execute(d) == EW_OK);
+        ew_denoiser_destroy(d);
+        long same = 0;
+        for (long j = 0; j < n; j++) same += !memcmp(o4 + j * 4, ref + j * 3, 3 * sizeof(float));
+        CHECK_EQ_INT((int)same, (int)n);
+        free(o4);
     }
     ew_device_destroy(dev);
     images_free(&im);

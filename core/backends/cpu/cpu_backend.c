@@ -396,13 +396,14 @@ static void harm_modulate_row(const ew_harm_args *a, int step, int y, float *rgb
         harm_demod_span(a->radiance + j0 * 3, col, alb, 3 * w);
         return;
     }
-    float *out = cc != 3 ? rgb + 3 * w : a->clamped + j0 * 3;
+    const long ck = ew_harm_cch(a);
+    float *out = ck != 3 ? rgb + 3 * w : a->clamped + j0 * 3;
     harm_remod_span(out, col, a->radiance + j0 * 3, a->rejected + j0 * 3, alb, w);
-    if (cc != 3) {
+    if (ck != 3) {
         const float *c0 = a->color + j0 * cc;
-        float *o = a->clamped + j0 * cc;
+        float *o = a->clamped + j0 * ck;
         for (long x = 0; x < w; x++)
-            for (long c = 0; c < cc; c++) o[x * cc + c] = c < 3 ? out[3 * x + c] : c0[x * cc + c];
+            for (long c = 0; c < ck; c++) o[x * ck + c] = c < 3 ? out[3 * x + c] : c0[x * cc + c];
     }
 }
 
@@ -420,7 +421,7 @@ static EW_MULTIVERSION void harm_residual_span(float *EW_RESTRICT t, float *EW_R
  * ew_harm_residuals; rgb: 3 w floats for the input's RGB when it has more
  * channels */
 static void harm_residual_row(const ew_harm_args *a, int y, float *t, float *l, float *rgb) {
-    const long w = a->width, cc = a->channels;
+    const long w = a->width, cc = ew_harm_cch(a);
     const float *c = a->clamped + (long)y * w * cc;
     if (cc != 3) {
         for (long x = 0; x < w; x++) {
@@ -672,7 +673,7 @@ static void harm_band_blend(void *ctx, int64_t begin, int64_t end, int tid) {
             /* alpha of the whole row (vectorised) into the column sums' place, then the mix */
             harm_alpha_span(col, acc, w, a);
             const long j0 = (long)y * w;
-            if (a->channels == 3 && a->give)
+            if (ew_harm_cch(a) == 3 && a->give)
                 harm_mix_span(a->out + j0 * 3, a->give + j0 * 3, a->clamped + j0 * 3, col, w);
             else
                 for (int x = 0; x < w; x++) ew_harm_blend_mix(j0 + x, a, col[x]);
