@@ -8,6 +8,7 @@
  * every entry point turns them into a reason.
  */
 #include "codec.h"
+#include "exr_write.h"
 
 #include <OpenEXR/ImfAttribute.h>
 #include <OpenEXR/ImfChannelList.h>
@@ -304,10 +305,12 @@ std::unique_ptr<Reader> exr_open_reader(const std::string &path, std::string &wh
     }
 }
 
+} // namespace
+
 /* -------------------------------------------------------------- write */
 
-/* float -> half, rounding to nearest even (as Imath's half(float) does):
- * with the F16C instructions where the CPU has them */
+namespace {
+/* with the F16C instructions where the CPU has them */
 __attribute__((target("avx,f16c"))) void to_half_f16c(const float *s, uint16_t *d, size_t n) {
     size_t i = 0;
     for (; i + 8 <= n; i += 8)
@@ -320,6 +323,7 @@ bool has_f16c() {
     unsigned a, b, c, d;
     return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) && __builtin_cpu_supports("avx");
 }
+} // namespace
 
 void to_half(const float *s, uint16_t *d, size_t n) {
     static const bool f16c = has_f16c();
@@ -330,13 +334,14 @@ void to_half(const float *s, uint16_t *d, size_t n) {
     for (size_t i = 0; i < n; i++) d[i] = half(s[i]).bits();
 }
 
-/* float -> uint as OpenEXR converts it: negative and NaN to 0, clamped above */
 void to_uint(const float *s, uint32_t *d, size_t n) {
     for (size_t i = 0; i < n; i++) {
         const float v = s[i];
         d[i] = !(v > 0.0f) ? 0u : v >= 4294967295.0f ? 4294967295u : uint32_t(v);
     }
 }
+
+namespace {
 
 class ExrWriter final : public Writer {
   public:
@@ -370,6 +375,11 @@ class ExrWriter final : public Writer {
                                                                                  : Imf::FLOAT));
             }
             spec_ = s;
+            if (c == Imf::ZIP_COMPRESSION || c == Imf::ZIPS_COMPRESSION) {
+                zip_.reset(new ZipPartWriter);
+                zip_->open(path, h, s);
+                return true;
+            }
             out_.reset(new Imf::OutputFile(path.c_str(), h, Imf::globalThreadCount()));
             return true;
         } catch (const std::bad_alloc &) {
@@ -385,6 +395,10 @@ class ExrWriter final : public Writer {
      * uint here. */
     bool write(int y0, int y1, const float *px, std::string &why) override {
         try {
+            if (zip_) {
+                zip_->write(y0, y1, px);
+                return true;
+            }
             const size_t nch = spec_.names.size(), w = size_t(spec_.width), n = size_t(y1 - y0) * w;
             planes_.resize(nch * n * sizeof(float));
             Imf::FrameBuffer fb;
@@ -422,6 +436,8 @@ class ExrWriter final : public Writer {
      * failure: ewio checks the written file's chunks afterwards. */
     bool close(std::string &why) override {
         try {
+            if (zip_) zip_->close();
+            zip_.reset();
             out_.reset();
             return true;
         } catch (const std::exception &e) {
@@ -433,6 +449,7 @@ class ExrWriter final : public Writer {
   private:
     WriteSpec spec_;
     std::unique_ptr<Imf::OutputFile> out_;
+    std::unique_ptr<ZipPartWriter> zip_; /* ZIP and ZIPS: deflated here (exr_zip_writer.cpp) */
     std::vector<char> planes_;
     std::vector<float> gather_;
 };
