@@ -8,7 +8,7 @@
  * every entry point turns them into a reason.
  */
 #include "codec.h"
-#include "exr_write.h"
+#include "exr_zip.h"
 
 #include <OpenEXR/ImfAttribute.h>
 #include <OpenEXR/ImfChannelList.h>
@@ -193,6 +193,7 @@ class ExrReader final : public Reader {
         file_.reset(new Imf::MultiPartInputFile(path.c_str(), Imf::globalThreadCount()));
         const int n = file_->parts();
         in_.resize(size_t(n));
+        zip_.resize(size_t(n));
         for (int i = 0; i < n; i++) {
             const Imf::Header &h = file_->header(i);
             PartHeader ph;
@@ -247,6 +248,16 @@ class ExrReader final : public Reader {
             if (!in_[size_t(part)]) in_[size_t(part)].reset(new Imf::InputPart(*file_, part));
             Imf::InputPart &in = *in_[size_t(part)];
             const PartHeader &ph = parts_[size_t(part)];
+            const Imf::Header &h = file_->header(part);
+            if (zip_lines(h.compression()) && ph.decodes_later && ph.problem.empty()) {
+                /* ZIP and ZIPS: inflated here (exr_zip_reader.cpp) */
+                std::unique_ptr<ZipPartReader> &z = zip_[size_t(part)];
+                if (!z) z.reset(new ZipPartReader(in, h));
+                std::vector<std::string> names(n);
+                for (size_t k = 0; k < n; k++) names[k] = ph.channels[size_t(chans[k])];
+                z->read(y0, y1, names.data(), dst, n);
+                return true;
+            }
             Imf::FrameBuffer fb;
             /* a channel asked for twice (a pass and its alpha, say) is decoded
              * once, into its first destination, and copied to the others:
@@ -291,6 +302,7 @@ class ExrReader final : public Reader {
   private:
     std::unique_ptr<Imf::MultiPartInputFile> file_;
     std::vector<std::unique_ptr<Imf::InputPart>> in_;
+    std::vector<std::unique_ptr<ZipPartReader>> zip_; /* a ZIP or ZIPS part's, made on its first read */
     std::vector<PartHeader> parts_;
 };
 

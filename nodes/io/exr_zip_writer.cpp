@@ -1,6 +1,6 @@
 /*
  * exr_zip_writer.cpp — EXR parts of ZIP or ZIPS compression whose chunks
- * are deflated here, with libdeflate (exr_write.h).
+ * are deflated here, with libdeflate (exr_zip.h).
  *
  * Why not through OpenEXR: Debian 12's OpenEXR (3.1) deflates with zlib,
  * which took 6.0 s of one core for the 23 channels of a denoised 3840x2160
@@ -21,7 +21,7 @@
  * and that deflated in zlib's format; stored as it is where that is not
  * smaller, as OpenEXR does and its readers expect.
  */
-#include "exr_write.h"
+#include "exr_zip.h"
 
 #include <OpenEXR/IlmThreadPool.h>
 #include <OpenEXR/ImfChannelList.h>
@@ -224,7 +224,7 @@ void ZipPartWriter::open(const std::string &path, const Imf::Header &h, const Wr
     d.width = dw.max.x - dw.min.x + 1;
     d.height = dw.max.y - dw.min.y + 1;
     d.top = dw.min.y;
-    d.lines = h.compression() == Imf::ZIPS_COMPRESSION ? 1 : 16;
+    d.lines = zip_lines(h.compression());
     d.level = std::min(std::max(h.zipCompressionLevel(), 0), 12);
     d.nch = spec.names.size();
     std::map<std::string, size_t> index;

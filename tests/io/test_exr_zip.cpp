@@ -4,16 +4,20 @@
  * conversion, whatever bands the rows come in (chunks of 16 rows that
  * straddle bands), with the channels in another order than the file's,
  * a data window off the origin, a name of 32 bytes or more, chunks that do
- * not compress stored as they are.
+ * not compress stored as they are; and the ZIP/ZIPS part reader
+ * (exr_zip_reader.cpp) on files OpenEXR wrote, against OpenEXR's reading.
  */
 #include "ew_test.h"
 
-#include "exr_write.h"
+#include "exr_zip.h"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <Imath/half.h>
 
@@ -197,4 +201,142 @@ TEST(rows_out_of_order_and_missing_rows_fail) {
     }
     unlink(path.c_str());
     CHECK_EQ_INT(threw, 2);
+}
+
+/* A file OpenEXR writes (ZIP or ZIPS, rows in either order), read by the
+ * part reader in bands, into interleaved destinations, with a channel
+ * asked twice: the floats OpenEXR's own reading gives, bit for bit. */
+static int reader_matches(Imf::Compression comp, Imf::LineOrder order, int band, std::string *why) {
+    const int w = 29, h = 37, x0 = 4, y0 = -6;
+    const std::string path = temp_path();
+    const Imath::Box2i win(Imath::V2i(x0, y0), Imath::V2i(x0 + w - 1, y0 + h - 1));
+    const char *const names[3] = {"h", "f", "u"};
+    const Imf::PixelType types[3] = {Imf::HALF, Imf::FLOAT, Imf::UINT};
+    const size_t n = size_t(w) * size_t(h), origin = size_t(x0) + size_t(y0) * size_t(w);
+    std::vector<std::vector<uint32_t>> vals(3, std::vector<uint32_t>(n));
+    std::mt19937 rng(3);
+    for (size_t i = 0; i < n; i++) {
+        vals[0][i] = half(0.1f * float(i % 97) - 2.0f).bits();
+        const float f = float(i % 13) * 0.37f + float(rng() % 5);
+        std::memcpy(&vals[1][i], &f, 4);
+        vals[2][i] = uint32_t(rng() % 70000);
+    }
+    {
+        Imf::Header hd(win, win);
+        hd.compression() = comp;
+        hd.lineOrder() = order;
+        Imf::FrameBuffer fb;
+        for (int c = 0; c < 3; c++) {
+            hd.channels().insert(names[c], Imf::Channel(types[c]));
+            fb.insert(names[c], Imf::Slice(types[c], reinterpret_cast<char *>(vals[size_t(c)].data() - origin), 4,
+                                           4 * size_t(w)));
+        }
+        Imf::OutputFile out(path.c_str(), hd);
+        out.setFrameBuffer(fb);
+        out.writePixels(h);
+    }
+    /* OpenEXR's reading, as float */
+    std::vector<float> ref(n * 3);
+    {
+        Imf::InputFile in(path.c_str());
+        Imf::FrameBuffer fb;
+        for (int c = 0; c < 3; c++)
+            fb.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char *>(ref.data() + c - origin * 3), 12,
+                                           12 * size_t(w)));
+        in.setFrameBuffer(fb);
+        in.readPixels(y0, y0 + h - 1);
+    }
+    Imf::MultiPartInputFile file(path.c_str());
+    Imf::InputPart part(file, 0);
+    ewio::ZipPartReader r(part, file.header(0));
+    /* four destinations a pixel: u, h, f, and u again */
+    std::vector<float> got(n * 4, -1.0f);
+    const std::string asked[4] = {"u", "h", "f", "u"};
+    for (int y = 0; y < h; y += band) {
+        const int y1 = std::min(h, y + band);
+        ewio::BandDst dst[4];
+        for (int k = 0; k < 4; k++) dst[k] = ewio::BandDst{got.data() + size_t(y) * size_t(w) * 4 + size_t(k), 4, 4 * size_t(w)};
+        r.read(y, y1, asked, dst, 4);
+    }
+    unlink(path.c_str());
+    const int refc[4] = {2, 0, 1, 2};
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 4; k++)
+            if (std::memcmp(&got[i * 4 + size_t(k)], &ref[i * 3 + size_t(refc[k])], 4) != 0) {
+                *why = "pixel " + std::to_string(i) + " of " + asked[k] + " differs";
+                return 0;
+            }
+    return 1;
+}
+
+TEST(reader_gives_openexrs_floats) {
+    for (Imf::Compression comp : {Imf::ZIP_COMPRESSION, Imf::ZIPS_COMPRESSION})
+        for (Imf::LineOrder order : {Imf::INCREASING_Y, Imf::DECREASING_Y})
+            for (int band : {1, 5, 16, 40}) {
+                std::string why;
+                const int ok = reader_matches(comp, order, band, &why);
+                if (!ok) fprintf(stderr, "  compression %d, order %d, bands of %d: %s\n", int(comp), int(order), band,
+                                 why.c_str());
+                CHECK(ok);
+            }
+}
+
+/* A chunk whose deflated bytes are damaged is an error, not a crash nor
+ * wrong floats. */
+TEST(reader_refuses_a_damaged_chunk) {
+    const std::string path = temp_path();
+    const int w = 64, h = 32;
+    {
+        Imf::Header hd(w, h);
+        hd.compression() = Imf::ZIP_COMPRESSION;
+        hd.channels().insert("f", Imf::Channel(Imf::FLOAT));
+        std::vector<float> v(size_t(w) * h);
+        for (size_t i = 0; i < v.size(); i++) v[i] = float(i % 50);
+        Imf::FrameBuffer fb;
+        fb.insert("f", Imf::Slice(Imf::FLOAT, reinterpret_cast<char *>(v.data()), 4, 4 * size_t(w)));
+        Imf::OutputFile out(path.c_str(), hd);
+        out.setFrameBuffer(fb);
+        out.writePixels(h);
+    }
+    /* the second chunk's data: after its y and size, clobbered */
+    uint64_t at = 0;
+    {
+        Imf::InputFile in(path.c_str());
+        const char *data;
+        int size;
+        in.rawPixelData(16, data, size);
+        CHECK(size > 16 && size < w * 16 * 4);
+    }
+    FILE *f = fopen(path.c_str(), "r+b");
+    CHECK(f != nullptr);
+    /* the chunk table follows the header: find it as OpenEXR does not say */
+    std::vector<unsigned char> bytes;
+    int c;
+    while ((c = fgetc(f)) != EOF) bytes.push_back((unsigned char)c);
+    for (size_t i = 0; i + 8 <= bytes.size(); i++) {
+        int32_t y;
+        std::memcpy(&y, &bytes[i], 4);
+        int32_t sz;
+        std::memcpy(&sz, &bytes[i + 4], 4);
+        if (y == 16 && sz > 16 && size_t(sz) + i + 8 <= bytes.size() && i + 8 + size_t(sz) == bytes.size()) at = i + 8;
+    }
+    CHECK(at > 0);
+    for (size_t i = at + 2; i < at + 12; i++) bytes[i] ^= 0x5a;
+    fseek(f, 0, SEEK_SET);
+    CHECK(fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size());
+    fclose(f);
+    Imf::MultiPartInputFile file(path.c_str());
+    Imf::InputPart part(file, 0);
+    ewio::ZipPartReader r(part, file.header(0));
+    std::vector<float> got(size_t(w) * h);
+    const std::string asked[1] = {"f"};
+    const ewio::BandDst dst[1] = {ewio::BandDst{got.data(), 1, size_t(w)}};
+    std::string what;
+    try {
+        r.read(0, h, asked, dst, 1);
+    } catch (const std::exception &e) {
+        what = e.what();
+    }
+    unlink(path.c_str());
+    CHECK_STR_CONTAINS(what.c_str(), "damaged");
 }
