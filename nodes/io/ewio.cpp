@@ -367,7 +367,8 @@ std::string exr_header_check(const char *path, long long size, bool *is_exr) {
     if (lay.width == 0) return std::string();
     std::string d = check_dims(lay.width, lay.height);
     if (d.empty()) d = check_bytes(lay.width, lay.height, std::max(1LL, lay.channels));
-    if (d.empty() && lay.tile_width * lay.tile_height > lay.width * lay.height) {
+    /* in 128 bits: a stray header's tile sides go up to 2^32 each */
+    if (d.empty() && (__int128)lay.tile_width * lay.tile_height > (__int128)lay.width * lay.height) {
         d = check_dims(lay.tile_width, lay.tile_height);
         if (d.empty()) d = check_bytes(lay.tile_width, lay.tile_height, std::max(1LL, lay.channels));
         if (!d.empty()) d = "tiles larger than the image: " + d;
