@@ -4,7 +4,9 @@
  * Reads every part's header, decodes bands of rows of chosen channels
  * straight into ewio's planes (OpenEXR converts half and uint to float and
  * writes with any strides, so no band buffer is needed), and writes one
- * scanline part from bands of interleaved floats. Exceptions stay inside:
+ * scanline part from bands of interleaved floats. Parts of ZIP or ZIPS
+ * compression have their chunks inflated and deflated in exr_zip_reader.cpp
+ * and exr_zip_writer.cpp (exr_zip.h says why). Exceptions stay inside:
  * every entry point turns them into a reason.
  */
 #include "codec.h"

@@ -110,6 +110,7 @@ struct Slot {
     std::unique_ptr<libdeflate_decompressor, FreeInflater> inflater;
     int first = 0; /* the chunk's first row, from the data window's top */
     std::string error;
+    bool out_of_memory = false; /* rethrown as such in the caller's thread */
 };
 
 /* A chunk's rows in the file's layout: as stored (plain), or, inflated and
@@ -219,6 +220,8 @@ void ZipPartReader::read(int y0, int y1, const std::string *names, const BandDst
         void execute() override {
             try {
                 r_->decode(*s_, y0_, y1_, at_, dst_, n_);
+            } catch (const std::bad_alloc &) {
+                s_->out_of_memory = true;
             } catch (const std::exception &e) {
                 s_->error = e.what();
             }
@@ -239,11 +242,14 @@ void ZipPartReader::read(int y0, int y1, const std::string *names, const BandDst
                 Slot &s = *d.slots[k];
                 s.first = first;
                 s.error.clear();
+                s.out_of_memory = false;
                 IlmThread::ThreadPool::addGlobalTask(new Job(&group, &d, &s, y0, y1, at.data(), dst, n));
             }
         }
-        for (size_t i = 0; i < k; i++)
+        for (size_t i = 0; i < k; i++) {
+            if (d.slots[i]->out_of_memory) throw std::bad_alloc();
             if (!d.slots[i]->error.empty()) throw std::runtime_error(d.slots[i]->error);
+        }
     }
     /* reads go down the part, and one that reached its end is the last of
      * a pass (the next, if any, passes by later: the written file's

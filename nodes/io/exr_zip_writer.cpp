@@ -109,6 +109,7 @@ struct Slot {
     const unsigned char *data = nullptr;
     size_t size = 0;
     std::string error;
+    bool out_of_memory = false; /* rethrown as such in the caller's thread */
 };
 
 } // namespace
@@ -193,6 +194,8 @@ struct ZipPartWriter::Impl {
             void execute() override {
                 try {
                     w_->encode(*s_);
+                } catch (const std::bad_alloc &) {
+                    s_->out_of_memory = true;
                 } catch (const std::exception &e) {
                     s_->error = e.what();
                 }
@@ -207,6 +210,7 @@ struct ZipPartWriter::Impl {
             for (size_t i = 0; i < k; i++) IlmThread::ThreadPool::addGlobalTask(new Job(&group, this, slots[i].get()));
         }
         for (size_t i = 0; i < k; i++) {
+            if (slots[i]->out_of_memory) throw std::bad_alloc();
             if (!slots[i]->error.empty()) throw std::runtime_error("encoding a chunk failed: " + slots[i]->error);
             put_chunk(*slots[i]);
         }

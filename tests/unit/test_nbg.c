@@ -434,6 +434,24 @@ TEST(rates_without_an_exact_tiling_run_whole) {
 /* The op and its do-no-harm stage read packed float views in place
  * (colour, albedo, normal, depth) and copy any other layout: both give the
  * same bits, tiled and whole. */
+/* nbg with the default model on these views under budget_mb; what it ran into what */
+static ew_result run_views(ew_device *dev, const ew_image *c, const ew_image *a, const ew_image *nv, const ew_image *z,
+                           const ew_image *o, int budget_mb, char *what, size_t what_size) {
+    ew_denoiser *d = NULL;
+    ew_result r = ew_denoiser_create(dev, "nbg", &d);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", c);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", a);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", nv);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", z);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", o);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    if (r == EW_OK) snprintf(what, what_size, "%s", ew_denoiser_describe(d));
+    ew_denoiser_destroy(d);
+    return r;
+}
+
 TEST(views_read_in_place_give_the_copies_output) {
     images im;
     enum { W = 613, H = 500 };
@@ -458,7 +476,6 @@ TEST(views_read_in_place_give_the_copies_output) {
         CHECK_EQ_INT(run_budget(dev, &im, NULL, 0, budget, what[0], sizeof what[0]), EW_OK);
         memcpy(ref, im.out, sizeof(float) * n * 3);
         /* the same pixels, 4 floats apart (2 for the depth): copied */
-        ew_denoiser *d = NULL;
         ew_image c = ew_image_packed(c4, W, H, 3), a = ew_image_packed(a4, W, H, 3);
         ew_image nv = ew_image_packed(n4, W, H, 3), z = ew_image_packed(z2, W, H, 1);
         c.pixel_stride = a.pixel_stride = nv.pixel_stride = 16;
@@ -467,17 +484,7 @@ TEST(views_read_in_place_give_the_copies_output) {
         z.row_stride = 8 * W;
         ew_image o = ew_image_packed(im.out, W, H, 3);
         memset(im.out, 0, sizeof(float) * n * 3);
-        CHECK(ew_denoiser_create(dev, "nbg", &d) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "normal", &nv) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
-        CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget) == EW_OK);
-        CHECK(ew_denoiser_commit(d) == EW_OK);
-        CHECK(ew_denoiser_execute(d) == EW_OK);
-        snprintf(what[1], sizeof what[1], "%s", ew_denoiser_describe(d));
-        ew_denoiser_destroy(d);
+        CHECK_EQ_INT(run_views(dev, &c, &a, &nv, &z, &o, budget, what[1], sizeof what[1]), EW_OK);
         fprintf(stderr, "  budget %d MiB: %s / %s\n", budget, what[0], what[1]);
         CHECK(strcmp(what[0], what[1]) == 0);
         if (budget == 1) CHECK_STR_CONTAINS(what[1], "tiles");
@@ -491,16 +498,7 @@ TEST(views_read_in_place_give_the_copies_output) {
         a = ew_image_packed(im.albedo, W, H, 3);
         nv = ew_image_packed(im.normal, W, H, 3);
         z = ew_image_packed(im.depth, W, H, 1);
-        CHECK(ew_denoiser_create(dev, "nbg", &d) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "color", &c) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "albedo", &a) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "normal", &nv) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "depth", &z) == EW_OK);
-        CHECK(ew_denoiser_set_image(d, "output", &o) == EW_OK);
-        CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget) == EW_OK);
-        CHECK(ew_denoiser_commit(d) == EW_OK);
-        CHECK(ew_denoiser_execute(d) == EW_OK);
-        ew_denoiser_destroy(d);
+        CHECK_EQ_INT(run_views(dev, &c, &a, &nv, &z, &o, budget, what[1], sizeof what[1]), EW_OK);
         long same = 0;
         for (long j = 0; j < n; j++) same += !memcmp(o4 + j * 4, ref + j * 3, 3 * sizeof(float));
         CHECK_EQ_INT((int)same, (int)n);
