@@ -321,6 +321,7 @@ ew_result ew_op_execute(ew_op *op) {
         if (r == EW_OK && !strcmp(op->type->kind, "filter"))
             ew__finite_fallback(op->dev, ew_op_image(op, "output"), ew_op_image(op, "color"));
         if (r == EW_OK) ew_op_alpha_store(op);
+        if (r == EW_OK) ew_op_alpha_pass(op);
         if (r == EW_OK) ew_op_report(op, 1.0);
     }
     op_leave(op);

@@ -183,10 +183,12 @@ void ew_harm_forward(const ew_op *from, ew_op *to);
 /* op_alpha.c: the second run of a filters_alpha method on an RGBA colour's
  * alpha. commit makes it (after the method's own commit), execute runs it
  * before the method (which may filter in place) and store puts its alpha
- * into the output after; release frees it. */
+ * into the output after; release frees it. pass: a denoiser's (which
+ * reads RGB) copies an RGBA colour's alpha into its output. */
 ew_result ew_op_alpha_commit(ew_op *op);
 ew_result ew_op_alpha_execute(ew_op *op);
 void ew_op_alpha_store(ew_op *op);
+void ew_op_alpha_pass(ew_op *op);
 void ew_op_alpha_release(ew_op *op);
 
 /* Pack the first c channels of a view into a dense buffer, and back. */

@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "src/backend.h"
 #include "src/op.h"
 
 void ew_op_alpha_release(ew_op *op) {
@@ -120,4 +121,17 @@ void ew_op_alpha_store(ew_op *op) {
         for (int x = 0; x < w; x++)
             ew__pixel(output, x, y)[3] =
                 op->alpha_uniform ? op->alpha_value : op->alpha_out[(size_t)y * (size_t)w + (size_t)x];
+}
+
+/* A denoiser reads RGB: a colour's alpha passes through to an output of
+ * four channels (or more) as it is, where the output does not overlap the
+ * colour (written in place, the alpha is already there). A caller handing
+ * RGBA buffers gets the alpha it gave, not what its output held. */
+void ew_op_alpha_pass(ew_op *op) {
+    const ew_image *color = ew_op_image(op, "color"), *output = ew_op_image(op, "output");
+    if (strcmp(op->type->kind, "denoiser") || op->type->filters_alpha || !color || !output || color->channels != 4 ||
+        output->channels < 4 || op->dev->device_images || ew_images_overlap(color, output))
+        return;
+    for (int y = 0; y < output->height; y++)
+        for (int x = 0; x < output->width; x++) ew__pixel(output, x, y)[3] = ew__pixel(color, x, y)[3];
 }

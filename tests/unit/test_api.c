@@ -504,3 +504,45 @@ TEST(descriptors_flag_params_and_methods) {
     CHECK(ew_method_param_data(NULL, "bilateral", 0) == NULL);
     CHECK(ew_method_param_data(NULL, "magic", 0) == NULL);
 }
+
+/* Every denoiser reads RGB and passes an RGBA colour's alpha through to an
+ * RGBA output of its own; written over the colour, the alpha stays. */
+TEST(denoisers_pass_alpha_through) {
+    enum { W = 40, H = 24 };
+    static float c[H][W][4], o[H][W][4], alb[H][W][3], nrm[H][W][3], dep[H][W];
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            for (int k = 0; k < 3; k++) {
+                c[y][x][k] = 0.2f + 0.1f * (float)((x + y + k) % 4);
+                alb[y][x][k] = 0.6f;
+                nrm[y][x][k] = k == 2 ? 1.0f : 0.0f;
+            }
+            c[y][x][3] = (float)(x % 3) / 2.0f;
+            dep[y][x] = 2.0f;
+        }
+    ew_device *dev = cpu(2);
+    static const char *const methods[] = {"bgrid", "nbg", "kpcn", "auto"};
+    for (int m = 0; m < 4; m++) {
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) o[y][x][3] = -9.0f;
+        ew_denoiser *d = NULL;
+        CHECK_EQ_INT(ew_denoiser_create(dev, methods[m], &d), EW_OK);
+        ew_image ci = ew_image_packed(&c[0][0][0], W, H, 4), oi = ew_image_packed(&o[0][0][0], W, H, 4);
+        ew_image ai = ew_image_packed(&alb[0][0][0], W, H, 3), ni = ew_image_packed(&nrm[0][0][0], W, H, 3);
+        ew_image zi = ew_image_packed(&dep[0][0], W, H, 1);
+        CHECK_EQ_INT(ew_denoiser_set_image(d, "color", &ci), EW_OK);
+        CHECK_EQ_INT(ew_denoiser_set_image(d, "albedo", &ai), EW_OK);
+        CHECK_EQ_INT(ew_denoiser_set_image(d, "normal", &ni), EW_OK);
+        CHECK_EQ_INT(ew_denoiser_set_image(d, "depth", &zi), EW_OK);
+        CHECK_EQ_INT(ew_denoiser_set_image(d, "output", &oi), EW_OK);
+        CHECK_EQ_INT(ew_denoiser_commit(d), EW_OK);
+        CHECK_EQ_INT(ew_denoiser_execute(d), EW_OK);
+        ew_denoiser_destroy(d);
+        int passed = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) passed += o[y][x][3] == c[y][x][3];
+        if (passed != W * H) fprintf(stderr, "  %s: %d of %d alphas passed\n", methods[m], passed, W * H);
+        CHECK_EQ_INT(passed, W * H);
+    }
+    ew_device_destroy(dev);
+}

@@ -490,7 +490,8 @@ TEST(views_read_in_place_give_the_copies_output) {
         if (budget == 1) CHECK_STR_CONTAINS(what[1], "tiles");
         CHECK(memcmp(ref, im.out, sizeof(float) * n * 3) == 0);
         /* an RGBA colour (alpha past RGB) into an RGBA output: the same RGB
-         * (the do-no-harm stage hands the method its rejected colour as RGB) */
+         * (the do-no-harm stage hands the method its rejected colour as RGB)
+         * and the colour's alpha */
         for (long j = 0; j < n; j++) c4[j * 4 + 3] = 0.5f;
         float *o4 = calloc((size_t)n * 4, sizeof(float));
         c = ew_image_packed(c4, W, H, 4);
@@ -499,9 +500,13 @@ TEST(views_read_in_place_give_the_copies_output) {
         nv = ew_image_packed(im.normal, W, H, 3);
         z = ew_image_packed(im.depth, W, H, 1);
         CHECK_EQ_INT(run_views(dev, &c, &a, &nv, &z, &o, budget, what[1], sizeof what[1]), EW_OK);
-        long same = 0;
-        for (long j = 0; j < n; j++) same += !memcmp(o4 + j * 4, ref + j * 3, 3 * sizeof(float));
+        long same = 0, alpha = 0;
+        for (long j = 0; j < n; j++) {
+            same += !memcmp(o4 + j * 4, ref + j * 3, 3 * sizeof(float));
+            alpha += o4[j * 4 + 3] == 0.5f;
+        }
         CHECK_EQ_INT((int)same, (int)n);
+        CHECK_EQ_INT((int)alpha, (int)n); /* the colour's alpha, passed through */
         free(o4);
     }
     ew_device_destroy(dev);
