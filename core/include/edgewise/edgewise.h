@@ -193,6 +193,10 @@ typedef int (*ew_progress_fn)(void *user, double fraction);
  * "color" (required), "albedo", "normal", "depth", "output" (required).
  * ew_method_image_flags says which are written (EW_IMAGE_OUTPUT) and which
  * inputs "output" may be the very same view of (EW_IMAGE_INPLACE).
+ * A colour of 4 channels is RGBA: the blurring filters filter its
+ * (premultiplied) alpha with the colour's weights (docs/filters.md); the
+ * denoisers read RGB and pass the alpha through to an output of 4
+ * channels.
  *
  * Parameters: see ew_method_param and the documentation of each method in
  * README.md. Non-finite colour samples (NaN, +-Inf) are treated as missing:
