@@ -495,7 +495,8 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.width = s->w;
     ha.height = s->h;
     ha.channels = s->cc;
-    ha.clamped_channels = s->pre ? clamped_channels(s->cc, s->pre) : 0;
+    const int ck = clamped_channels(s->cc, s->pre);
+    ha.clamped_channels = s->pre ? ck : 0; /* without a rejection the method's input is the colour itself */
     ha.color = s->col;
     ha.albedo = s->alb;
     ha.radiance = s->a;
@@ -518,7 +519,6 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.kappa = HARM_BLEND_KAPPA - (HARM_BLEND_KAPPA - HARM_QUIET_KAPPA) * quiet;
     ha.fade = fade_of(noise);
     const ew_image saved = op->images[ci];
-    const int ck = clamped_channels(s->cc, s->pre);
     if (s->pre) {
         r = reject(op, s, &ha);
         if (r != EW_OK) return r;

@@ -12,6 +12,7 @@
 #include "codec.h"
 #include "exr_zip.h"
 
+#include <OpenEXR/IlmThreadPool.h>
 #include <OpenEXR/ImfAttribute.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfCompression.h>
@@ -30,6 +31,7 @@
 #include <immintrin.h>
 
 #include <charconv>
+#include <exception>
 #include <cstdio>
 #include <mutex>
 #include <strings.h>
@@ -52,6 +54,34 @@ void exr_set_threads(int n) {
     std::call_once(g_pool_once, [] {});
     Imf::setGlobalThreadCount(n);
 }
+
+} // namespace
+
+void run_on_pool(size_t k, const std::function<void(size_t)> &job) {
+    struct Task final : IlmThread::Task {
+        Task(IlmThread::TaskGroup *g, const std::function<void(size_t)> &job, size_t i, std::exception_ptr &failed)
+            : IlmThread::Task(g), job_(job), i_(i), failed_(failed) {}
+        void execute() override {
+            try {
+                job_(i_);
+            } catch (...) {
+                failed_ = std::current_exception();
+            }
+        }
+        const std::function<void(size_t)> &job_;
+        size_t i_;
+        std::exception_ptr &failed_;
+    };
+    std::vector<std::exception_ptr> failed(k);
+    {
+        IlmThread::TaskGroup group; /* its destructor waits for the tasks */
+        for (size_t i = 0; i < k; i++) IlmThread::ThreadPool::addGlobalTask(new Task(&group, job, i, failed[i]));
+    }
+    for (const std::exception_ptr &e : failed)
+        if (e) std::rethrow_exception(e);
+}
+
+namespace {
 
 /* ------------------------------------------------------- attributes */
 
@@ -332,6 +362,19 @@ __attribute__((target("avx,f16c"))) void to_half_f16c(const float *s, uint16_t *
     for (; i < n; i++) d[i] = half(s[i]).bits();
 }
 
+float half_bits_to_float(uint16_t b) {
+    half h;
+    h.setBits(b);
+    return float(h);
+}
+
+__attribute__((target("avx,f16c"))) void half_to_float_f16c(const uint16_t *s, float *d, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        _mm256_storeu_ps(d + i, _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i *>(s + i))));
+    for (; i < n; i++) d[i] = half_bits_to_float(s[i]);
+}
+
 /* CPUID's F16C bit (clang's __builtin_cpu_supports does not know "f16c") */
 bool has_f16c() {
     unsigned a, b, c, d;
@@ -346,6 +389,15 @@ void to_half(const float *s, uint16_t *d, size_t n) {
         return;
     }
     for (size_t i = 0; i < n; i++) d[i] = half(s[i]).bits();
+}
+
+void half_to_float(const uint16_t *s, float *d, size_t n) {
+    static const bool f16c = has_f16c();
+    if (f16c) {
+        half_to_float_f16c(s, d, n);
+        return;
+    }
+    for (size_t i = 0; i < n; i++) d[i] = half_bits_to_float(s[i]);
 }
 
 void to_uint(const float *s, uint32_t *d, size_t n) {
@@ -389,7 +441,7 @@ class ExrWriter final : public Writer {
                                                                                  : Imf::FLOAT));
             }
             spec_ = s;
-            if (c == Imf::ZIP_COMPRESSION || c == Imf::ZIPS_COMPRESSION) {
+            if (zip_lines(c)) {
                 zip_.reset(new ZipPartWriter);
                 zip_->open(path, h, s);
                 return true;

@@ -4,8 +4,9 @@
  * with libdeflate, where Debian 12's OpenEXR (3.1) goes through zlib at a
  * third of the speed (exr_zip_writer.cpp gives the figures). OpenEXR still
  * reads and writes the headers and chunk tables, and every other
- * compression (exr_codec.cpp). Also the conversions between floats and
- * the file's pixel types that both paths share.
+ * compression (exr_codec.cpp). Also what both paths share with the
+ * codec: the conversions between floats and the file's pixel types, and
+ * jobs on OpenEXR's thread pool.
  */
 #pragma once
 
@@ -16,6 +17,7 @@
 #include <OpenEXR/ImfInputPart.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 
 namespace ewio {
@@ -29,6 +31,13 @@ inline int zip_lines(Imf::Compression c) {
 void to_half(const float *s, uint16_t *d, size_t n);
 /* float -> uint as OpenEXR converts it: negative and NaN to 0, clamped above */
 void to_uint(const float *s, uint32_t *d, size_t n);
+/* half -> float (exact) */
+void half_to_float(const uint16_t *s, float *d, size_t n);
+
+/* job(0) .. job(k - 1) on OpenEXR's pool threads (each in the caller's
+ * thread when the pool has none), waiting for them all; what a job threw
+ * (the first by index) is thrown again in the caller's thread. */
+void run_on_pool(size_t k, const std::function<void(size_t)> &job);
 
 /* One scanline part of header h, whose compression is ZIP or ZIPS, written
  * from bands of interleaved floats whose channels are spec.names (in that

@@ -14,16 +14,12 @@
  */
 #include "exr_zip.h"
 
-#include <OpenEXR/IlmThreadPool.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfThreading.h>
-#include <Imath/half.h>
 
 #include <libdeflate.h>
 
-#include <cpuid.h>
 #include <sys/mman.h>
-#include <immintrin.h>
 
 #include <algorithm>
 #include <cstring>
@@ -33,34 +29,6 @@
 
 namespace ewio {
 namespace {
-
-float half_bits_to_float(uint16_t b) {
-    half h;
-    h.setBits(b);
-    return float(h);
-}
-
-__attribute__((target("avx,f16c"))) void half_to_float_f16c(const uint16_t *s, float *d, size_t n) {
-    size_t i = 0;
-    for (; i + 8 <= n; i += 8)
-        _mm256_storeu_ps(d + i, _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i *>(s + i))));
-    for (; i < n; i++) d[i] = half_bits_to_float(s[i]);
-}
-
-bool cpu_f16c() {
-    unsigned a, b, c, d;
-    return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) && __builtin_cpu_supports("avx");
-}
-
-/* half -> float (exact either way) */
-void half_to_float(const uint16_t *s, float *d, size_t n) {
-    static const bool f16c = cpu_f16c();
-    if (f16c) {
-        half_to_float_f16c(s, d, n);
-        return;
-    }
-    for (size_t i = 0; i < n; i++) d[i] = half_bits_to_float(s[i]);
-}
 
 struct FreeInflater {
     void operator()(libdeflate_decompressor *d) const { libdeflate_free_decompressor(d); }
@@ -109,8 +77,6 @@ struct Slot {
     std::vector<uint16_t> halves; /* ... as the file's halves */
     std::unique_ptr<libdeflate_decompressor, FreeInflater> inflater;
     int first = 0; /* the chunk's first row, from the data window's top */
-    std::string error;
-    bool out_of_memory = false; /* rethrown as such in the caller's thread */
 };
 
 /* A chunk's rows in the file's layout: as stored (plain), or, inflated and
@@ -213,43 +179,10 @@ void ZipPartReader::read(int y0, int y1, const std::string *names, const BandDst
         if (p == d.places.end()) throw std::runtime_error("no channel " + names[k]);
         at[k] = &p->second;
     }
-    struct Job final : IlmThread::Task {
-        Job(IlmThread::TaskGroup *g, const Impl *r, Slot *s, int y0, int y1, const Place *const *at,
-            const BandDst *dst, size_t n)
-            : IlmThread::Task(g), r_(r), s_(s), y0_(y0), y1_(y1), at_(at), dst_(dst), n_(n) {}
-        void execute() override {
-            try {
-                r_->decode(*s_, y0_, y1_, at_, dst_, n_);
-            } catch (const std::bad_alloc &) {
-                s_->out_of_memory = true;
-            } catch (const std::exception &e) {
-                s_->error = e.what();
-            }
-        }
-        const Impl *r_;
-        Slot *s_;
-        int y0_, y1_;
-        const Place *const *at_;
-        const BandDst *dst_;
-        size_t n_;
-    };
     for (int first = y0 - y0 % d.lines; first < y1;) {
         size_t k = 0;
-        {
-            /* its destructor waits for the jobs */
-            IlmThread::TaskGroup group;
-            for (; k < d.slots.size() && first < y1; k++, first += d.lines) {
-                Slot &s = *d.slots[k];
-                s.first = first;
-                s.error.clear();
-                s.out_of_memory = false;
-                IlmThread::ThreadPool::addGlobalTask(new Job(&group, &d, &s, y0, y1, at.data(), dst, n));
-            }
-        }
-        for (size_t i = 0; i < k; i++) {
-            if (d.slots[i]->out_of_memory) throw std::bad_alloc();
-            if (!d.slots[i]->error.empty()) throw std::runtime_error(d.slots[i]->error);
-        }
+        for (; k < d.slots.size() && first < y1; k++, first += d.lines) d.slots[k]->first = first;
+        run_on_pool(k, [&](size_t i) { d.decode(*d.slots[i], y0, y1, at.data(), dst, n); });
     }
     /* reads go down the part, and one that reached its end is the last of
      * a pass (the next, if any, passes by later: the written file's

@@ -23,7 +23,6 @@
  */
 #include "exr_zip.h"
 
-#include <OpenEXR/IlmThreadPool.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfCompression.h>
 #include <OpenEXR/ImfIO.h>
@@ -108,8 +107,6 @@ struct Slot {
     int first = 0, rows = 0;    /* rows from the data window's top */
     const unsigned char *data = nullptr;
     size_t size = 0;
-    std::string error;
-    bool out_of_memory = false; /* rethrown as such in the caller's thread */
 };
 
 } // namespace
@@ -189,31 +186,8 @@ struct ZipPartWriter::Impl {
 
     /* the chunks in slots[0..k) encoded on the pool's threads, then written in order */
     void run(size_t k) {
-        struct Job final : IlmThread::Task {
-            Job(IlmThread::TaskGroup *g, const Impl *w, Slot *s) : IlmThread::Task(g), w_(w), s_(s) {}
-            void execute() override {
-                try {
-                    w_->encode(*s_);
-                } catch (const std::bad_alloc &) {
-                    s_->out_of_memory = true;
-                } catch (const std::exception &e) {
-                    s_->error = e.what();
-                }
-            }
-            const Impl *w_;
-            Slot *s_;
-        };
-        {
-            /* its destructor waits for the jobs (the pool's threads run them;
-             * with none, addGlobalTask runs each at once) */
-            IlmThread::TaskGroup group;
-            for (size_t i = 0; i < k; i++) IlmThread::ThreadPool::addGlobalTask(new Job(&group, this, slots[i].get()));
-        }
-        for (size_t i = 0; i < k; i++) {
-            if (slots[i]->out_of_memory) throw std::bad_alloc();
-            if (!slots[i]->error.empty()) throw std::runtime_error("encoding a chunk failed: " + slots[i]->error);
-            put_chunk(*slots[i]);
-        }
+        run_on_pool(k, [this](size_t i) { encode(*slots[i]); });
+        for (size_t i = 0; i < k; i++) put_chunk(*slots[i]);
     }
 };
 
