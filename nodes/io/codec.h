@@ -108,6 +108,12 @@ struct BandDst {
     size_t xs, ys;
 };
 
+/* Where a channel's band comes from, laid out as BandDst. */
+struct BandSrc {
+    const float *p;
+    size_t xs, ys;
+};
+
 class Reader {
   public:
     virtual ~Reader() = default;
@@ -137,8 +143,8 @@ class Writer {
     virtual ~Writer() = default;
     /* Create `path` (which exists, empty) for spec. */
     virtual bool open(const std::string &path, const WriteSpec &spec, std::string &why) = 0;
-    /* The next rows y0..y1-1, interleaved floats (every channel of a pixel together). */
-    virtual bool write(int y0, int y1, const float *px, std::string &why) = 0;
+    /* The next rows y0..y1-1, channel c of spec.names from src[c]. */
+    virtual bool write(int y0, int y1, const BandSrc *src, std::string &why) = 0;
     virtual bool close(std::string &why) = 0;
 };
 

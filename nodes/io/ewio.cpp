@@ -1100,9 +1100,12 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
     {
         const size_t rows = size_t(disk.empty() ? band_rows_of(size_t(w) * size_t(nch) * sizeof(float), size_t(h))
                                                 : size_t(disk_in.band_rows(size_t(nch))));
-        /* every float of a band is written before the band is encoded */
-        std::vector<float, NoInit<float>> buf(rows * size_t(w) * size_t(nch));
+        /* channels in memory go to the codec where they are; the passes
+         * decoded from the source, and values clamped for 8 and 16 bits,
+         * through planes of a band (each float written before it is read) */
         std::vector<float, NoInit<float>> dbuf(rows * size_t(w) * disk.size());
+        std::vector<float, NoInit<float>> cbuf(clamp01 ? rows * size_t(w) * size_t(nch) : 0);
+        std::vector<ewio::BandSrc> bands(static_cast<size_t>(nch));
         std::vector<BandDst> dplanes(disk.size());
         std::vector<const float *> from(size_t(nch), nullptr);
         for (size_t k = 0; k < disk.size(); k++) {
@@ -1124,19 +1127,19 @@ int write_impl(const ewio_file &f, const char *cpath, ewio_pixel_type type, cons
                     s = memory_pixels(f.ch[size_t(src[size_t(c)])], &ss);
                     s += b * ss;
                 }
-                float *d = buf.data() + c;
                 if (clamp01) {
+                    float *d = cbuf.data() + size_t(c) * rows * size_t(w);
                     for (size_t i = 0; i < n; i++) {
-                        float v = s[i * ss];
-                        v = std::isnan(v) ? 0.0f : v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
-                        d[i * size_t(nch)] = v;
+                        const float v = s[i * ss];
+                        d[i] = std::isnan(v) ? 0.0f : v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
                     }
-                } else {
-                    for (size_t i = 0; i < n; i++) d[i * size_t(nch)] = s[i * ss];
+                    s = d;
+                    ss = 1;
                 }
+                bands[size_t(c)] = ewio::BandSrc{s, ss, size_t(w) * ss};
             }
             std::string why;
-            if (!out->write(y0, y1, buf.data(), why)) {
+            if (!out->write(y0, y1, bands.data(), why)) {
                 msg = what + why;
                 return 1;
             }

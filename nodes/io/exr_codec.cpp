@@ -459,10 +459,10 @@ class ExrWriter final : public Writer {
     /* OpenEXR writes each channel from a slice of its own type (it converts
      * on reading only): the band's floats become planes of half, float or
      * uint here. */
-    bool write(int y0, int y1, const float *px, std::string &why) override {
+    bool write(int y0, int y1, const BandSrc *src, std::string &why) override {
         try {
             if (zip_) {
-                zip_->write(y0, y1, px);
+                zip_->write(y0, y1, src);
                 return true;
             }
             const size_t nch = spec_.names.size(), w = size_t(spec_.width), n = size_t(y1 - y0) * w;
@@ -473,7 +473,8 @@ class ExrWriter final : public Writer {
                 const PixType t = spec_.types[c];
                 const size_t vs = t == PixType::HALF ? 2 : 4;
                 gather_.resize(n);
-                for (size_t i = 0; i < n; i++) gather_[i] = px[i * nch + c];
+                for (size_t y = 0; y < size_t(y1 - y0); y++)
+                    for (size_t x = 0; x < w; x++) gather_[y * w + x] = src[c].p[y * src[c].ys + x * src[c].xs];
                 if (t == PixType::HALF)
                     to_half(gather_.data(), reinterpret_cast<uint16_t *>(plane), n);
                 else if (t == PixType::U32)

@@ -34,14 +34,26 @@ void to_uint(const float *s, uint32_t *d, size_t n);
 /* half -> float (exact) */
 void half_to_float(const uint16_t *s, float *d, size_t n);
 
+/* ZIP's byte transforms around deflate (exr_zip_bytes.cpp). Encoding: the
+ * n bytes of a chunk's rows split into t, the even-indexed bytes then the
+ * odd-indexed ones (zip_split), then each byte but the first replaced by
+ * its difference from the one before plus 128, in place (zip_predict).
+ * Decoding undoes them: zip_unpredict in place, and zip_merge, which
+ * interleaves `pairs` bytes of each half back into 2 x pairs bytes of the
+ * rows (any even stretch of them: the halves' bytes from that place on). */
+void zip_split(const unsigned char *raw, size_t n, unsigned char *t);
+void zip_predict(unsigned char *t, size_t n);
+void zip_unpredict(unsigned char *t, size_t n);
+void zip_merge(const unsigned char *even, const unsigned char *odd, size_t pairs, unsigned char *raw);
+
 /* job(0) .. job(k - 1) on OpenEXR's pool threads (each in the caller's
  * thread when the pool has none), waiting for them all; what a job threw
  * (the first by index) is thrown again in the caller's thread. */
 void run_on_pool(size_t k, const std::function<void(size_t)> &job);
 
 /* One scanline part of header h, whose compression is ZIP or ZIPS, written
- * from bands of interleaved floats whose channels are spec.names (in that
- * order; the file keeps the header's, sorted by name). Every call throws
+ * from bands of floats given channel by channel, in the order of spec.names
+ * (the file keeps the header's, sorted by name). Every call throws
  * on failure (std::runtime_error with the reason). */
 class ZipPartWriter {
   public:
@@ -49,7 +61,7 @@ class ZipPartWriter {
     ~ZipPartWriter();
     void open(const std::string &path, const Imf::Header &h, const WriteSpec &spec);
     /* the next rows y0..y1-1 (from 0, the data window's top), any count */
-    void write(int y0, int y1, const float *px);
+    void write(int y0, int y1, const BandSrc *src);
     /* the chunk table, and the file closed */
     void close();
 

@@ -73,23 +73,24 @@ class Pages {
 /* What one chunk needs while it is read and decoded on a thread. */
 struct Slot {
     Pages packed, tmp;
-    std::vector<float> line;      /* one channel's row as float */
-    std::vector<uint16_t> halves; /* ... as the file's halves */
+    std::vector<float> line;      /* one channel's row as float, for a destination with gaps */
+    std::vector<uint16_t> halves; /* ... as the file's halves, or the halves of its uints */
     std::unique_ptr<libdeflate_decompressor, FreeInflater> inflater;
     int first = 0; /* the chunk's first row, from the data window's top */
 };
 
-/* A chunk's rows in the file's layout: as stored (plain), or, inflated and
+/* A chunk's rows in the file's layout: as stored (plain), or inflated and
  * its differences summed, still split (byte i of the rows is lo[i / 2] for
  * an even i, hi[i / 2] for an odd one). */
 struct Rows {
     const unsigned char *plain, *lo, *hi;
-    /* the 2-byte value at byte `at` (even) */
-    uint16_t u16(size_t at) const {
-        if (plain) return uint16_t(plain[at] | plain[at + 1] << 8);
-        return uint16_t(lo[at / 2] | hi[at / 2] << 8);
+    /* the rows' bytes at..at+len-1 (both even: a channel's row) into to */
+    void get(size_t at, size_t len, unsigned char *to) const {
+        if (plain)
+            std::memcpy(to, plain + at, len);
+        else
+            zip_merge(lo + at / 2, hi + at / 2, len / 2, to);
     }
-    uint32_t u32(size_t at) const { return uint32_t(u16(at)) | uint32_t(u16(at + 2)) << 16; }
 };
 
 } // namespace
@@ -116,7 +117,7 @@ struct ZipPartReader::Impl {
             got != n)
             throw std::runtime_error("the chunk of row " + std::to_string(top + s.first) + " does not inflate to its " +
                                      std::to_string(n) + " bytes (damaged data)");
-        for (size_t i = 1; i < n; i++) t[i] = (unsigned char)(t[i - 1] + t[i] - 128);
+        zip_unpredict(t, n);
         return Rows{nullptr, t, t + (n + 1) / 2};
     }
 
@@ -126,27 +127,29 @@ struct ZipPartReader::Impl {
         const Rows r = inflate(s, size_t(rows) * line_bytes);
         const size_t w = size_t(width);
         s.line.resize(w);
-        s.halves.resize(w);
+        s.halves.resize(2 * w);
+        unsigned char *bytes = reinterpret_cast<unsigned char *>(s.halves.data());
         for (int y = std::max(y0, s.first); y < std::min(y1, s.first + rows); y++) {
             const size_t row = size_t(y - s.first) * line_bytes;
             for (size_t k = 0; k < nd; k++) {
                 const size_t v = row + at[k]->at;
-                float *f = s.line.data();
+                float *o = dst[k].p + size_t(y - y0) * dst[k].ys;
+                /* converted straight into a packed destination */
+                float *f = dst[k].xs == 1 ? o : s.line.data();
                 if (at[k]->type == Imf::HALF) {
-                    for (size_t x = 0; x < w; x++) s.halves[x] = r.u16(v + 2 * x);
+                    r.get(v, 2 * w, bytes);
                     half_to_float(s.halves.data(), f, w);
                 } else if (at[k]->type == Imf::UINT) {
-                    for (size_t x = 0; x < w; x++) f[x] = float(r.u32(v + 4 * x));
-                } else {
+                    r.get(v, 4 * w, bytes);
                     for (size_t x = 0; x < w; x++) {
-                        const uint32_t b = r.u32(v + 4 * x);
-                        std::memcpy(f + x, &b, 4);
+                        uint32_t u;
+                        std::memcpy(&u, bytes + 4 * x, 4);
+                        f[x] = float(u);
                     }
+                } else {
+                    r.get(v, 4 * w, reinterpret_cast<unsigned char *>(f));
                 }
-                float *o = dst[k].p + size_t(y - y0) * dst[k].ys;
-                if (dst[k].xs == 1)
-                    std::memcpy(o, f, w * sizeof(float));
-                else
+                if (dst[k].xs != 1)
                     for (size_t x = 0; x < w; x++) o[x * dst[k].xs] = f[x];
             }
         }

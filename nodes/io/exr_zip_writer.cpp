@@ -88,7 +88,7 @@ template <class T> void put_le(std::vector<unsigned char> &b, T v) {
 
 /* A channel of the file, in the file's order. */
 struct Chan {
-    size_t src;   /* its index among the band's interleaved channels */
+    size_t src;   /* its index among the band's channels (spec.names) */
     PixType type;
     size_t bytes; /* of one value */
 };
@@ -103,8 +103,9 @@ struct Slot {
     std::vector<float> line;    /* one channel's row, gathered */
     std::vector<uint32_t> conv; /* ... converted */
     std::unique_ptr<libdeflate_compressor, FreeDeflater> deflater;
-    const float *src = nullptr; /* the chunk's first row in the band, or null: raw holds it packed */
-    int first = 0, rows = 0;    /* rows from the data window's top */
+    const BandSrc *band = nullptr; /* the band holding the chunk's rows, or null: raw holds them packed */
+    size_t band_row = 0;           /* the chunk's first row in it */
+    int first = 0, rows = 0;       /* rows from the data window's top */
     const unsigned char *data = nullptr;
     size_t size = 0;
 };
@@ -115,7 +116,7 @@ struct ZipPartWriter::Impl {
     FILE *f = nullptr;
     std::string path;
     int width = 0, height = 0, top = 0, lines = 16, level = 4;
-    size_t nch = 0, line_bytes = 0;
+    size_t line_bytes = 0;
     std::vector<Chan> chans;
     std::vector<uint64_t> offsets;
     uint64_t table_at = 0;
@@ -127,19 +128,24 @@ struct ZipPartWriter::Impl {
         if (f) std::fclose(f);
     }
 
-    /* row y (its interleaved floats at px) in the file's layout at dst */
-    void pack_row(Slot &s, const float *px, unsigned char *dst) const {
+    /* row r of the band in the file's layout at dst */
+    void pack_row(Slot &s, const BandSrc *band, size_t r, unsigned char *dst) const {
         const size_t w = size_t(width);
         s.line.resize(w);
         s.conv.resize(w);
         for (const Chan &c : chans) {
-            for (size_t x = 0; x < w; x++) s.line[x] = px[x * nch + c.src];
-            const void *from = s.line.data();
+            const BandSrc &b = band[c.src];
+            const float *v = b.p + r * b.ys;
+            if (b.xs != 1) {
+                for (size_t x = 0; x < w; x++) s.line[x] = v[x * b.xs];
+                v = s.line.data();
+            }
+            const void *from = v;
             if (c.type == PixType::HALF) {
-                to_half(s.line.data(), reinterpret_cast<uint16_t *>(s.conv.data()), w);
+                to_half(v, reinterpret_cast<uint16_t *>(s.conv.data()), w);
                 from = s.conv.data();
             } else if (c.type == PixType::U32) {
-                to_uint(s.line.data(), s.conv.data(), w);
+                to_uint(v, s.conv.data(), w);
                 from = s.conv.data();
             }
             std::memcpy(dst, from, w * c.bytes);
@@ -151,20 +157,14 @@ struct ZipPartWriter::Impl {
     void encode(Slot &s) const {
         const size_t n = size_t(s.rows) * line_bytes;
         s.raw.resize(std::max(s.raw.size(), n));
-        if (s.src)
-            for (int r = 0; r < s.rows; r++)
-                pack_row(s, s.src + size_t(r) * size_t(width) * nch, s.raw.data() + size_t(r) * line_bytes);
+        if (s.band)
+            for (int r = 0; r < s.rows; r++) pack_row(s, s.band, s.band_row + size_t(r), s.raw.data() + size_t(r) * line_bytes);
         s.tmp.resize(std::max(s.tmp.size(), n));
         s.out.resize(std::max(s.out.size(), n));
         const unsigned char *raw = s.raw.data();
-        unsigned char *t1 = s.tmp.data(), *t2 = s.tmp.data() + (n + 1) / 2;
-        for (size_t i = 0; i + 1 < n; i += 2) {
-            *t1++ = raw[i];
-            *t2++ = raw[i + 1];
-        }
-        if (n & 1) *t1 = raw[n - 1];
         unsigned char *t = s.tmp.data();
-        for (size_t i = n; i-- > 1;) t[i] = (unsigned char)(t[i] - t[i - 1] + 128);
+        zip_split(raw, n, t);
+        zip_predict(t, n);
         if (!s.deflater) s.deflater.reset(libdeflate_alloc_compressor(level));
         if (!s.deflater) throw std::bad_alloc();
         /* 0 when it does not fit in fewer bytes than the rows themselves */
@@ -204,7 +204,6 @@ void ZipPartWriter::open(const std::string &path, const Imf::Header &h, const Wr
     d.top = dw.min.y;
     d.lines = zip_lines(h.compression());
     d.level = std::min(std::max(h.zipCompressionLevel(), 0), 12);
-    d.nch = spec.names.size();
     std::map<std::string, size_t> index;
     for (size_t i = 0; i < spec.names.size(); i++) index[spec.names[i]] = i;
     for (Imf::ChannelList::ConstIterator i = h.channels().begin(); i != h.channels().end(); ++i) {
@@ -230,10 +229,9 @@ void ZipPartWriter::open(const std::string &path, const Imf::Header &h, const Wr
     os.write(table.data(), int(table.size()));
 }
 
-void ZipPartWriter::write(int y0, int y1, const float *px) {
+void ZipPartWriter::write(int y0, int y1, const BandSrc *src) {
     Impl &d = *d_;
     if (y0 != d.done || y1 <= y0 || y1 > d.height) throw std::runtime_error("rows written out of order");
-    const size_t row = size_t(d.width) * d.nch;
     int y = y0;
     size_t k = 0;
     /* the chunk an earlier band began: its rows packed as they come */
@@ -241,7 +239,7 @@ void ZipPartWriter::write(int y0, int y1, const float *px) {
         const int end = std::min(d.carry.first + d.lines, d.height), take = std::min(end, y1) - y;
         d.carry.raw.resize(size_t(end - d.carry.first) * d.line_bytes);
         for (int r = 0; r < take; r++)
-            d.pack_row(d.carry, px + size_t(y - y0 + r) * row, d.carry.raw.data() + size_t(d.carry.rows + r) * d.line_bytes);
+            d.pack_row(d.carry, src, size_t(y - y0 + r), d.carry.raw.data() + size_t(d.carry.rows + r) * d.line_bytes);
         d.carry.rows += take;
         y += take;
         if (d.carry.first + d.carry.rows == end) {
@@ -257,7 +255,8 @@ void ZipPartWriter::write(int y0, int y1, const float *px) {
         const int end = std::min(y + d.lines, d.height); /* y starts a chunk here */
         if (end > y1) break;                              /* ends in a later band */
         Slot &s = *d.slots[k++];
-        s.src = px + size_t(y - y0) * row;
+        s.band = src;
+        s.band_row = size_t(y - y0);
         s.first = y;
         s.rows = end - y;
         y = end;
@@ -267,14 +266,14 @@ void ZipPartWriter::write(int y0, int y1, const float *px) {
         }
     }
     if (k) d.run(k);
-    for (auto &s : d.slots) s->src = nullptr;
+    for (auto &s : d.slots) s->band = nullptr;
     if (y < y1) { /* the start of a chunk the next band ends */
-        d.carry.src = nullptr;
+        d.carry.band = nullptr;
         d.carry.first = y;
         d.carry.rows = y1 - y;
         d.carry.raw.resize(size_t(std::min(y + d.lines, d.height) - y) * d.line_bytes);
         for (int r = 0; r < d.carry.rows; r++)
-            d.pack_row(d.carry, px + size_t(y - y0 + r) * row, d.carry.raw.data() + size_t(r) * d.line_bytes);
+            d.pack_row(d.carry, src, size_t(y - y0 + r), d.carry.raw.data() + size_t(r) * d.line_bytes);
     }
     d.done = y1;
 }

@@ -76,6 +76,17 @@ std::vector<float> values_of(const Case &c) {
     return v;
 }
 
+/* The 4 channels of row y of v (interleaved, w wide) as a band's sources,
+ * interleaved as they are or (planes, c x w x h floats) from planes. */
+std::vector<ewio::BandSrc> band_at(const std::vector<float> &v, const std::vector<float> *planes, size_t w, size_t h,
+                                   int y) {
+    std::vector<ewio::BandSrc> b(4);
+    for (size_t c = 0; c < 4; c++)
+        b[c] = planes ? ewio::BandSrc{planes->data() + c * w * h + size_t(y) * w, 1, w}
+                      : ewio::BandSrc{v.data() + size_t(y) * w * 4 + c, 4, w * 4};
+    return b;
+}
+
 /* Write case c, read it back with Imf::InputFile and compare; 1 when equal. */
 int roundtrip(const Case &c, std::string *why) {
     const std::string path = temp_path();
@@ -89,12 +100,15 @@ int roundtrip(const Case &c, std::string *why) {
         h.channels().insert(s.names[i], Imf::Channel(s.types[i] == ewio::PixType::HALF  ? Imf::HALF
                                                      : s.types[i] == ewio::PixType::U32 ? Imf::UINT
                                                                                         : Imf::FLOAT));
+    std::vector<float> planes(v.size());
+    for (size_t i = 0; i < v.size(); i++) planes[i % 4 * (v.size() / 4) + i / 4] = v[i];
     {
         ewio::ZipPartWriter w;
         w.open(path, h, s);
+        /* bands from interleaved values and from planes in turn */
         for (int y = 0, k = 0; y < c.h; k++) {
             const int y1 = std::min(c.h, y + c.bands[size_t(k) % c.bands.size()]);
-            w.write(y, y1, v.data() + size_t(y) * size_t(c.w) * 4);
+            w.write(y, y1, band_at(v, k % 2 ? &planes : nullptr, size_t(c.w), size_t(c.h), y).data());
             y = y1;
         }
         w.close();
@@ -147,6 +161,37 @@ int roundtrip(const Case &c, std::string *why) {
 
 } // namespace
 
+/* The byte transforms (exr_zip_bytes.cpp, in blocks of 16 and 32 bytes)
+ * give the bytes of the format's own byte loops, at every length around
+ * the blocks' sizes (the tails) and on random bytes (every carry). */
+TEST(byte_transforms_are_the_formats_byte_loops) {
+    std::mt19937 rng(7);
+    for (size_t n : {0, 1, 2, 3, 15, 16, 17, 18, 31, 32, 33, 34, 47, 48, 63, 64, 65, 100, 255, 4097}) {
+        std::vector<unsigned char> raw(n);
+        for (unsigned char &b : raw) b = (unsigned char)rng();
+        /* encoding as the specification writes it */
+        std::vector<unsigned char> want(n);
+        for (size_t i = 0; i < n; i++) want[i % 2 ? (n + 1) / 2 + i / 2 : i / 2] = raw[i];
+        for (size_t i = n; i-- > 1;) want[i] = (unsigned char)(want[i] - want[i - 1] + 128);
+        std::vector<unsigned char> t(n + 1, 0xee);
+        ewio::zip_split(raw.data(), n, t.data());
+        ewio::zip_predict(t.data(), n);
+        CHECK(std::equal(want.begin(), want.end(), t.begin()));
+        CHECK(t[n] == 0xee);
+        /* and back: the sums, then any even stretch merged */
+        ewio::zip_unpredict(t.data(), n);
+        for (size_t i = 1; i < n; i++) want[i] = (unsigned char)(want[i - 1] + want[i] - 128);
+        CHECK(std::equal(want.begin(), want.end(), t.begin()));
+        for (size_t at = 0; at + 2 <= n; at += n / 4 * 2 + 2) {
+            const size_t len = (n - at) / 2 * 2;
+            std::vector<unsigned char> back(len + 1, 0xee);
+            ewio::zip_merge(t.data() + at / 2, t.data() + (n + 1) / 2 + at / 2, len / 2, back.data());
+            CHECK(std::equal(back.begin(), back.begin() + long(len), raw.begin() + long(at)));
+            CHECK(back[len] == 0xee);
+        }
+    }
+}
+
 TEST(zip_and_zips_read_back_exactly_in_any_bands) {
     const std::vector<std::vector<int>> bands = {{1000}, {1}, {7}, {20, 3}, {16}, {33}};
     for (Imf::Compression comp : {Imf::ZIP_COMPRESSION, Imf::ZIPS_COMPRESSION})
@@ -187,9 +232,9 @@ TEST(rows_out_of_order_and_missing_rows_fail) {
     {
         ewio::ZipPartWriter w;
         w.open(path, h, s);
-        w.write(0, 4, v.data());
+        w.write(0, 4, band_at(v, nullptr, 8, 20, 0).data());
         try {
-            w.write(8, 12, v.data());
+            w.write(8, 12, band_at(v, nullptr, 8, 20, 8).data());
         } catch (const std::runtime_error &) {
             threw++;
         }
