@@ -19,11 +19,10 @@
 
 #include <libdeflate.h>
 
-#include <sys/mman.h>
-
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -40,33 +39,31 @@ struct Place {
     Imf::PixelType type;
 };
 
-/* Bytes mapped for a chunk, handed back to the system on release: the
- * allocator would keep them (freed on the pool's threads, in their arenas)
- * while the frame they were read for is denoised. Untouched pages take no
- * memory: a compressed chunk fills a fraction of its buffer. */
+/* Bytes for a chunk, freed when a pass ends. From the heap, so that the
+ * next pass — in a graph, the next frame's — reuses them where the program
+ * keeps freed memory (the CLI does) instead of faulting in new pages; taken
+ * on the reading thread (ZipPartReader::read), not the pool's, so that they
+ * come from the main arena, whose free memory malloc_trim hands back (a
+ * pool thread's arena keeps what is freed at its top whatever the trim):
+ * a one-shot command trims the heap before its method runs, so they are
+ * not held beside the frame. Uninitialised: every byte read is written
+ * first. */
 class Pages {
   public:
-    Pages() = default;
-    Pages(const Pages &) = delete;
-    Pages &operator=(const Pages &) = delete;
-    ~Pages() { release(); }
-    unsigned char *get() const { return p_; }
+    unsigned char *get() const { return p_.get(); }
     void reserve(size_t n) {
         if (n <= n_) return;
-        release();
-        void *m = mmap(nullptr, n, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        if (m == MAP_FAILED) throw std::bad_alloc();
-        p_ = static_cast<unsigned char *>(m);
+        p_.reset();
+        p_.reset(new unsigned char[n]);
         n_ = n;
     }
     void release() {
-        if (p_) munmap(p_, n_);
-        p_ = nullptr;
+        p_.reset();
         n_ = 0;
     }
 
   private:
-    unsigned char *p_ = nullptr;
+    std::unique_ptr<unsigned char[]> p_;
     size_t n_ = 0;
 };
 
@@ -104,8 +101,6 @@ struct ZipPartReader::Impl {
 
     /* the chunk of s's first row, n bytes of rows */
     Rows inflate(Slot &s, size_t n) const {
-        s.packed.reserve(n);
-        s.tmp.reserve(n);
         int size = int(n);
         in->rawPixelDataToBuffer(top + s.first, reinterpret_cast<char *>(s.packed.get()), size);
         if (size_t(size) == n) return Rows{s.packed.get(), nullptr, nullptr}; /* stored as it is */
@@ -181,6 +176,12 @@ void ZipPartReader::read(int y0, int y1, const std::string *names, const BandDst
         const auto p = d.places.find(names[k]);
         if (p == d.places.end()) throw std::runtime_error("no channel " + names[k]);
         at[k] = &p->second;
+    }
+    /* a chunk's most bytes (see Pages) */
+    const size_t most = size_t(std::min(d.lines, d.height)) * d.line_bytes;
+    for (auto &s : d.slots) {
+        s->packed.reserve(most);
+        s->tmp.reserve(most);
     }
     for (int first = y0 - y0 % d.lines; first < y1;) {
         size_t k = 0;
