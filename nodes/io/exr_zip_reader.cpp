@@ -99,10 +99,20 @@ struct ZipPartReader::Impl {
     std::map<std::string, Place> places;
     std::vector<std::unique_ptr<Slot>> slots;
 
+    /* The bytes a chunk's data may take as OpenEXR reads it: it accepts a
+     * chunk of up to a whole chunk's rows of bytes (all `lines` of them,
+     * the part's last and shorter chunk too, and a part shorter than one
+     * chunk) and writes it into the buffer it is given without asking its
+     * size, so every buffer is that large. */
+    size_t chunk_bytes() const { return size_t(lines) * line_bytes; }
+
     /* the chunk of s's first row, n bytes of rows */
     Rows inflate(Slot &s, size_t n) const {
         int size = int(n);
         in->rawPixelDataToBuffer(top + s.first, reinterpret_cast<char *>(s.packed.get()), size);
+        if (size < 0 || size_t(size) > chunk_bytes())
+            throw std::runtime_error("the chunk of row " + std::to_string(top + s.first) + " declares " +
+                                     std::to_string(size) + " bytes (damaged data)");
         if (size_t(size) == n) return Rows{s.packed.get(), nullptr, nullptr}; /* stored as it is */
         if (!s.inflater) s.inflater.reset(libdeflate_alloc_decompressor());
         if (!s.inflater) throw std::bad_alloc();
@@ -177,11 +187,10 @@ void ZipPartReader::read(int y0, int y1, const std::string *names, const BandDst
         if (p == d.places.end()) throw std::runtime_error("no channel " + names[k]);
         at[k] = &p->second;
     }
-    /* a chunk's most bytes (see Pages) */
-    const size_t most = size_t(std::min(d.lines, d.height)) * d.line_bytes;
+    /* here, not on the pool's threads (see Pages) */
     for (auto &s : d.slots) {
-        s->packed.reserve(most);
-        s->tmp.reserve(most);
+        s->packed.reserve(d.chunk_bytes());
+        s->tmp.reserve(d.chunk_bytes());
     }
     for (int first = y0 - y0 % d.lines; first < y1;) {
         size_t k = 0;
