@@ -127,7 +127,7 @@ static size_t band_floats(const ew_op *op, int w, int h, int bands, int halo, co
     int own[4];
     band_inputs(op, in, own);
     const int core = (h + bands - 1) / bands;
-    size_t frame = 0, px = 16;
+    size_t frame = 0, px = 14; /* radiance, guide, sliced, out, clamped, removed: 3 + 1 + 3 + 3 + 3 + 1 */
     for (int i = 0; i < 4; i++) {
         if (!ew_op_image(op, input_names[i])) continue;
         if (own[i]) frame += (size_t)w * (size_t)h * (size_t)input_channels[i];
@@ -286,7 +286,7 @@ static ew_result commit(ew_op *op) {
         b->sliced = m; m += rn * 3;
         b->out = m; m += rn * 3;
         s->clamped = m; m += rn * 3;
-        s->removed = m; m += rn * 3;
+        s->removed = m; m += rn;
         s->grid = m;
         return EW_OK;
     }
@@ -367,9 +367,9 @@ static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const f
         dev->backend->outlier_guided(dev, &fp, &fb);
         *radiance = s->clamped;
         if (removed) {
-            const size_t w3 = (size_t)b->width * 3;
-            r = dev->backend->mem_copy(dev, removed + (size_t)bb->cy * w3, s->removed + (size_t)(bb->cy - bb->ry) * w3,
-                                       (size_t)bb->ch * w3 * sizeof(float));
+            const size_t w = (size_t)b->width;
+            r = dev->backend->mem_copy(dev, removed + (size_t)bb->cy * w, s->removed + (size_t)(bb->cy - bb->ry) * w,
+                                       (size_t)bb->ch * w * sizeof(float));
         }
     }
     return r;

@@ -239,7 +239,7 @@ static ew_result commit(ew_op *op) {
     b->out = p; p += rn * 3;
     if (tiled) {
         s->removed = p;
-        p += rn * 3;
+        p += rn;
     }
     s->outputs = p; p += rn * (size_t)net->nout;
     b->guide = s->outputs;
@@ -303,7 +303,7 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
         radiance = s->clamped;
         if (tiled && removed) {
             r = copy_rect(dev, removed, W, t->cx, t->cy, s->removed, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch,
-                          3);
+                          1);
             if (r != EW_OK) return r;
         }
     }

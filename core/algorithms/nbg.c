@@ -60,7 +60,7 @@ size_t ew_nbg_region_floats(const ew_guidenet *net, int rw, int rh, int tiled) {
         if (ew_bgrid_floats(&gp) > grid) grid = ew_bgrid_floats(&gp);
     }
     const size_t n = (size_t)rw * (size_t)rh;
-    const size_t per_px = 3 * 4 + (size_t)net->nout + (tiled ? 3 * 3 + 1 + 3 : 0);
+    const size_t per_px = 3 * 4 + (size_t)net->nout + (tiled ? 3 * 3 + 1 + 1 : 0);
     return n * per_px + ew_nbg_band_floats(net, rw, ew_nbg_band_rows(net, rh)) + grid;
 }
 

@@ -111,9 +111,10 @@ typedef struct ew_harm_args {
     float tone_share;       /* ... D / R taken this share in T, the rest in linear units */
     float fade;             /* BLEND: alpha + fade (1 - alpha): 0 the blend as estimated, 1 none */
     /* energy return (SUM_H, SUM_V, GIVE, SPREAD_H, SPREAD_V; TAKE, SCALE): */
-    float *give;            /* 3 per pixel: in, the RGB the method's own clamp took (demodulated, as
-                               ew_outlier_buffers.removed); GIVE writes each pixel's share into its first,
-                               then TAKE what the rejection took that comes back into all three */
+    float *give;            /* 1 per pixel: in, the share of the pixel's RGB the method's own clamp took
+                               (ew_outlier_buffers.removed: of the colour it was given, clamped here);
+                               GIVE rewrites it as the pixel's share of its window's light, then TAKE as
+                               the luminance of what the rejection took that comes back */
     float *spread;          /* 3 per pixel: the box sums (SUM_H, S, SPREAD_H) */
     int give_radius;        /* each pixel's light goes back over its (2 give_radius + 1)^2 window */
     float give_cap;         /* of what the rejection (color - clamped) took, at most give_cap x the
@@ -329,8 +330,7 @@ EW_HD void ew_harm_blend_mix(long j, const ew_harm_args *a, float alpha) {
     if (alpha >= 1.0f || !ew_harm_finite3(in)) return;
     /* the blend gives the pixel 1 - alpha of the input back, and with it
      * that share of what the method's own clamp took there */
-    if (a->give)
-        for (int c = 0; c < 3; c++) a->give[j * 3 + c] *= alpha;
+    if (a->give) a->give[j] *= alpha;
     for (int c = 0; c < 3; c++) o[c] = in[c] + alpha * (o[c] - in[c]);
 }
 
@@ -451,17 +451,17 @@ EW_HD void ew_harm_sum_v_px(int x, int y, const ew_harm_args *a) {
     a->spread[n + (long)y * a->width + x] = ew_harm_box_v(a, a->spread, x, y, a->give_radius);
 }
 
-/* GIVE: g / S into give[3 j] (what the method's clamp took; the rejection's
- * share goes to the whole frame, TAKE) */
+/* GIVE: g / S into give[j], g the luminance of what the method's clamp
+ * took: its share of the colour it was given (the clamped colour; negative
+ * channels are no light, as the methods demodulate them). The rejection's
+ * share goes to the whole frame, TAKE. */
 EW_HD void ew_harm_give_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x, n = (long)a->width * a->height;
-    float g[3];
-    for (int c = 0; c < 3; c++) {
-        const float m = a->give[j * 3 + c] * ew_harm_albedo(a, j, c);
-        g[c] = ew_finitef(m) ? m : 0.0f;
-    }
-    const float lg = ew_minf(ew_maxf(ew_luminance(g), 0.0f), a->give_limit), sum = a->spread[n + j];
-    a->give[j * 3] = sum > 0.0f ? lg / sum : 0.0f;
+    const float *c1 = a->clamped + j * ew_harm_cch(a);
+    const float rgb[3] = {ew_maxf(c1[0], 0.0f), ew_maxf(c1[1], 0.0f), ew_maxf(c1[2], 0.0f)};
+    const float m = a->give[j] * ew_luminance(rgb);
+    const float lg = ew_minf(ew_finitef(m) && m > 0.0f ? m : 0.0f, a->give_limit), sum = a->spread[n + j];
+    a->give[j] = sum > 0.0f ? lg / sum : 0.0f;
 }
 
 /* The luminance of what the rejection took from a pixel (color - clamped,
@@ -485,13 +485,13 @@ EW_HD void ew_harm_excess_px(long j, const ew_harm_args *a) {
 }
 
 /* TAKE: the luminance of what the rejection took that comes back, at most
- * give_cap x the luminance it left and take_limit, as a grey of it into
- * give[3 j ..] (the frame's luminance sum adds it up) */
+ * give_cap x the luminance it left and take_limit, into give[j] (the
+ * frame's sum adds it up) */
 EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
     const float *c1 = a->clamped + j * ew_harm_cch(a);
     const float le = a->excess ? a->excess[j] : ew_harm_excess_lum(j, a), lk = ew_maxf(ew_luminance(c1), 0.0f);
     const float lr = ew_minf(ew_minf(le, a->give_cap * lk), a->take_limit);
-    for (int c = 0; c < 3; c++) a->give[j * 3 + c] = lr > 0.0f ? lr : 0.0f;
+    a->give[j] = lr > 0.0f ? lr : 0.0f;
 }
 
 /* SCALE: the output scaled by 1 + the frame's gain (finite pixels) */
@@ -504,13 +504,13 @@ EW_HD void ew_harm_scale_px(long j, const ew_harm_args *a) {
 /* SPREAD_H: the shares g / S summed along the row */
 EW_HD void ew_harm_spread_h_px(int x, int y, const ew_harm_args *a) {
     const long n = (long)a->width * a->height;
-    /* as ew_harm_box_h, over the first of give's 3 floats a pixel */
+    /* as ew_harm_box_h, over give */
     const int b = ew_harm_box_block(a->give_radius), r = a->give_radius;
     float s = 0.0f;
     for (int k0 = x - r; k0 <= x + r; k0 += b) {
         float blk = 0.0f;
         for (int xx = ew_maxi(k0, 0); xx <= ew_mini(k0 + b - 1, a->width - 1); xx++)
-            blk += a->give[((long)y * a->width + xx) * 3];
+            blk += a->give[(long)y * a->width + xx];
         s += blk;
     }
     a->spread[2 * n + (long)y * a->width + x] = s;

@@ -49,11 +49,14 @@
  *     emitter larger than a pixel has neighbours that see it too and is
  *     judged as before;
  *   - a feature pass that is NULL, or non-finite at the pixel, is not used;
- *   - removed (optional): what the clamp took from each pixel's RGB (0
- *     where it took nothing, or rebuilt a non-finite pixel), so that a
- *     caller can give the energy back elsewhere (src/harm_stage.c returns
- *     the denoisers' own clamp's share, spread, after the method) while the
- *     clamped colour itself stays what the method was trained on.
+ *   - removed (optional): the share of each pixel's RGB the clamp took, one
+ *     float a pixel (0 where it took nothing, or rebuilt a non-finite
+ *     pixel), so that a caller can give the energy back elsewhere
+ *     (src/harm_stage.c returns the denoisers' own clamp's share, spread,
+ *     after the method) while the clamped colour itself stays what the
+ *     method was trained on. A share, not RGB: the clamp scales a pixel's
+ *     RGB as one, so the light it took is that share of the colour it was
+ *     given, which the caller holds anyway (a third of the memory).
  */
 #ifndef EW_KERNELS_OUTLIER_H
 #define EW_KERNELS_OUTLIER_H
@@ -88,7 +91,7 @@ typedef struct ew_outlier_buffers {
     const float *normal; /* 3 per pixel or NULL */
     float *out;          /* channels per pixel; must not alias color */
     int channels;        /* floats per pixel of color and out, >= 3: the ones past RGB (alpha) are copied */
-    float *removed;      /* 3 per pixel, or NULL: color - out in RGB where clamped, else 0 */
+    float *removed;      /* 1 per pixel, or NULL: 1 - out / color in RGB where clamped, else 0 */
 } ew_outlier_buffers;
 
 /* The parameters of the denoisers' own firefly_k clamp (bgrid, nbg): mean
@@ -169,8 +172,8 @@ EW_HD float ew_outlier_select(float *v, int n, int k) {
 }
 
 /* The bound from the centre and spread of a finite pixel's similar
- * neighbours; a pixel above it is scaled down to it (RGB of o; removed: 3
- * floats or NULL, already 0). */
+ * neighbours; a pixel above it is scaled down to it (RGB of o; removed: the
+ * pixel's share taken, or NULL, already 0). */
 EW_HD void ew_outlier_bound_apply(const ew_outlier_params *p, const float *c0, float lum, float centre, float spread,
                                   float *o, float *removed) {
     spread = ew_maxf(ew_maxf(spread, p->sigma_floor * fabsf(centre)), p->abs_floor);
@@ -180,8 +183,7 @@ EW_HD void ew_outlier_bound_apply(const ew_outlier_params *p, const float *c0, f
         o[0] = c0[0] * s;
         o[1] = c0[1] * s;
         o[2] = c0[2] * s;
-        if (removed)
-            for (int c = 0; c < 3; c++) removed[c] = c0[c] - o[c];
+        if (removed) *removed = 1.0f - s;
     }
 }
 
@@ -236,7 +238,7 @@ EW_HD void ew_outlier_emitter_px(int x, int y, const ew_outlier_params *p, const
     for (int i = 0; i < n; i++) window[i] = fabsf(window[i] - centre);
     const float spread = EW_OUTLIER_MAD_SCALE * ew_outlier_select(window, n, (n - 1) / 2);
     ew_outlier_bound_apply(p, b->color + j * b->channels, lum, centre, spread, b->out + j * b->channels,
-                           b->removed ? b->removed + j * 3 : 0);
+                           b->removed ? b->removed + j : 0);
 }
 
 /* Robust rejection keeps a pixel of luminance lum when at most (n - 1) / 2
@@ -252,7 +254,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     const float *c0 = b->color + j * cc;
     float *o = b->out + j * cc;
     const int finite = ew_outlier_finite3(c0);
-    if (b->removed) b->removed[j * 3] = b->removed[j * 3 + 1] = b->removed[j * 3 + 2] = 0.0f;
+    if (b->removed) b->removed[j] = 0.0f;
     const float lum = finite ? ew_luminance(c0) : 0.0f;
     for (int c = 0; c < cc; c++) o[c] = c0[c];
     if (finite && (p->k <= 0.0f || lum <= 0.0f)) return; /* nothing to judge */
@@ -297,7 +299,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     }
     if (n < EW_OUTLIER_MIN_SIMILAR) return;
     if (!robust) {
-        ew_outlier_mean_clamp(p, c0, lum, n, shift, sum, sum2, o, b->removed ? b->removed + j * 3 : 0);
+        ew_outlier_mean_clamp(p, c0, lum, n, shift, sum, sum2, o, b->removed ? b->removed + j : 0);
         return;
     }
     float centre, spread;
@@ -317,7 +319,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
         for (int i = 0; i < n; i++) window[i] = fabsf(window[i] - centre);
         spread = EW_OUTLIER_MAD_SCALE * ew_outlier_select(window, n, (n - 1) / 2);
     }
-    ew_outlier_bound_apply(p, c0, lum, centre, spread, o, b->removed ? b->removed + j * 3 : 0);
+    ew_outlier_bound_apply(p, c0, lum, centre, spread, o, b->removed ? b->removed + j : 0);
 }
 
 #endif

@@ -15,7 +15,8 @@
 enum {
     EW_REDUCE_LUM_SUM = 0,  /* out: sum of the finite, positive luminances of the row; their count */
     EW_REDUCE_DEPTH_MAX = 1, /* out: largest finite depth below 1e9 of the row (0 if none); 0 */
-    EW_REDUCE_NOISE = 2      /* out: sum of |HH| over rows y - 1, y (see below); their count */
+    EW_REDUCE_NOISE = 2,     /* out: sum of |HH| over rows y - 1, y (see below); their count */
+    EW_REDUCE_SUM = 3        /* out: sum of the finite, positive values of the row; their count */
 };
 
 /* Compressed luminance l / (1 + l) of an RGB pixel (negative as 0). */
@@ -25,7 +26,7 @@ EW_HD float ew_reduce_clum(const float *rgb) {
 }
 
 /* Row y of a width-pixel image: src holds 3 floats a pixel for LUM_SUM and
- * NOISE, 1 for DEPTH_MAX. Writes out[2 * y] and out[2 * y + 1].
+ * NOISE, 1 for DEPTH_MAX and SUM. Writes out[2 * y] and out[2 * y + 1].
  * NOISE is the frame's noise level the way wavelet denoisers measure it:
  * the diagonal (HH) Haar detail (a - b - c + d) / 2 of each 2x2 block of
  * compressed luminance in rows y - 1 and y (row 0 gives nothing). Pixel
@@ -55,6 +56,13 @@ EW_HD void ew_reduce_row(int op, int y, int width, const float *EW_RESTRICT src,
                 }
             }
         }
+    } else if (op == EW_REDUCE_SUM) {
+        const float *row = src + (long)y * width;
+        for (int x = 0; x < width; x++)
+            if (ew_finitef(row[x]) && row[x] > 0.0f) {
+                a += (double)row[x];
+                b += 1.0;
+            }
     } else {
         const float *row = src + (long)y * width;
         float mx = 0.0f;

@@ -130,8 +130,8 @@ typedef struct ew_harm_state {
     float *col, *alb, *nrm, *a, *b, *clamped;
     float *excess;  /* kept: the luminance the rejection took, a float a pixel (kernels/harm.h EW_HARM_EXCESS) */
     float *fed;     /* the colour the method reads: clamped, or (pre 2) that after the firefly clamp too */
-    float *removed; /* what the firefly clamp took (the method's own through ew_harm_clamp_removed, or the
-                       stage's for a filter), then what comes back */
+    float *removed; /* the share of each pixel the firefly clamp took, a float a pixel (the method's own
+                       through ew_harm_clamp_removed, or the stage's for a filter), then what comes back */
     double *row_out;
     float *stage;   /* host staging for views, or NULL */
     float *hclamp;  /* host copy of the clamped colour handed to a method on a device with memory of its own */
@@ -163,7 +163,7 @@ static int clamped_channels(int cc, int pre) { return pre == 1 ? 3 : cc; }
  * rejection's excess plane. */
 static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept) {
     return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
-                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)clamped_channels(cc, pre) + 3 + (size_t)kept);
+                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)clamped_channels(cc, pre) + 1 + (size_t)kept);
 }
 
 /* Colour, albedo and normal read from the caller's views where they are
@@ -243,7 +243,7 @@ ew_result ew_harm_commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     /* col (cc), albedo, normal (those not read in place), a (radiance, then
      * the method's output), b (rejected radiance, then the residual
-     * statistics), clamped (clamped_channels), removed (3), the rejection's excess (1, kept) */
+     * statistics), clamped (clamped_channels), removed (1), the rejection's excess (1, kept) */
     const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
@@ -274,19 +274,25 @@ ew_result ew_harm_commit(ew_op *op) {
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
     s->clamped = pre ? m : NULL; m += pre ? n * (size_t)clamped_channels(cc, pre) : 0;
     s->fed = pre == 2 ? m : s->clamped; m += pre == 2 ? n * (size_t)cc : 0;
-    s->removed = m; m += n * 3;
+    s->removed = m; m += n;
     s->excess = kept ? m : NULL; /* past b: not among the pages released while the method runs */
     return EW_OK;
 }
 
-/* The frame's mean demodulated luminance of buf (3 per pixel). */
-static ew_result frame_mean(ew_harm_state *s, ew_device *dev, const float *buf, double *mean) {
-    dev->backend->reduce_rows(dev, EW_REDUCE_LUM_SUM, s->w, s->h, buf, s->row_out);
+/* The frame's mean of buf: luminance (LUM_SUM, 3 floats a pixel) or value
+ * (SUM, 1), finite and positive (kernels/reduce.h). */
+static ew_result frame_mean_of(ew_harm_state *s, ew_device *dev, int op, const float *buf, double *mean) {
+    dev->backend->reduce_rows(dev, op, s->w, s->h, buf, s->row_out);
     ew_result r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)s->h * 2 * sizeof(double));
     double sum = 0.0;
     for (int y = 0; r == EW_OK && y < s->h; y++) sum += s->rows[2 * y];
     *mean = sum / ((double)s->w * (double)s->h);
     return r;
+}
+
+/* The frame's mean luminance of buf (3 per pixel). */
+static ew_result frame_mean(ew_harm_state *s, ew_device *dev, const float *buf, double *mean) {
+    return frame_mean_of(s, dev, EW_REDUCE_LUM_SUM, buf, mean);
 }
 
 /* The frame's noise level (kernels/reduce.h EW_REDUCE_NOISE: the mean
@@ -537,7 +543,7 @@ ew_result ew_harm_execute(ew_op *op) {
      * not resident together */
     ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
-        r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * 3 * sizeof(float));
+        r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * sizeof(float));
         if (r != EW_OK) return r;
     }
     /* the pilot reads what the method reads, before the method may write
@@ -616,7 +622,7 @@ ew_result ew_harm_execute(ew_op *op) {
     dev->backend->harm(dev, EW_HARM_SPREAD_V, &ha);
     dev->backend->harm(dev, EW_HARM_TAKE, &ha);
     r = frame_mean(s, dev, res, &out_mean);
-    if (r == EW_OK) r = frame_mean(s, dev, s->removed, &given);
+    if (r == EW_OK) r = frame_mean_of(s, dev, EW_REDUCE_SUM, s->removed, &given);
     if (r != EW_OK) return r;
     ha.gain = out_mean > 0.0 ? (float)(given / out_mean < HARM_TAKE_GAIN ? given / out_mean : HARM_TAKE_GAIN) : 0.0f;
     dev->backend->harm(dev, EW_HARM_SCALE, &ha);

@@ -378,7 +378,7 @@ TEST(outlier_robust_surfaces) {
         }
         if (i % 89 == 17) for (int c = 0; c < 3; c++) color[i * 3 + c] = 0.0f;
     }
-    float *removed = hnan(N * 3), *dremoved = dnan(p.dut, N * 3);
+    float *removed = hnan(N), *dremoved = dnan(p.dut, N);
     ew_outlier_buffers h = {color, albedo, normal, hnan(N * 3), 3, removed}, d = h;
     d.color = dup_to(p.dut, color, N * 3);
     d.albedo = dup_to(p.dut, albedo, N * 3);
@@ -401,7 +401,20 @@ TEST(outlier_robust_surfaces) {
         for (size_t i = 0; i < N * 3; i++) changed += h.out[i] != color[i] && isfinite(color[i]);
         ok = ok && changed > 20; /* the case judges pixels, not only keeps them */
         ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "rejected");
-        ok = ok && match(back(p.dut, d.removed, N * 3), h.removed, N * 3, "removed light");
+        ok = ok && match(back(p.dut, d.removed, N), h.removed, N, "removed light");
+        /* the share a pixel lost: out = colour (1 - share) in RGB, 0 where kept */
+        int shares = 0;
+        for (size_t i = 0; i < N; i++) {
+            const float q = h.removed[i];
+            shares += q != 0.0f;
+            const int finite = isfinite(color[i * 3]) && isfinite(color[i * 3 + 1]) && isfinite(color[i * 3 + 2]);
+            for (int c = 0; c < 3 && finite; c++)
+                ok = ok && (q == 0.0f ? h.out[i * 3 + c] == color[i * 3 + c]
+                                      : q > 0.0f && q < 1.0f &&
+                                            fabsf(color[i * 3 + c] * (1.0f - q) - h.out[i * 3 + c]) <=
+                                                1e-5f * fabsf(color[i * 3 + c]));
+        }
+        ok = ok && shares > 20;
         /* and with the albedo alone, the normal alone */
         ew_outlier_buffers ha = h, da = d;
         ha.normal = da.normal = NULL;
@@ -444,7 +457,7 @@ TEST(harm_stage_steps) {
     h.kappa = 1.0f;
     h.theta_n = 0.2f;
     h.fade = 0.25f; /* the blend a quarter faded, as on a noisy frame */
-    h.give = hrand(N * 3, 0.0f, 1.0f, 41); /* what a method's clamp took */
+    h.give = hrand(N, 0.0f, 1.0f, 41); /* the share a method's clamp took */
     h.spread = hnan(N * 3);
     h.give_radius = 7; /* 15 taps: 5 blocks of 3 (kernels/harm.h), windows past every edge */
     h.give_cap = 2.0f;
@@ -460,7 +473,7 @@ TEST(harm_stage_steps) {
     d.clamped = dnan(p.dut, N * 4);
     d.out = dup_to(p.dut, out, N * 3);
     d.stats = dnan(p.dut, N * EW_HARM_STATS_FLOATS);
-    d.give = dup_to(p.dut, h.give, N * 3);
+    d.give = dup_to(p.dut, h.give, N);
     d.spread = dnan(p.dut, N * 3);
     /* the rejection keeps most pixels: the radiance itself, then a few
      * changed; then the blend and the energy return */
@@ -476,7 +489,7 @@ TEST(harm_stage_steps) {
     int ok = match(back(p.dut, d.radiance, N * 3), h.radiance, N * 3, "demodulated");
     ok = ok && match(back(p.dut, d.clamped, N * 4), h.clamped, N * 4, "remodulated");
     ok = ok && match(back(p.dut, d.stats, N * EW_HARM_STATS_FLOATS), h.stats, N * EW_HARM_STATS_FLOATS, "residual statistics");
-    ok = ok && match(back(p.dut, d.give, N * 3), h.give, N * 3, "shares given back");
+    ok = ok && match(back(p.dut, d.give, N), h.give, N, "shares given back");
     ok = ok && match(back(p.dut, d.spread, N * 3), h.spread, N * 3, "box sums of the energy return");
     ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended, light given back");
     /* what the rejection took, kept for TAKE (a caller's output over its colour) */

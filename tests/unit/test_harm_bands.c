@@ -54,9 +54,9 @@ TEST(bands_give_the_frames_bits) {
     const int threads[] = {1, 3};
     const int rows[] = {1, 2, 3, 5, 7, 11, 29, 0};
     float *clamped = field((size_t)N * 4, 0.0f, 2.0f, 3, 1), *out0 = field((size_t)N * 3, 0.0f, 2.0f, 7, 1);
-    float *give0 = field((size_t)N * 3, 0.0f, 1.0f, 11, 0);
+    float *give0 = field((size_t)N, 0.0f, 1.0f, 11, 0);
     float *out = malloc((size_t)N * 3 * sizeof(float)), *ref = malloc((size_t)N * 3 * sizeof(float));
-    float *give = malloc((size_t)N * 3 * sizeof(float)), *gref = malloc((size_t)N * 3 * sizeof(float));
+    float *give = malloc((size_t)N * sizeof(float)), *gref = malloc((size_t)N * sizeof(float));
     float *stats = malloc((size_t)N * EW_HARM_STATS_FLOATS * sizeof(float));
     for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
         ew_device_desc desc = EW_DEVICE_DESC_INIT;
@@ -77,7 +77,7 @@ TEST(bands_give_the_frames_bits) {
                 a.fade = radius == 4 ? 0.25f : 0.0f;
                 /* the frame: STATS then BLEND */
                 memcpy(ref, out0, (size_t)N * 3 * sizeof(float));
-                memcpy(gref, give0, (size_t)N * 3 * sizeof(float));
+                memcpy(gref, give0, (size_t)N * sizeof(float));
                 a.out = ref;
                 a.give = with_give ? gref : NULL;
                 dev->backend->harm(dev, EW_HARM_STATS, &a);
@@ -87,7 +87,7 @@ TEST(bands_give_the_frames_bits) {
                 CHECK(blended > N / 4); /* the blend does something here */
                 for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
                     memcpy(out, out0, (size_t)N * 3 * sizeof(float));
-                    memcpy(give, give0, (size_t)N * 3 * sizeof(float));
+                    memcpy(give, give0, (size_t)N * sizeof(float));
                     for (size_t i = 0; i < (size_t)N * EW_HARM_STATS_FLOATS; i++) stats[i] = NAN;
                     a.out = out;
                     a.give = with_give ? give : NULL;
@@ -96,7 +96,7 @@ TEST(bands_give_the_frames_bits) {
                     dev->backend->harm(dev, EW_HARM_STATS_BLEND, &a);
                     a.stats = stats;
                     a.band_rows = 0;
-                    if (!same_bits(out, ref, (size_t)N * 3) || (with_give && !same_bits(give, gref, (size_t)N * 3)))
+                    if (!same_bits(out, ref, (size_t)N * 3) || (with_give && !same_bits(give, gref, (size_t)N)))
                         FAIL_AT("threads %d, radius %d, give %d, band rows %d: not the frame's bits", threads[t], radius,
                                 with_give, rows[k]);
                 }
@@ -123,13 +123,13 @@ TEST(bands_give_the_frames_bits) {
  * sample). The frame and the bands alike. */
 TEST(a_lone_sample_reads_as_noise_anywhere_in_the_window) {
     float *clamped = calloc((size_t)N * 3, sizeof(float)), *out = calloc((size_t)N * 3, sizeof(float));
-    float *give = malloc((size_t)N * 3 * sizeof(float));
+    float *give = malloc((size_t)N * sizeof(float));
     float *stats = malloc((size_t)N * EW_HARM_STATS_FLOATS * sizeof(float));
     for (int c = 0; c < 3; c++) clamped[(14 * W + 18) * 3 + c] = 5.0f;
     ew_device *dev = NULL;
     CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
     for (int banded = 0; dev && banded < 2; banded++) {
-        for (int i = 0; i < N * 3; i++) give[i] = 1.0f;
+        for (int i = 0; i < N; i++) give[i] = 1.0f;
         ew_harm_args a = frame_args(3, clamped, 4);
         a.out = out;
         a.give = give;
@@ -144,8 +144,8 @@ TEST(a_lone_sample_reads_as_noise_anywhere_in_the_window) {
             dev->backend->harm(dev, EW_HARM_BLEND, &a);
         }
         int blended = 0;
-        for (int i = 0; i < N * 3; i++) blended += give[i] != 1.0f;
-        if (blended) FAIL_AT("%s: %d pixels' alpha below 1 around a lone sample", banded ? "bands" : "frame", blended / 3);
+        for (int i = 0; i < N; i++) blended += give[i] != 1.0f;
+        if (blended) FAIL_AT("%s: %d pixels' alpha below 1 around a lone sample", banded ? "bands" : "frame", blended);
     }
     ew_device_destroy(dev);
     free(clamped);

@@ -119,8 +119,8 @@ static int outlier_plain_rows(const ew_outlier_params *p, const ew_outlier_buffe
                 continue;
             }
             float *o = b->out + j * cc;
-            float *removed = b->removed ? b->removed + j * 3 : NULL;
-            if (removed) removed[0] = removed[1] = removed[2] = 0.0f;
+            float *removed = b->removed ? b->removed + j : NULL;
+            if (removed) *removed = 0.0f;
             for (int c = 0; c < cc; c++) o[c] = c0[c];
             const float lum = ew_luminance(c0);
             const int n = (int)cnt[x];
@@ -230,7 +230,7 @@ static int outlier_robust_rows(const ew_outlier_params *p, const ew_outlier_buff
             const float *c0 = b->color + j * cc;
             float *o = b->out + j * cc;
             for (int c = 0; c < cc; c++) o[c] = c0[c];
-            if (b->removed) b->removed[j * 3] = b->removed[j * 3 + 1] = b->removed[j * 3 + 2] = 0.0f;
+            if (b->removed) b->removed[j] = 0.0f;
             n[x] = below[x] = 0;
             keep[x] = 0.0f;
             use_a[x] = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
@@ -521,9 +521,9 @@ static EW_MULTIVERSION void harm_mix_span(float *EW_RESTRICT out, float *EW_REST
         const float al = alpha[x];
         const int mix = -((!(al >= 1.0f)) & ew_harm_finite_bits(in[3 * x]) & ew_harm_finite_bits(in[3 * x + 1]) &
                           ew_harm_finite_bits(in[3 * x + 2]));
+        give[x] = ew_harm_sel(mix, give[x] * al, give[x]);
         for (int c = 0; c < 3; c++) {
             const long i = 3 * x + c;
-            give[i] = ew_harm_sel(mix, give[i] * al, give[i]);
             out[i] = ew_harm_sel(mix, in[i] + al * (out[i] - in[i]), out[i]);
         }
     }
@@ -674,7 +674,7 @@ static void harm_band_blend(void *ctx, int64_t begin, int64_t end, int tid) {
             harm_alpha_span(col, acc, w, a);
             const long j0 = (long)y * w;
             if (ew_harm_cch(a) == 3 && a->give)
-                harm_mix_span(a->out + j0 * 3, a->give + j0 * 3, a->clamped + j0 * 3, col, w);
+                harm_mix_span(a->out + j0 * 3, a->give + j0, a->clamped + j0 * 3, col, w);
             else
                 for (int x = 0; x < w; x++) ew_harm_blend_mix(j0 + x, a, col[x]);
         }
@@ -762,11 +762,9 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
             case EW_HARM_SUM_V: /* as ew_harm_sum_v_px */
                 harm_box_col(a->spread + n + j0, a->spread, w, H, y, gr, &ring);
                 break;
-            case EW_HARM_SPREAD_H: { /* as ew_harm_spread_h_px */
-                for (int x = 0; x < w; x++) buf[x] = a->give[(j0 + x) * 3];
-                harm_box_row(a->spread + 2 * n + j0, buf, w, gr, buf + w);
+            case EW_HARM_SPREAD_H: /* as ew_harm_spread_h_px */
+                harm_box_row(a->spread + 2 * n + j0, a->give + j0, w, gr, buf + w);
                 break;
-            }
             default: { /* EW_HARM_SPREAD_V, as ew_harm_spread_v_px */
                 harm_box_col(buf, a->spread + 2 * n, w, H, y, gr, &ring);
                 for (int x = 0; x < w; x++) {
