@@ -92,6 +92,10 @@ typedef struct {
     float *rad[EW_KPCN_MAX_SCALES], *out[EW_KPCN_MAX_SCALES]; /* scales below full resolution: 3 planes each */
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
     float *acc;             /* with several passes: the sum of the runs so far, 3 floats a pixel */
+    int streamed;           /* tiles without the frame's radiance (execute_streamed) */
+    float *fcolor;          /* streamed: the colour when its view is not read in place (else untouched) */
+    float *target;          /* streamed: the result when the output view is not written in place (else untouched) */
+    float *band_rad, *band_guide, *band_clamped, *band_removed; /* streamed: one band of rows and its margins */
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
@@ -132,6 +136,25 @@ static void release(ew_op *op) {
  * copies, mirrored in place between runs, and a sum plane holds the runs. */
 static int passes_of(const ew_op *op) { return (int)ew_op_param(op, "passes"); }
 
+/* Streamed tiles. A tiled single run on the CPU holds no frame of colour,
+ * radiance or guide: the firefly clamp (a 5x5 window) runs over bands of
+ * BAND_ROWS rows with its window's rows above and below, each band's own
+ * rows kept (the same bits as over the frame: a window inside the band's
+ * rows is the frame's window), and with them the noise level's row sums
+ * and the light the clamp took. Only the clamped radiance stays a frame
+ * (the tiles read it around their cores), and the result goes straight
+ * into the output view when that is packed RGB float: the colour is not
+ * read after the bands. 7 floats a pixel less at the least (10 with the
+ * output in place): 220 MiB of kpcn-large's peak at 3840x2160. Not with
+ * several passes (they mirror frames of inputs), nor on a device with
+ * memory of its own (the views are copied to it whole anyway). */
+#define BAND_ROWS 32
+#define BAND_FLOATS_PX 8 /* radiance 3, guide 1, clamped 3, removed 1 */
+static int can_stream(const ew_op *op) { return !op->dev->device_memory && passes_of(op) == 1; }
+static size_t band_floats(int w) { /* BAND_ROWS and the clamp's window's rows each side */
+    return (size_t)(BAND_ROWS + 2 * ew_kpcn_clamp_params(w, 1, 0.0f).radius) * (size_t)w * BAND_FLOATS_PX;
+}
+
 /* The features the op reads from the caller's views where they are
  * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
  * them), else NULL; the output is written while they are still read.
@@ -155,16 +178,26 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
     return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + 64;
 }
 
+/* Streamed (above): the parameters, the colour when it is not read in
+ * place and the result when the output is not written in place (reserved;
+ * their pages untouched otherwise), the features not read in place, the
+ * clamped radiance and one band. */
+static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
+    const float *in[3];
+    features_in_place(op, in);
+    const size_t px = 3 + 3 + 3 + (in[0] ? 0 : 3) + (in[1] ? 0 : 3) + (in[2] ? 0 : 1);
+    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + band_floats(w) + 64;
+}
+
 /* The device floats of a tiled side x side region. */
 static size_t square_region_floats(const ew_kpcn_net *net, int side) {
     return ew_kpcn_device_floats(net, side, side) + (size_t)TILE_EXTRA_FLOATS * side * side;
 }
 
-/* The tiles of a w x h frame under max_memory_mb, and the device floats of
- * the commit. */
-static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_tiling *t) {
+/* The tiles of a w x h frame whose frame-sized buffers take `frame`
+ * floats under max_memory_mb. */
+static void plan_tiles(const ew_op *op, const ew_kpcn_net *net, int w, int h, size_t frame, ew_tiling *t) {
     const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
-    const size_t frame = frame_floats(op, net, w, h);
     /* below a 256-pixel core the halos would more than double the work:
      * such a tile's region is the least the tiles get */
     const size_t floor = square_region_floats(net, MIN_CORE + 2 * ew_kpcn_halo(net));
@@ -172,6 +205,25 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_til
     const size_t fast = square_region_floats(net, FAST_REGION);
     if (!op->dev->device_memory && tiles > fast) tiles = fast;
     ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, t);
+}
+
+/* The tiles of a w x h frame under max_memory_mb, whether they are
+ * streamed, and the device floats of the commit. */
+static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_tiling *t, int *streamed) {
+    size_t frame = frame_floats(op, net, w, h);
+    plan_tiles(op, net, w, h, frame, t);
+    *streamed = 0;
+    if (t->nx * t->ny > 1 && can_stream(op)) {
+        /* with the smaller frame buffers the tiles may get more room */
+        ew_tiling ts;
+        const size_t sframe = streamed_frame_floats(op, net, w, h);
+        plan_tiles(op, net, w, h, sframe, &ts);
+        if (ts.nx * ts.ny > 1) {
+            *t = ts;
+            *streamed = 1;
+            frame = sframe;
+        }
+    }
     const int tiled = t->nx * t->ny > 1;
     return frame + ew_kpcn_device_floats(net, t->rw, t->rh) +
            (tiled ? (size_t)TILE_EXTRA_FLOATS * (size_t)t->rw * (size_t)t->rh : 0);
@@ -186,7 +238,8 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     ew_tiling t;
     ew_kpcn_net net;
     op_net(m, &net);
-    const uint64_t bytes = (uint64_t)plan(op, &net, w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    int streamed;
+    const uint64_t bytes = (uint64_t)plan(op, &net, w, h, &t, &streamed) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
                            (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
     ew_net_model_free(builtin);
     return bytes;
@@ -206,7 +259,8 @@ static ew_result commit(ew_op *op) {
     const size_t n = (size_t)w * (size_t)h;
     /* device: row sums (doubles first), then as plan() counts */
     ew_tiling tiling;
-    const size_t need = plan(op, net, w, h, &tiling);
+    int streamed;
+    const size_t need = plan(op, net, w, h, &tiling, &streamed);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
     const ew_dev_kept old = ew_dev_kept_take(op->state ? &((state *)op->state)->dmem : NULL);
@@ -222,6 +276,7 @@ static ew_result commit(ew_op *op) {
     s->m = m;
     s->net = run;
     s->tiling = tiling;
+    s->streamed = streamed;
     if (builtin)
         snprintf(s->choice, sizeof s->choice, "kpcn %s", ew_kpcn_model_name((int)ew_op_param(op, "model")));
     else
@@ -243,16 +298,30 @@ static ew_result commit(ew_op *op) {
     memset(b, 0, sizeof *b);
     b->width = w;
     b->height = h;
-    b->out = p; /* the colour is read by denoise_prepare only: the output takes its place */
-    b->color = p; p += n * 3;
     const float *in[3];
     features_in_place(op, in);
+    if (streamed) {
+        s->fcolor = p; p += n * 3;
+        s->target = p; p += n * 3;
+    } else {
+        b->out = p; /* the colour is read by denoise_prepare only: the output takes its place */
+        b->color = p; p += n * 3;
+    }
     b->albedo = in[0] ? in[0] : p; p += in[0] ? 0 : n * 3;
     b->normal = in[1] ? in[1] : p; p += in[1] ? 0 : n * 3;
     b->depth = in[2] ? in[2] : p; p += in[2] ? 0 : n;
-    b->radiance = p; p += n * 3;
-    s->clamped = p; p += n * 3;
-    b->guide = p; p += n;
+    if (streamed) {
+        s->clamped = p; p += n * 3;
+        const size_t bn = band_floats(w) / BAND_FLOATS_PX;
+        s->band_rad = p; p += bn * 3;
+        s->band_guide = p; p += bn;
+        s->band_clamped = p; p += bn * 3;
+        s->band_removed = p; p += bn;
+    } else {
+        b->radiance = p; p += n * 3;
+        s->clamped = p; p += n * 3;
+        b->guide = p; p += n;
+    }
     s->acc = passes_of(op) > 1 ? p : NULL; p += s->acc ? n * 3 : 0;
     /* the region's buffers */
     int rsw[EW_KPCN_MAX_SCALES], rsh[EW_KPCN_MAX_SCALES];
@@ -454,14 +523,15 @@ static ew_result run_frame(ew_op *op, const float *radiance, float noise, double
     return EW_OK;
 }
 
-static ew_result execute(ew_op *op) {
+/* The features not read in place into the op's copies, and the depth
+ * scale from the whole frame. */
+static ew_result put_features(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
-    const ew_kpcn_net *net = &s->net;
     const int w = b->width, h = b->height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
-    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
+    ew_result r = EW_OK;
     if (r == EW_OK && b->albedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)b->albedo, s->stage);
     if (r == EW_OK && b->normal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)b->normal, s->stage);
     if (r == EW_OK && b->depth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)b->depth, s->stage);
@@ -473,6 +543,99 @@ static ew_result execute(ew_op *op) {
     for (int y = 0; y < h; y++)
         if (s->rows[2 * y] > mx) mx = s->rows[2 * y];
     b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
+    return EW_OK;
+}
+
+/* Streamed: the radiance and its firefly clamp band by band into
+ * s->clamped, the light the clamp took into the stage's plane, and the
+ * noise level's row sums of the clamped radiance into s->rows (as the frame
+ * path's reduce_rows over it: each row's sum reads that row and the one
+ * above). */
+static ew_result clamp_bands(ew_op *op, const float *color) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    const ew_denoise_buffers *b = &s->buf;
+    const int w = b->width, h = b->height;
+    const float k = ew_op_param(op, "firefly_k");
+    float *removed = ew_harm_clamp_removed(op);
+    const size_t w3 = (size_t)w * 3;
+    const int margin = ew_kpcn_clamp_params(w, h, k).radius; /* the window's rows above and below */
+    ew_result r = EW_OK;
+    for (int y0 = 0; y0 < h && r == EW_OK; y0 += BAND_ROWS) {
+        const int y1 = y0 + BAND_ROWS < h ? y0 + BAND_ROWS : h;
+        const int e0 = y0 - margin > 0 ? y0 - margin : 0, e1 = y1 + margin < h ? y1 + margin : h;
+        ew_denoise_buffers bb = *b;
+        bb.height = e1 - e0;
+        bb.color = color + (size_t)e0 * w3;
+        bb.albedo = b->albedo + (size_t)e0 * w3;
+        bb.normal = b->normal + (size_t)e0 * w3;
+        bb.depth = b->depth + (size_t)e0 * w;
+        bb.radiance = s->band_rad;
+        bb.guide = s->band_guide;
+        dev->backend->denoise_prepare(dev, &bb); /* radiance = colour / (albedo + eps) */
+        const ew_outlier_params fp = ew_kpcn_clamp_params(w, e1 - e0, k);
+        const ew_outlier_buffers fb = {s->band_rad, NULL, NULL, s->band_clamped, 3, removed ? s->band_removed : NULL};
+        dev->backend->outlier_guided(dev, &fp, &fb);
+        r = dev->backend->mem_copy(dev, s->clamped + (size_t)y0 * w3, s->band_clamped + (size_t)(y0 - e0) * w3,
+                                   (size_t)(y1 - y0) * w3 * sizeof(float));
+        if (r == EW_OK && removed)
+            r = dev->backend->mem_copy(dev, removed + (size_t)y0 * w, s->band_removed + (size_t)(y0 - e0) * w,
+                                       (size_t)(y1 - y0) * w * sizeof(float));
+        if (r == EW_OK && s->net.noise) {
+            /* from the frame's clamped rows: the row above the band's first
+             * (which gives nothing itself) is the band above's, exact there
+             * and not in this band's margin */
+            const int n0 = y0 > 0 ? y0 - 1 : 0;
+            dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, w, y1 - n0, s->clamped + (size_t)n0 * w3, s->row_out);
+            r = dev->backend->mem_download(dev, s->rows + 2 * (size_t)y0, s->row_out + 2 * (size_t)(y0 - n0),
+                                           (size_t)(y1 - y0) * 2 * sizeof(double));
+        }
+    }
+    return r;
+}
+
+static ew_result run_frame(ew_op *op, const float *radiance, float noise, double p0, double dp);
+
+/* Streamed (above): the bands, then every tile, each core into the output
+ * view (or the op's plane, copied out) */
+static ew_result execute_streamed(ew_op *op) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    ew_denoise_buffers *b = &s->buf;
+    const ew_kpcn_net *net = &s->net;
+    const ew_image *cv = ew_op_image(op, "color"), *ov = ew_op_image(op, "output");
+    /* read before any core is written: in place even under the output */
+    const float *color = ew_dev_view_in_place(dev, cv, 3, NULL);
+    ew_result r = EW_OK;
+    if (!color) {
+        color = s->fcolor;
+        r = ew_dev_put_view(dev, cv, 3, s->fcolor, s->stage);
+    }
+    if (r == EW_OK) r = put_features(op);
+    if (r == EW_OK) r = clamp_bands(op, color);
+    if (r != EW_OK) return r;
+    const float noise = net->noise ? ew_kpcn_noise_from_rows(s->rows, b->height) : 0.0f;
+    float *target = (float *)ew_dev_view_in_place(dev, ov, 3, NULL);
+    if (!target) target = s->target;
+    b->out = b->sliced = target; /* tile_target, and finished in place */
+    r = run_frame(op, s->clamped, noise, 0.0, 1.0);
+    if (r == EW_OK && !net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
+    if (r == EW_OK && target == s->target) r = ew_dev_get_view(dev, target, 3, ov, s->stage);
+    /* as the frame path's: nothing here is read before it is written again */
+    ew_dev_release_pages(dev, s->fcolor, (char *)s->dmem.mem + s->dmem.bytes);
+    return r;
+}
+
+static ew_result execute(ew_op *op) {
+    state *s = (state *)op->state;
+    if (s->streamed) return execute_streamed(op);
+    ew_device *dev = op->dev;
+    ew_denoise_buffers *b = &s->buf;
+    const ew_kpcn_net *net = &s->net;
+    const int w = b->width, h = b->height;
+    ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
+    if (r == EW_OK) r = put_features(op);
+    if (r != EW_OK) return r;
     dev->backend->denoise_prepare(dev, b); /* radiance = colour / (albedo + eps) */
     const float k = ew_op_param(op, "firefly_k");
     /* the shared outlier definition (kernels/outlier.h), plain statistics;
