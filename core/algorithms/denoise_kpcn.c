@@ -50,7 +50,7 @@ static const ew_param_desc params[] = {
      "runs in tiles with a halo of the network's reach (36 pixels at three scales, 80 for kpcn-large's four), giving "
      "the same output (on the CPU, frames above ~0.75 Mpx run in tiles whatever the budget: faster there); "
      "the frame-sized buffers (68 bytes a pixel, 40 when the features are packed float views "
-     "read in place) and "
+     "read in place; tiled on the CPU 12, the rest streamed in bands of rows) and "
      "a 256x256 tile come first, so a small budget can be exceeded"},
     {"passes", EW_PARAM_INT, 1.0f, 1.0f, 4.0f,
      "runs of the network, each on the frame mirrored another way (left-right, both, up-down, none), averaged: "
