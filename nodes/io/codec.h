@@ -112,6 +112,14 @@ struct BandDst {
 struct BandSrc {
     const float *p;
     size_t xs, ys;
+    /* row y's w values packed: where they are when xs is 1, else gathered
+     * into tmp (w floats) */
+    const float *row(size_t y, size_t w, float *tmp) const {
+        const float *v = p + y * ys;
+        if (xs == 1) return v;
+        for (size_t x = 0; x < w; x++) tmp[x] = v[x * xs];
+        return tmp;
+    }
 };
 
 class Reader {

@@ -457,36 +457,41 @@ class ExrWriter final : public Writer {
     }
 
     /* OpenEXR writes each channel from a slice of its own type (it converts
-     * on reading only): the band's floats become planes of half, float or
-     * uint here. */
+     * on reading only): a float channel from the band where it is (a slice
+     * has strides of its own), half and uint from planes converted here. */
     bool write(int y0, int y1, const BandSrc *src, std::string &why) override {
         try {
             if (zip_) {
                 zip_->write(y0, y1, src);
                 return true;
             }
-            const size_t nch = spec_.names.size(), w = size_t(spec_.width), n = size_t(y1 - y0) * w;
+            const size_t nch = spec_.names.size(), w = size_t(spec_.width), rows = size_t(y1 - y0), n = rows * w;
             planes_.resize(nch * n * sizeof(float));
+            line_.resize(w);
             Imf::FrameBuffer fb;
             for (size_t c = 0; c < nch; c++) {
-                char *plane = planes_.data() + c * n * sizeof(float);
                 const PixType t = spec_.types[c];
+                /* the slice's origin is pixel (0, 0) of the data window */
+                const auto slice = [&](Imf::PixelType pt, const void *first, size_t xs, size_t ys) {
+                    const uintptr_t base = reinterpret_cast<uintptr_t>(first) -
+                                           uintptr_t(intptr_t(spec_.x) * intptr_t(xs)) -
+                                           uintptr_t(intptr_t(spec_.y + y0) * intptr_t(ys));
+                    fb.insert(spec_.names[c], Imf::Slice(pt, reinterpret_cast<char *>(base), xs, ys));
+                };
+                if (t == PixType::FLOAT) {
+                    slice(Imf::FLOAT, src[c].p, src[c].xs * sizeof(float), src[c].ys * sizeof(float));
+                    continue;
+                }
+                char *plane = planes_.data() + c * n * sizeof(float);
+                for (size_t y = 0; y < rows; y++) {
+                    const float *v = src[c].row(y, w, line_.data());
+                    if (t == PixType::HALF)
+                        to_half(v, reinterpret_cast<uint16_t *>(plane) + y * w, w);
+                    else
+                        to_uint(v, reinterpret_cast<uint32_t *>(plane) + y * w, w);
+                }
                 const size_t vs = t == PixType::HALF ? 2 : 4;
-                gather_.resize(n);
-                for (size_t y = 0; y < size_t(y1 - y0); y++)
-                    for (size_t x = 0; x < w; x++) gather_[y * w + x] = src[c].p[y * src[c].ys + x * src[c].xs];
-                if (t == PixType::HALF)
-                    to_half(gather_.data(), reinterpret_cast<uint16_t *>(plane), n);
-                else if (t == PixType::U32)
-                    to_uint(gather_.data(), reinterpret_cast<uint32_t *>(plane), n);
-                else
-                    std::memcpy(plane, gather_.data(), n * sizeof(float));
-                const uintptr_t base = reinterpret_cast<uintptr_t>(plane) - uintptr_t(intptr_t(spec_.x) * intptr_t(vs)) -
-                                       uintptr_t(intptr_t(spec_.y + y0) * intptr_t(w * vs));
-                fb.insert(spec_.names[c], Imf::Slice(t == PixType::HALF  ? Imf::HALF
-                                                     : t == PixType::U32 ? Imf::UINT
-                                                                         : Imf::FLOAT,
-                                                     reinterpret_cast<char *>(base), vs, w * vs));
+                slice(t == PixType::HALF ? Imf::HALF : Imf::UINT, plane, vs, w * vs);
             }
             out_->setFrameBuffer(fb);
             out_->writePixels(y1 - y0);
@@ -517,8 +522,8 @@ class ExrWriter final : public Writer {
     WriteSpec spec_;
     std::unique_ptr<Imf::OutputFile> out_;
     std::unique_ptr<ZipPartWriter> zip_; /* ZIP and ZIPS: deflated here (exr_zip_writer.cpp) */
-    std::vector<char> planes_;
-    std::vector<float> gather_;
+    std::vector<char> planes_; /* half and uint channels of a band, converted */
+    std::vector<float> line_;  /* a channel's row gathered */
 };
 
 std::unique_ptr<Writer> exr_create_writer() {

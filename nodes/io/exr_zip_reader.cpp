@@ -108,7 +108,7 @@ struct ZipPartReader::Impl {
 
     /* the chunk of s's first row, n bytes of rows */
     Rows inflate(Slot &s, size_t n) const {
-        int size = int(n);
+        int size = int(chunk_bytes()); /* in: the buffer's size; out: the chunk's */
         in->rawPixelDataToBuffer(top + s.first, reinterpret_cast<char *>(s.packed.get()), size);
         if (size < 0 || size_t(size) > chunk_bytes())
             throw std::runtime_error("the chunk of row " + std::to_string(top + s.first) + " declares " +

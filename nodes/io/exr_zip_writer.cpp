@@ -134,12 +134,7 @@ struct ZipPartWriter::Impl {
         s.line.resize(w);
         s.conv.resize(w);
         for (const Chan &c : chans) {
-            const BandSrc &b = band[c.src];
-            const float *v = b.p + r * b.ys;
-            if (b.xs != 1) {
-                for (size_t x = 0; x < w; x++) s.line[x] = v[x * b.xs];
-                v = s.line.data();
-            }
+            const float *v = band[c.src].row(r, w, s.line.data());
             const void *from = v;
             if (c.type == PixType::HALF) {
                 to_half(v, reinterpret_cast<uint16_t *>(s.conv.data()), w);
