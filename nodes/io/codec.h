@@ -112,12 +112,13 @@ struct BandDst {
 struct BandSrc {
     const float *p;
     size_t xs, ys;
+    /* the value of row y, column x */
+    float at(size_t y, size_t x) const { return p[y * ys + x * xs]; }
     /* row y's w values packed: where they are when xs is 1, else gathered
      * into tmp (w floats) */
     const float *row(size_t y, size_t w, float *tmp) const {
-        const float *v = p + y * ys;
-        if (xs == 1) return v;
-        for (size_t x = 0; x < w; x++) tmp[x] = v[x * xs];
+        if (xs == 1) return p + y * ys;
+        for (size_t x = 0; x < w; x++) tmp[x] = at(y, x);
         return tmp;
     }
 };

@@ -466,9 +466,12 @@ class ExrWriter final : public Writer {
                 return true;
             }
             const size_t nch = spec_.names.size(), w = size_t(spec_.width), rows = size_t(y1 - y0), n = rows * w;
-            planes_.resize(nch * n * sizeof(float));
+            size_t converted = 0;
+            for (size_t c = 0; c < nch; c++) converted += spec_.types[c] != PixType::FLOAT;
+            planes_.resize(converted * n * sizeof(float));
             line_.resize(w);
             Imf::FrameBuffer fb;
+            char *plane = planes_.data();
             for (size_t c = 0; c < nch; c++) {
                 const PixType t = spec_.types[c];
                 /* the slice's origin is pixel (0, 0) of the data window */
@@ -482,7 +485,6 @@ class ExrWriter final : public Writer {
                     slice(Imf::FLOAT, src[c].p, src[c].xs * sizeof(float), src[c].ys * sizeof(float));
                     continue;
                 }
-                char *plane = planes_.data() + c * n * sizeof(float);
                 for (size_t y = 0; y < rows; y++) {
                     const float *v = src[c].row(y, w, line_.data());
                     if (t == PixType::HALF)
@@ -492,6 +494,7 @@ class ExrWriter final : public Writer {
                 }
                 const size_t vs = t == PixType::HALF ? 2 : 4;
                 slice(t == PixType::HALF ? Imf::HALF : Imf::UINT, plane, vs, w * vs);
+                plane += n * sizeof(float);
             }
             out_->setFrameBuffer(fb);
             out_->writePixels(y1 - y0);

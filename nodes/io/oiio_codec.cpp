@@ -205,12 +205,9 @@ class OiioWriter final : public Writer {
     bool write(int y0, int y1, const BandSrc *src, std::string &why) override {
         const size_t nch = size_t(spec_.nchannels), w = size_t(spec_.width), rows = size_t(y1 - y0);
         band_.resize(rows * w * nch);
-        line_.resize(w);
         for (size_t c = 0; c < nch; c++)
-            for (size_t y = 0; y < rows; y++) {
-                const float *v = src[c].row(y, w, line_.data());
-                for (size_t x = 0; x < w; x++) band_[(y * w + x) * nch + c] = v[x];
-            }
+            for (size_t y = 0; y < rows; y++)
+                for (size_t x = 0; x < w; x++) band_[(y * w + x) * nch + c] = src[c].at(y, x);
         if (!out_->write_scanlines(spec_.y + y0, spec_.y + y1, 0, OIIO::TypeFloat, band_.data()) || out_->has_error()) {
             why = oiio_msg(out_->geterror(), "writing pixels failed");
             return false;
@@ -257,7 +254,6 @@ class OiioWriter final : public Writer {
   private:
     ImageSpec spec_;
     std::vector<float> band_; /* a band interleaved */
-    std::vector<float> line_; /* a channel's row gathered */
     std::string path_;
     std::unique_ptr<OIIO::Filesystem::IOVecOutput> mem_;
     std::unique_ptr<ImageOutput> out_;
