@@ -123,6 +123,7 @@ static void release(ew_op *op) {
  * the scales' radiance and outputs, and with several tiles scale 0's
  * output of a region. */
 #define FRAME_FLOATS 17
+#define FEATURE_FLOATS 7 /* of them albedo, normal, depth */
 #define TILE_EXTRA_FLOATS 3
 #define MIN_CORE 256
 /* On the CPU a region above ~0.75 Mpx costs more a pixel than smaller
@@ -151,9 +152,9 @@ static int passes_of(const ew_op *op) { return (int)ew_op_param(op, "passes"); }
 #define BAND_ROWS 32
 #define BAND_FLOATS_PX 8 /* radiance 3, guide 1, clamped 3, removed 1 */
 static int can_stream(const ew_op *op) { return !op->dev->device_memory && passes_of(op) == 1; }
-static size_t band_floats(int w) { /* BAND_ROWS and the clamp's window's rows each side */
-    return (size_t)(BAND_ROWS + 2 * ew_kpcn_clamp_params(w, 1, 0.0f).radius) * (size_t)w * BAND_FLOATS_PX;
-}
+/* the clamp's window's rows above and below a band */
+static int band_margin(void) { return ew_kpcn_clamp_params(1, 1, 0.0f).radius; }
+static size_t band_floats(int w) { return (size_t)(BAND_ROWS + 2 * band_margin()) * (size_t)w * BAND_FLOATS_PX; }
 
 /* The features the op reads from the caller's views where they are
  * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
@@ -170,12 +171,21 @@ static void features_in_place(const ew_op *op, const float *in[3]) {
     in[2] = ew_dev_view_in_place(op->dev, ew_op_image(op, "depth"), 1, o);
 }
 
-static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
+/* The parameters (rounded up to 16 floats), px floats a pixel and `more`. */
+static size_t params_and_frame(const ew_kpcn_net *net, int w, int h, size_t px, size_t more) {
+    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + more + 64;
+}
+
+/* Floats a pixel of the features the op copies (those not read in place). */
+static size_t feature_copies_px(const ew_op *op) {
     const float *in[3];
     features_in_place(op, in);
-    const size_t px = FRAME_FLOATS - (in[0] ? 3 : 0) - (in[1] ? 3 : 0) - (in[2] ? 1 : 0) +
-                      (passes_of(op) > 1 ? 3 : 0); /* the passes' sum */
-    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + 64;
+    return (in[0] ? 0 : 3) + (in[1] ? 0 : 3) + (in[2] ? 0 : 1);
+}
+
+static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
+    const size_t px = FRAME_FLOATS - FEATURE_FLOATS + feature_copies_px(op) + (passes_of(op) > 1 ? 3 : 0); /* the passes' sum */
+    return params_and_frame(net, w, h, px, 0);
 }
 
 /* Streamed (above): the parameters, the colour when it is not read in
@@ -183,10 +193,7 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
  * their pages untouched otherwise), the features not read in place, the
  * clamped radiance and one band. */
 static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
-    const float *in[3];
-    features_in_place(op, in);
-    const size_t px = 3 + 3 + 3 + (in[0] ? 0 : 3) + (in[1] ? 0 : 3) + (in[2] ? 0 : 1);
-    return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + band_floats(w) + 64;
+    return params_and_frame(net, w, h, 3 + 3 + 3 + feature_copies_px(op), band_floats(w));
 }
 
 /* The device floats of a tiled side x side region. */
@@ -532,7 +539,7 @@ static ew_result put_features(ew_op *op) {
     const int w = b->width, h = b->height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
     ew_result r = EW_OK;
-    if (r == EW_OK && b->albedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)b->albedo, s->stage);
+    if (b->albedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)b->albedo, s->stage);
     if (r == EW_OK && b->normal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)b->normal, s->stage);
     if (r == EW_OK && b->depth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)b->depth, s->stage);
     if (r != EW_OK) return r;
@@ -559,7 +566,7 @@ static ew_result clamp_bands(ew_op *op, const float *color) {
     const float k = ew_op_param(op, "firefly_k");
     float *removed = ew_harm_clamp_removed(op);
     const size_t w3 = (size_t)w * 3;
-    const int margin = ew_kpcn_clamp_params(w, h, k).radius; /* the window's rows above and below */
+    const int margin = band_margin();
     ew_result r = EW_OK;
     for (int y0 = 0; y0 < h && r == EW_OK; y0 += BAND_ROWS) {
         const int y1 = y0 + BAND_ROWS < h ? y0 + BAND_ROWS : h;
@@ -593,8 +600,6 @@ static ew_result clamp_bands(ew_op *op, const float *color) {
     }
     return r;
 }
-
-static ew_result run_frame(ew_op *op, const float *radiance, float noise, double p0, double dp);
 
 /* Streamed (above): the bands, then every tile, each core into the output
  * view (or the op's plane, copied out) */
