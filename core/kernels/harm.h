@@ -95,7 +95,8 @@ typedef struct ew_harm_args {
     const float *color;     /* the caller's colour, packed */
     const float *albedo;    /* 3 per pixel, or NULL: no demodulation */
     float *radiance;        /* 3 per pixel: DEMOD writes it */
-    const float *rejected;  /* 3 per pixel: radiance after the outlier rejection (REMOD reads it) */
+    const float *rejected;  /* 3 per pixel: radiance after the outlier rejection (REMOD reads it; it may be
+                               clamped itself when that is RGB: each pixel is read before it is written) */
     float *clamped;         /* clamped_channels per pixel: REMOD writes it (the method's input, and the blend's) */
     float *out;             /* 3 per pixel: the method's output; BLEND rewrites it in place */
     float *stats;           /* EW_HARM_STATS_FLOATS per pixel: STATS writes r^2, the neighbour product, its
@@ -115,7 +116,7 @@ typedef struct ew_harm_args {
                                (ew_outlier_buffers.removed: of the colour it was given, clamped here);
                                GIVE rewrites it as the pixel's share of its window's light, then TAKE as
                                the luminance of what the rejection took that comes back */
-    float *spread;          /* 3 per pixel: the box sums (SUM_H, S, SPREAD_H) */
+    float *spread;          /* 2 per pixel: the box sums (SUM_H, then SPREAD_H over it; S) */
     int give_radius;        /* each pixel's light goes back over its (2 give_radius + 1)^2 window */
     float give_cap;         /* of what the rejection (color - clamped) took, at most give_cap x the
                                luminance it left comes back; 0: none */
@@ -501,9 +502,9 @@ EW_HD void ew_harm_scale_px(long j, const ew_harm_args *a) {
     for (int c = 0; c < 3; c++) o[c] *= 1.0f + a->gain;
 }
 
-/* SPREAD_H: the shares g / S summed along the row */
+/* SPREAD_H: the shares g / S summed along the row, where SUM_H's sums
+ * were (SUM_V has read them) */
 EW_HD void ew_harm_spread_h_px(int x, int y, const ew_harm_args *a) {
-    const long n = (long)a->width * a->height;
     /* as ew_harm_box_h, over give */
     const int b = ew_harm_box_block(a->give_radius), r = a->give_radius;
     float s = 0.0f;
@@ -513,13 +514,12 @@ EW_HD void ew_harm_spread_h_px(int x, int y, const ew_harm_args *a) {
             blk += a->give[(long)y * a->width + xx];
         s += blk;
     }
-    a->spread[2 * n + (long)y * a->width + x] = s;
+    a->spread[(long)y * a->width + x] = s;
 }
 
 /* SPREAD_V: ... and along the column; the output scaled by 1 + that */
 EW_HD void ew_harm_spread_v_px(int x, int y, const ew_harm_args *a) {
-    const long n = (long)a->width * a->height;
-    const float t = ew_minf(ew_harm_box_v(a, a->spread + 2 * n, x, y, a->give_radius), a->give_gain);
+    const float t = ew_minf(ew_harm_box_v(a, a->spread, x, y, a->give_radius), a->give_gain);
     float *o = a->out + ((long)y * a->width + x) * 3;
     if (!ew_harm_finite3(o) || !(t > 0.0f)) return;
     for (int c = 0; c < 3; c++) o[c] *= 1.0f + t;

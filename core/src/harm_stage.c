@@ -242,8 +242,9 @@ ew_result ew_harm_commit(ew_op *op) {
     ew_harm_release(op);
     const size_t n = (size_t)w * (size_t)h;
     /* col (cc), albedo, normal (those not read in place), a (radiance, then
-     * the method's output), b (rejected radiance, then the residual
-     * statistics), clamped (clamped_channels), removed (1), the rejection's excess (1, kept) */
+     * the method's output), b (a filter's rejected radiance, then the
+     * residual statistics), clamped (clamped_channels; a denoiser's
+     * rejected radiance first), removed (1), the rejection's excess (1, kept) */
     const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
@@ -379,15 +380,20 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     /* a pixel that alone saw a light smaller than itself: judged in colour
      * (kernels/outlier.h), its albedo being the hits' own noise */
     p.emitter_albedo = HARM_EMITTER_ALBEDO;
-    const ew_outlier_buffers ob = {s->a, s->alb, s->nrm, s->b, 3, NULL};
+    /* the rejected radiance: where the clamped colour goes when that is
+     * RGB (a denoiser's), remodulated there in place, so that no third
+     * frame of RGB is held beside the radiance and the clamped colour */
+    float *rejected = s->pre == 1 ? s->clamped : s->b;
+    const ew_outlier_buffers ob = {s->a, s->alb, s->nrm, rejected, 3, NULL};
     for (int pass = 0; r == EW_OK; pass++) {
         p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
         dev->backend->outlier_guided(dev, &p, &ob);
         double left;
-        if (pass == 2 || (r = frame_mean(s, dev, s->b, &left)) != EW_OK || left >= HARM_REJECT_KEEP * mean) break;
+        if (pass == 2 || (r = frame_mean(s, dev, rejected, &left)) != EW_OK || left >= HARM_REJECT_KEEP * mean) break;
         mean = left;
     }
     if (r != EW_OK) return r;
+    ha->rejected = rejected;
     dev->backend->harm(dev, EW_HARM_REMOD, ha);
     if (ha->excess) {
         /* written only where the rejection took something: on the CPU the
@@ -506,7 +512,6 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.color = s->col;
     ha.albedo = s->alb;
     ha.radiance = s->a;
-    ha.rejected = s->b;
     ha.clamped = s->pre ? s->clamped : s->col;
     ha.excess = s->excess;
     ha.radius = HARM_BLEND_RADIUS;

@@ -458,7 +458,7 @@ TEST(harm_stage_steps) {
     h.theta_n = 0.2f;
     h.fade = 0.25f; /* the blend a quarter faded, as on a noisy frame */
     h.give = hrand(N, 0.0f, 1.0f, 41); /* the share a method's clamp took */
-    h.spread = hnan(N * 3);
+    h.spread = hnan(N * 2);
     h.give_radius = 7; /* 15 taps: 5 blocks of 3 (kernels/harm.h), windows past every edge */
     h.give_cap = 2.0f;
     h.give_limit = 5.0f;
@@ -474,7 +474,7 @@ TEST(harm_stage_steps) {
     d.out = dup_to(p.dut, out, N * 3);
     d.stats = dnan(p.dut, N * EW_HARM_STATS_FLOATS);
     d.give = dup_to(p.dut, h.give, N);
-    d.spread = dnan(p.dut, N * 3);
+    d.spread = dnan(p.dut, N * 2);
     /* the rejection keeps most pixels: the radiance itself, then a few
      * changed; then the blend and the energy return */
     for (int step = EW_HARM_DEMOD; step <= EW_HARM_SCALE; step++) {
@@ -490,7 +490,7 @@ TEST(harm_stage_steps) {
     ok = ok && match(back(p.dut, d.clamped, N * 4), h.clamped, N * 4, "remodulated");
     ok = ok && match(back(p.dut, d.stats, N * EW_HARM_STATS_FLOATS), h.stats, N * EW_HARM_STATS_FLOATS, "residual statistics");
     ok = ok && match(back(p.dut, d.give, N), h.give, N, "shares given back");
-    ok = ok && match(back(p.dut, d.spread, N * 3), h.spread, N * 3, "box sums of the energy return");
+    ok = ok && match(back(p.dut, d.spread, N * 2), h.spread, N * 2, "box sums of the energy return");
     ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended, light given back");
     /* what the rejection took, kept for TAKE (a caller's output over its colour) */
     h.excess = hrand(N, 0.0f, 0.0f, 0); /* zero first: written where the rejection took something */
@@ -513,6 +513,18 @@ TEST(harm_stage_steps) {
         ok = ok && match(back(p.dut, d.radiance, N * 3), h.radiance, N * 3, "demodulated RGB");
         ok = ok && match(back(p.dut, d.clamped, N * 3), h.clamped, N * 3, "remodulated RGB");
         ok = ok && match(back(p.dut, d.out, N * 3), h.out, N * 3, "blended RGB");
+        /* REMOD over the rejected radiance itself (the stage's denoiser
+         * path: the rejection writes where the clamped colour goes) */
+        float *const hkept = h.clamped, *const dkept = d.clamped;
+        h.rejected = h.clamped = hcopy(rejected, N * 3);
+        d.rejected = d.clamped = dup_to(p.dut, rejected, N * 3);
+        ew_cpu_backend.harm(p.cpu, EW_HARM_REMOD, &h);
+        p.dut->backend->harm(p.dut, EW_HARM_REMOD, &d);
+        ok = ok && match(back(p.dut, d.clamped, N * 3), h.clamped, N * 3, "remodulated RGB in place");
+        h.rejected = rejected;
+        d.rejected = dup_to(p.dut, rejected, N * 3);
+        h.clamped = hkept;
+        d.clamped = dkept;
     }
     close_pair(&p);
     CHECK(ok);

@@ -382,8 +382,9 @@ static EW_MULTIVERSION void harm_remod_span(float *EW_RESTRICT out, const float 
         }
 }
 
-/* DEMOD and REMOD of row y; rgb: 6 w floats when the colour has more than
- * RGB (its RGB gathered, REMOD's RGB before the other channels are copied) */
+/* DEMOD and REMOD of row y; rgb: 9 w floats (the colour's RGB gathered
+ * when it has more channels, REMOD's RGB before the other channels are
+ * copied, the rejected row when REMOD writes over it) */
 static void harm_modulate_row(const ew_harm_args *a, int step, int y, float *rgb) {
     const long w = a->width, cc = a->channels, j0 = (long)y * w;
     const float *col = a->color + j0 * cc, *alb = a->albedo ? a->albedo + j0 * 3 : NULL;
@@ -398,7 +399,12 @@ static void harm_modulate_row(const ew_harm_args *a, int step, int y, float *rgb
     }
     const long ck = ew_harm_cch(a);
     float *out = ck != 3 ? rgb + 3 * w : a->clamped + j0 * 3;
-    harm_remod_span(out, col, a->radiance + j0 * 3, a->rejected + j0 * 3, alb, w);
+    const float *r1 = a->rejected + j0 * 3;
+    if (r1 == out) { /* in place (harm.h): the span's inputs and output must not alias */
+        memcpy(rgb + 6 * w, r1, 3 * (size_t)w * sizeof(float));
+        r1 = rgb + 6 * w;
+    }
+    harm_remod_span(out, col, a->radiance + j0 * 3, r1, alb, w);
     if (ck != 3) {
         const float *c0 = a->color + j0 * cc;
         float *o = a->clamped + j0 * ck;
@@ -712,7 +718,7 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     harm_col_ring ring = {NULL, NULL};
     switch (h->step) {
     case EW_HARM_DEMOD:
-    case EW_HARM_REMOD: buf = (float *)malloc(6 * (size_t)w * sizeof(float)); break;
+    case EW_HARM_REMOD: buf = (float *)malloc(9 * (size_t)w * sizeof(float)); break;
     case EW_HARM_STATS: buf = (float *)malloc(15 * (size_t)w * sizeof(float)); break;
     case EW_HARM_BLEND: buf = (float *)malloc(2 * (size_t)EW_HARM_STATS_FLOATS * (size_t)w * sizeof(float)); break;
     case EW_HARM_SUM_H:
@@ -763,10 +769,10 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
                 harm_box_col(a->spread + n + j0, a->spread, w, H, y, gr, &ring);
                 break;
             case EW_HARM_SPREAD_H: /* as ew_harm_spread_h_px */
-                harm_box_row(a->spread + 2 * n + j0, a->give + j0, w, gr, buf + w);
+                harm_box_row(a->spread + j0, a->give + j0, w, gr, buf + w);
                 break;
             default: { /* EW_HARM_SPREAD_V, as ew_harm_spread_v_px */
-                harm_box_col(buf, a->spread + 2 * n, w, H, y, gr, &ring);
+                harm_box_col(buf, a->spread, w, H, y, gr, &ring);
                 for (int x = 0; x < w; x++) {
                     const float t = ew_minf(buf[x], a->give_gain);
                     float *o = a->out + (j0 + x) * 3;
