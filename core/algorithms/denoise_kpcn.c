@@ -426,7 +426,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     ia.normal = b->normal + at * 3;
     ia.depth = b->depth + at;
     ia.depth_scale = b->depth_scale;
-    ia.dst = ew_gn_plane_row(&s->sb[0], 0, 0);
+    ia.dst = ew_gn_plane_row(&s->sb[0], net->in[0], 0);
     ia.rs = s->sb[0].rs;
     ia.ps = s->sb[0].ps;
     ia.noise_plane = net->noise;

@@ -202,11 +202,27 @@ void ew_kpcn_layer_args(const ew_kpcn_net *net, int l, const float *params, cons
 }
 
 void ew_kpcn_inference_planes(ew_kpcn_net *net) {
-    const int S = net->scales;
+    const int S = net->scales, c = net->ch;
     for (int k = 0; k < S; k++) {
+        ew_kpcn_layer *head = &net->layers[net->lhead[k]];
+        if (k < S - 1 && net->layers[net->enc[k]].cin <= 2 * c) {
+            /* the inputs (scale 0's features, else the pooled planes) are
+             * read by the encoder only, before the upsampling and the
+             * decoder write u and d: they sit there, the encoder's output
+             * (which the decoder reads with u, in one run of planes) below */
+            ew_kpcn_layer *enc = &net->layers[net->enc[k]], *dec = &net->layers[net->dec[k]];
+            net->h[k] = 0;
+            net->u[k] = net->in[k] = c;
+            net->d[k] = 2 * c;
+            net->head[k] = 3 * c;
+            net->nplanes[k] = 3 * c + head->cout;
+            enc->in_plane = c;
+            enc->out_plane = dec->in_plane = 0;
+            dec->out_plane = head->in_plane = 2 * c;
+            head->out_plane = 3 * c;
+        }
         /* the planes below the head's input are dead once the head runs */
         const int below = k < S - 1 ? net->d[k] : net->hb;
-        ew_kpcn_layer *head = &net->layers[net->lhead[k]];
         if (head->cout > below) continue;
         net->nplanes[k] = below + net->ch;
         net->head[k] = 0;

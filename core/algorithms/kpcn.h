@@ -140,14 +140,17 @@ extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
 
 /* ---- inference on a device -------------------------------------------- */
 /* The op's plane layout of net (inference only: the trainer keeps every
- * plane for the backward pass): each scale's head writes its logits over
- * the planes below its input (the inputs or pooled planes, the encoder's
+ * plane for the backward pass): a scale's inputs (the features, or the
+ * pooled planes) lie where the upsampled and decoder planes go later, as
+ * only the encoder reads them (where they fit there), and each scale's
+ * head writes its logits over the planes below its input (the encoder's
  * output, the upsampled planes; the coarsest scale's pooled planes and
  * first encoder), which nothing reads once the decoder has run, where they
- * fit. kpcn-large's full-resolution scale holds 83 planes instead of 134
- * (109 without the remodulation kernel): the memory the op touches, the
- * page faults of a first run and the tiles it needs shrink with it. The
- * arithmetic is the same. */
+ * fit. kpcn-large (32 channels, a remodulation kernel) holds 96 planes at
+ * full resolution and at the two finer half scales (the trainer's layout:
+ * 158 and 154; with the heads alone over dead planes: 107 and 128): the
+ * memory the op touches, the page faults of a first run and the tiles it
+ * needs shrink with it. The arithmetic is the same. */
 void ew_kpcn_inference_planes(ew_kpcn_net *net);
 
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
