@@ -88,7 +88,8 @@ typedef struct {
     float *scale_mem;       /* the scale buffers of one region */
     size_t scale_floats;
     int lw, lh;             /* the region size sb is laid out for (0: none yet) */
-    ew_gn_planes sb[EW_KPCN_MAX_SCALES];
+    ew_gn_planes sb[EW_KPCN_MAX_SCALES]; /* scale 0: its inputs and encoder output only (ew_kpcn_region0_planes) */
+    ew_gn_planes band;                   /* every plane of scale 0 on a band of rows (kpcn.h) */
     float *rad[EW_KPCN_MAX_SCALES], *out[EW_KPCN_MAX_SCALES]; /* scales below full resolution: 3 planes each */
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
     float *acc;             /* with several passes: the sum of the runs so far, 3 floats a pixel */
@@ -252,6 +253,18 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     return bytes;
 }
 
+/* Rows of scale 0's band for a region rh rows tall (kpcn.h). */
+static int band_rows(int rh) { return (rh < EW_KPCN_BAND_ROWS ? rh : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN; }
+
+/* Floats of a region's scale buffers (the sizes of its scales), as
+ * ew_kpcn_device_floats lays them out: scale 0's inputs and encoder output,
+ * the other scales, then scale 0's band. */
+static size_t region_planes_floats(const ew_kpcn_net *net, const int *sw, const int *sh) {
+    size_t f = ew_gn_planes_floats(sw[0], sh[0], ew_kpcn_region0_planes(net)) + 16;
+    for (int k = 1; k < net->scales; k++) f += ew_gn_planes_floats(sw[k], sh[k], net->nplanes[k]) + 16;
+    return f + ew_gn_planes_floats(sw[0], band_rows(sh[0]), net->nplanes[0]) + 16;
+}
+
 static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
@@ -334,7 +347,7 @@ static ew_result commit(ew_op *op) {
     int rsw[EW_KPCN_MAX_SCALES], rsh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, tiling.rw, tiling.rh, rsw, rsh);
     s->scale_mem = p;
-    for (int k = 0; k < net->scales; k++) p += ew_gn_planes_floats(rsw[k], rsh[k], net->nplanes[k]) + 16;
+    p += region_planes_floats(net, rsw, rsh);
     s->scale_floats = (size_t)(p - s->scale_mem);
     for (int k = 1; k < net->scales; k++) {
         s->rad[k] = p; p += 3 * (size_t)rsw[k] * rsh[k];
@@ -375,7 +388,7 @@ static void pool(ew_device *dev, const ew_gn_planes *f, int fp, const ew_gn_plan
 }
 
 static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes *f, int fp, int nplanes) {
-    ew_kpcn_up_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(c, cp), planes_t(f, fp)};
+    ew_kpcn_up_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(c, cp), planes_t(f, fp), 0};
     (void)EW_RUN(dev, kpcn_up, &a);
 }
 
@@ -393,12 +406,81 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
     ew_kpcn_scale_sizes(net, rw, rh, s->sw, s->sh);
     float *p = s->scale_mem;
     for (int k = 0; k < net->scales; k++) {
-        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], net->nplanes[k]);
-        p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
+        const int n = k ? net->nplanes[k] : ew_kpcn_region0_planes(net);
+        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], n);
+        p += ew_gn_planes_floats(s->sw[k], s->sh[k], n) + 16;
     }
+    ew_gn_planes_layout(&s->band, p, rw, band_rows(rh), net->nplanes[0]);
     s->lw = rw;
     s->lh = rh;
     return dev->backend->mem_zero(dev, s->scale_mem, s->scale_floats * sizeof(float));
+}
+
+/* Layer l of scale 0 on `rows` rows of its band from band row `row` (the
+ * region's row y): Winograd tiles anchored at the frame's origin as conv's. */
+static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile, int row, int rows, int y) {
+    const ew_kpcn_layer *L = &s->net.layers[l];
+    const ew_gn_planes *B = &s->band;
+    ew_conv_args a;
+    ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
+    a.width = B->width;
+    a.rows = rows;
+    a.in = ew_gn_plane_row(B, L->in_plane, row);
+    a.in_rs = B->rs;
+    a.in_ps = B->ps;
+    a.out = ew_gn_plane_row(B, L->out_plane, row);
+    a.out_rs = B->rs;
+    a.out_ps = B->ps;
+    a.winograd = 1;
+    a.grid_x = tile->rx;
+    a.grid_y = tile->ry + y;
+    dev->backend->conv5(dev, &a);
+}
+
+/* Scale 0's end on the region's rows b0 .. b0 + EW_KPCN_BAND_ROWS (kpcn.h):
+ * the encoder's output of the band and its margins copied in, the next
+ * scale's output upsampled, the decoder on the band and 4 rows either side,
+ * the head and the kernel filter (rad0, out, albedo: the region's tensors;
+ * albedo NULL: no remodulation) on the band. The band's planes hold its
+ * margins from row t0; past the region's last row they read zeros, as the
+ * region's planes would. */
+static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile, int b0, const ew_kpcn_tensor *rad0,
+                             const ew_kpcn_tensor *out, const ew_kpcn_tensor *albedo) {
+    const ew_kpcn_net *net = &s->net;
+    const ew_gn_planes *B = &s->band;
+    const int rh = s->sh[0], C = net->ch, S = net->scales, M = EW_KPCN_BAND_MARGIN;
+    const int b1 = b0 + EW_KPCN_BAND_ROWS < rh ? b0 + EW_KPCN_BAND_ROWS : rh;
+    const int t0 = b0 - M > 0 ? b0 - M : 0, t1 = b1 + M < rh ? b1 + M : rh;
+    const int o0 = b0 - M + 2 > 0 ? b0 - M + 2 : 0, o1 = b1 + M - 2 < rh ? b1 + M - 2 : rh;
+    ew_result r = EW_OK;
+    for (int c = 0; c < C && r == EW_OK; c++)
+        r = dev->backend->mem_copy(dev, ew_gn_plane_row(B, net->h[0] + c, 0), ew_gn_plane_row(&s->sb[0], net->h[0] + c, t0),
+                                   (size_t)(t1 - t0) * (size_t)B->rs * sizeof(float));
+    /* the region's last rows: the zero padding below them */
+    for (int pl = 0; t1 == rh && pl < B->nplanes && r == EW_OK; pl++)
+        r = dev->backend->mem_zero(dev, ew_gn_plane_row(B, pl, t1 - t0), (size_t)EW_CONV_R * (size_t)B->rs * sizeof(float));
+    if (r != EW_OK) return r;
+    ew_kpcn_up_args ua = {B->width, t1 - t0, s->sw[1], s->sh[1], C,
+                          planes_t(&s->sb[1], S - 1 == 1 ? net->hb : net->d[1]), planes_t(B, net->u[0]), t0};
+    (void)EW_RUN(dev, kpcn_up, &ua);
+    band_conv(dev, s, net->dec[0], tile, o0 - t0, o1 - o0, o0);
+    band_conv(dev, s, net->lhead[0], tile, b0 - t0, b1 - b0, b0);
+    ew_kpcn_filter_args fa;
+    memset(&fa, 0, sizeof fa);
+    fa.width = B->width;
+    fa.height = b1 - b0;
+    fa.y0 = b0;
+    fa.frame_h = rh;
+    fa.logits = planes_t(B, net->head[0]);
+    fa.logits.data = ew_gn_plane_row(B, net->head[0], b0 - t0);
+    fa.radiance = *rad0;
+    fa.coarse = flat_t(s->out[1], s->sw[1], s->sh[1]);
+    fa.cw = s->sw[1];
+    fa.ch = s->sh[1];
+    fa.out = *out;
+    if (albedo) fa.albedo = *albedo; /* the filter remodulates: its output is the colour */
+    (void)EW_RUN(dev, kpcn_filter, &fa);
+    return EW_OK;
 }
 
 /* The network and the filters on one tile's region, keeping its core in
@@ -434,7 +516,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     ia.src_rs = W;
     (void)EW_RUN(dev, kpcn_input, &ia);
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    /* the network (algorithms/kpcn.h's layer list) */
+    /* the network (algorithms/kpcn.h's layer list) but scale 0's end */
     const int S = net->scales;
     conv(dev, s, net->enc[0], tile);
     for (int k = 1; k < S - 1; k++) {
@@ -445,14 +527,12 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     conv(dev, s, net->enc_a, tile);
     conv(dev, s, net->enc_b, tile);
     conv(dev, s, net->lhead[S - 1], tile);
-    for (int k = S - 2; k >= 0; k--) {
-        if (k == 0 && !ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    for (int k = S - 2; k >= 1; k--) {
         up(dev, &s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->sb[k], net->u[k], C);
         conv(dev, s, net->dec[k], tile);
-        if (k == 0 && !ew_op_report(op, p0 + 0.6 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         conv(dev, s, net->lhead[k], tile);
     }
-    if (!ew_op_report(op, p0 + 0.85 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+    if (!ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the radiance pyramid, then the filters coarse to fine */
     const ew_kpcn_tensor rad0 = {(float *)radiance + at * 3, 3, 3L * W, 1};
     ew_kpcn_tensor prev = rad0;
@@ -462,30 +542,30 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
         (void)EW_RUN(dev, kpcn_pool, &pa);
         prev = pa.dst;
     }
-    for (int sc = S - 1; sc >= 0; sc--) {
+    for (int sc = S - 1; sc >= 1; sc--) {
         ew_kpcn_filter_args fa;
         memset(&fa, 0, sizeof fa);
         fa.width = s->sw[sc];
         fa.height = s->sh[sc];
         fa.logits = planes_t(&s->sb[sc], net->head[sc]);
-        fa.radiance = sc == 0 ? rad0 : flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
+        fa.radiance = flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
         if (sc + 1 < S) {
             fa.coarse = flat_t(s->out[sc + 1], s->sw[sc + 1], s->sh[sc + 1]);
             fa.cw = s->sw[sc + 1];
             fa.ch = s->sh[sc + 1];
         }
-        if (sc == 0) {
-            /* one tile writes the frame; several write their region, and keep the core */
-            ew_kpcn_tensor o = {s->tile_out ? s->tile_out : tile_target(s, net), 3, 3L * rw, 1};
-            fa.out = o;
-            if (net->remod) { /* the filter remodulates: its output is the colour */
-                const ew_kpcn_tensor al = {(float *)b->albedo + at * 3, 3, 3L * W, 1};
-                fa.albedo = al;
-            }
-        } else {
-            fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
-        }
+        fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
         (void)EW_RUN(dev, kpcn_filter, &fa);
+    }
+    /* scale 0's end in bands (kpcn.h): one tile writes the frame; several
+     * write their region, and keep the core */
+    const ew_kpcn_tensor o = {s->tile_out ? s->tile_out : tile_target(s, net), 3, 3L * rw, 1};
+    const ew_kpcn_tensor al = {(float *)b->albedo + at * 3, 3, 3L * W, 1};
+    for (int b0 = 0; b0 < rh && r == EW_OK; b0 += EW_KPCN_BAND_ROWS) {
+        r = scale0_band(dev, s, tile, b0, &rad0, &o, net->remod ? &al : NULL);
+        const int done = b0 + EW_KPCN_BAND_ROWS < rh ? b0 + EW_KPCN_BAND_ROWS : rh;
+        if (r == EW_OK && !ew_op_report(op, p0 + (0.3 + 0.65 * done / rh) * dp))
+            return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
     if (s->tile_out) {
         const size_t row = (size_t)tile->cw * 3 * sizeof(float);

@@ -230,11 +230,18 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net) {
     }
 }
 
+int ew_kpcn_region0_planes(const ew_kpcn_net *net) {
+    const int h = net->h[0] + net->ch, in = net->in[0] + net->inputs;
+    return h > in ? h : in;
+}
+
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, w, h, sw, sh);
-    size_t f = 0;
-    for (int s = 0; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
+    const int band = (h < EW_KPCN_BAND_ROWS ? h : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN;
+    size_t f = ew_gn_planes_floats(w, h, ew_kpcn_region0_planes(net)) + 16 +
+               ew_gn_planes_floats(w, band, net->nplanes[0]) + 16;
+    for (int s = 1; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
     /* radiance and output of the scales below full resolution, 3 planes each */
     for (int s = 1; s < net->scales; s++) f += 2 * 3 * (size_t)sw[s] * sh[s];
     return f;
@@ -632,14 +639,14 @@ static void pool_planes_bwd(const ew_gn_planes *dfine, int fp, const ew_gn_plane
 
 static void up_planes(const ew_gn_planes *coarse, int cp, const ew_gn_planes *fine, int fp, int n) {
     ew_kpcn_up_args a = {fine->width, fine->rows, coarse->width, coarse->rows, n, planes_t(coarse, cp),
-                         planes_t(fine, fp)};
+                         planes_t(fine, fp), 0};
     for (int y = 0; y < fine->rows; y++)
         for (int x = 0; x < fine->width; x++) ew_kpcn_up_px(x, y, &a);
 }
 
 static void up_planes_bwd(const ew_gn_planes *dcoarse, int cp, const ew_gn_planes *dfine, int fp, int n) {
     ew_kpcn_up_args a = {dfine->width, dfine->rows, dcoarse->width, dcoarse->rows, n, planes_t(dcoarse, cp),
-                         planes_t(dfine, fp)};
+                         planes_t(dfine, fp), 0};
     const ew_kpcn_tensor df = planes_t(dfine, fp), dc = planes_t(dcoarse, cp);
     for (int y = 0; y < dfine->rows; y++)
         for (int x = 0; x < dfine->width; x++) ew_kpcn_up_backward_px(x, y, &a, &df, &dc);

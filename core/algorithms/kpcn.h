@@ -153,8 +153,23 @@ extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
  * needs shrink with it. The arithmetic is the same. */
 void ew_kpcn_inference_planes(ew_kpcn_net *net);
 
+/* The full-resolution scale's end in bands of rows. Its upsampled planes,
+ * decoder and head (and its kernel filter) run on EW_KPCN_BAND_ROWS rows at
+ * a time, so the region holds only what outlives them at that scale: the
+ * inputs and the encoder's output (ew_kpcn_region0_planes), and a band of
+ * every plane. A band's head reads its decoder 2 rows beyond it, which
+ * reads the encoder's output and the upsampled planes 2 rows further; the
+ * decoder runs on 4 rows beyond the band, so that on the CPU its Winograd
+ * tiles (4 rows, anchored at the frame's origin) are whole and the
+ * frame's own: EW_KPCN_BAND_MARGIN rows of them either side. The same bits
+ * as the planes of the whole region. */
+#define EW_KPCN_BAND_ROWS 64
+#define EW_KPCN_BAND_MARGIN 6
+int ew_kpcn_region0_planes(const ew_kpcn_net *net);
+
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
- * the scale buffers, radiance pyramid and outputs of the scales below 0. */
+ * the scale buffers (the full-resolution scale's and its band's as above),
+ * radiance pyramid and outputs of the scales below 0. */
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
 
 /* ---- tiles -------------------------------------------------------------

@@ -162,6 +162,7 @@ typedef struct ew_kpcn_up_args {
     long nplanes; /* a long, so that the struct has no padding: a device copies it as bytes, and the
                    * launch-grid check reads every word of it as a possible pointer */
     ew_kpcn_tensor src, dst; /* coarse, fine */
+    long y0;      /* dst's row 0 is fine row y0 (a band of fh rows of a taller plane), else 0 */
 } ew_kpcn_up_args;
 
 EW_HD float ew_kpcn_bilerp(const ew_kpcn_tensor *t, int c, int x0, int x1, int y0, int y1, float wx0, float wx1,
@@ -174,7 +175,7 @@ EW_HD void ew_kpcn_up_px(int x, int y, const ew_kpcn_up_args *a) {
     int x0, x1, y0, y1;
     float wx0, wx1, wy0, wy1;
     ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
-    ew_kpcn_up_taps(y, a->ch, &y0, &y1, &wy0, &wy1);
+    ew_kpcn_up_taps(y + (int)a->y0, a->ch, &y0, &y1, &wy0, &wy1);
     for (int c = 0; c < a->nplanes; c++)
         *ew_kpcn_at(&a->dst, c, y, x) = ew_kpcn_bilerp(&a->src, c, x0, x1, y0, y1, wx0, wx1, wy0, wy1);
 }
@@ -213,14 +214,19 @@ EW_HD void ew_kpcn_up_backward_px(int x, int y, const ew_kpcn_up_args *a, const 
  * m is a convex combination of A around the pixel, so it stays between the
  * smallest and largest albedo there. */
 typedef struct ew_kpcn_filter_args {
-    int width, height;
-    ew_kpcn_tensor logits;    /* 25 or 26 planes */
+    int width, height;        /* the rows filtered: height of them from row y0 */
+    ew_kpcn_tensor logits;    /* 25 or 26 planes, its row 0 the row y0 */
     ew_kpcn_tensor radiance;  /* 3 channels at this scale */
     ew_kpcn_tensor coarse;    /* 3 channels at half this scale, or data NULL */
     int cw, ch;               /* the coarse size */
+    int y0, frame_h;          /* a band of a plane of frame_h rows (taps clamp there) from row y0; 0, 0: the
+                                 whole plane, height rows */
     ew_kpcn_tensor out;       /* 3 channels */
     ew_kpcn_tensor albedo;    /* 3 channels of raw albedo at full resolution, or data NULL: no remodulation */
 } ew_kpcn_filter_args;
+
+/* the rows of the plane the taps clamp to */
+EW_HD int ew_kpcn_filter_rows(const ew_kpcn_filter_args *a) { return a->frame_h ? a->frame_h : a->height; }
 
 /* softmax of the 25 logits from plane first at (x, y) into w; w sums to 1.
  * The exponential is ew_fexp (kernels/fastmath.h), not libm's expf: the CPU
@@ -238,8 +244,9 @@ EW_HD void ew_kpcn_softmax_at(int x, int y, const ew_kpcn_tensor *logits, int fi
     for (int k = 0; k < EW_KPCN_TAPS; k++) w[k] *= inv;
 }
 
+/* at row y of the plane (the logits' row y - y0) */
 EW_HD void ew_kpcn_softmax_px(int x, int y, const ew_kpcn_filter_args *a, float *w) {
-    ew_kpcn_softmax_at(x, y, &a->logits, 0, w);
+    ew_kpcn_softmax_at(x, y - a->y0, &a->logits, 0, w);
 }
 
 EW_HD void ew_kpcn_tap_xy(int k, int x, int y, int width, int height, int *tx, int *ty) {
@@ -251,18 +258,18 @@ EW_HD void ew_kpcn_filtered_px(int x, int y, const ew_kpcn_filter_args *a, const
     f[0] = f[1] = f[2] = 0.0f;
     for (int k = 0; k < EW_KPCN_TAPS; k++) {
         int tx, ty;
-        ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
+        ew_kpcn_tap_xy(k, x, y, a->width, ew_kpcn_filter_rows(a), &tx, &ty);
         for (int c = 0; c < 3; c++) f[c] += w[k] * *ew_kpcn_at(&a->radiance, c, ty, tx);
     }
 }
 
 /* The remodulation albedo m at (x, y) (a->albedo set) and its kernel v. */
 EW_HD void ew_kpcn_remod_albedo_px(int x, int y, const ew_kpcn_filter_args *a, float *v, float *m) {
-    ew_kpcn_softmax_at(x, y, &a->logits, EW_KPCN_HEAD, v);
+    ew_kpcn_softmax_at(x, y - a->y0, &a->logits, EW_KPCN_HEAD, v);
     m[0] = m[1] = m[2] = 0.0f;
     for (int k = 0; k < EW_KPCN_TAPS; k++) {
         int tx, ty;
-        ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
+        ew_kpcn_tap_xy(k, x, y, a->width, ew_kpcn_filter_rows(a), &tx, &ty);
         for (int c = 0; c < 3; c++) m[c] += v[k] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty, tx));
     }
 }
@@ -287,7 +294,7 @@ EW_HD void ew_kpcn_remod_backward_px(int x, int y, const ew_kpcn_filter_args *a,
 /* f = (1 - a) f + a up(coarse)(x, y), a = sigmoid(logit 25): the filtered
  * radiance f at (x, y) blended with the coarser scale's result */
 EW_HD void ew_kpcn_blend_coarse_px(int x, int y, const ew_kpcn_filter_args *a, float *f) {
-    const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y, x));
+    const float al = ew_sigmoidf(*ew_kpcn_at(&a->logits, EW_KPCN_TAPS, y - a->y0, x));
     int x0, x1, y0, y1;
     float wx0, wx1, wy0, wy1;
     ew_kpcn_up_taps(x, a->cw, &x0, &x1, &wx0, &wx1);
@@ -298,7 +305,9 @@ EW_HD void ew_kpcn_blend_coarse_px(int x, int y, const ew_kpcn_filter_args *a, f
     }
 }
 
-EW_HD void ew_kpcn_filter_px(int x, int y, const ew_kpcn_filter_args *a) {
+/* pixel x of the yb-th row filtered (the plane's row y0 + yb) */
+EW_HD void ew_kpcn_filter_px(int x, int yb, const ew_kpcn_filter_args *a) {
+    const int y = yb + a->y0;
     float w[EW_KPCN_TAPS], f[3];
     ew_kpcn_softmax_px(x, y, a, w);
     ew_kpcn_filtered_px(x, y, a, w, f);

@@ -1005,8 +1005,8 @@ TEST(kpcn_input_pool_up_filter) {
     ok = ok && match(back(p.dut, dpooled, NC * 3), pooled, NC * 3, "kpcn pool");
 
     float *upd = hnan(N * 3), *dupd = dnan(p.dut, N * 3);
-    ew_kpcn_up_args hu = {W, H, cw, ch, 3, {pooled, 1, cw, (long)NC}, {upd, 1, W, (long)N}};
-    ew_kpcn_up_args du = {W, H, cw, ch, 3, {dpooled, 1, cw, (long)NC}, {dupd, 1, W, (long)N}};
+    ew_kpcn_up_args hu = {W, H, cw, ch, 3, {pooled, 1, cw, (long)NC}, {upd, 1, W, (long)N}, 0};
+    ew_kpcn_up_args du = {W, H, cw, ch, 3, {dpooled, 1, cw, (long)NC}, {dupd, 1, W, (long)N}, 0};
     (void)EW_RUN(p.cpu, kpcn_up, &hu);
     (void)EW_RUN(p.dut, kpcn_up, &du);
     ok = ok && match(back(p.dut, dupd, N * 3), upd, N * 3, "kpcn up");
@@ -1056,6 +1056,40 @@ TEST(kpcn_input_pool_up_filter) {
         (void)EW_RUN(p.cpu, kpcn_filter, &hf);
         (void)EW_RUN(p.dut, kpcn_filter, &df);
         ok = match(back(p.dut, dout, N * 3), out, N * 3, "kpcn filter");
+        /* a band of rows (the op's full-resolution scale runs so): the
+         * logits of the band only, taps reaching past it into the plane,
+         * the same pixels as the whole plane's */
+        const int y0 = 3, rows = H - 5;
+        float *bout = hnan(N * 3), *dbout = dnan(p.dut, N * 3);
+        ew_kpcn_filter_args hb = hf, db = df;
+        hb.height = db.height = rows;
+        hb.y0 = db.y0 = y0;
+        hb.frame_h = db.frame_h = H;
+        hb.logits.data = logits + (long)y0 * W;
+        db.logits.data = dlogits + (long)y0 * W;
+        hb.out.data = bout;
+        db.out.data = dbout;
+        (void)EW_RUN(p.cpu, kpcn_filter, &hb);
+        (void)EW_RUN(p.dut, kpcn_filter, &db);
+        ok = ok && match(back(p.dut, dbout, N * 3), bout, N * 3, "kpcn filter, a band");
+        ok = ok && same(bout + (size_t)y0 * W * 3, out + (size_t)y0 * W * 3, (size_t)rows * W * 3,
+                        "kpcn filter, a band against the whole plane");
+    }
+    /* the upsampling of a band of fine rows (from an even and an odd row) */
+    for (int y0 = 2; y0 <= 3 && ok; y0++) {
+        const int rows = H - y0 - 1;
+        float *bup = hnan(N * 3), *dbup = dnan(p.dut, N * 3);
+        ew_kpcn_up_args hb = hu, db = du;
+        hb.fh = db.fh = rows;
+        hb.y0 = db.y0 = y0;
+        hb.dst.data = bup;
+        db.dst.data = dbup;
+        (void)EW_RUN(p.cpu, kpcn_up, &hb);
+        (void)EW_RUN(p.dut, kpcn_up, &db);
+        ok = ok && match(back(p.dut, dbup, N * 3), bup, N * 3, "kpcn up, a band");
+        for (int c = 0; c < 3 && ok; c++)
+            ok = same(bup + (size_t)c * N, upd + (size_t)c * N + (size_t)y0 * W, (size_t)rows * W,
+                      "kpcn up, a band against the whole plane");
     }
     close_pair(&p);
     CHECK(ok);

@@ -214,7 +214,7 @@ TEST(pool_and_up_backward_are_adjoints) {
                 ew_kpcn_pool_px(x, y, &pa);
                 ew_kpcn_pool_backward_px(x, y, &pa, &tc, &tATc);
             }
-        ew_kpcn_up_args ua = {fw, fh, cw, ch, C, flat(c, cw, ch), flat(Uc, fw, fh)};
+        ew_kpcn_up_args ua = {fw, fh, cw, ch, C, flat(c, cw, ch), flat(Uc, fw, fh), 0};
         for (int y = 0; y < fh; y++)
             for (int x = 0; x < fw; x++) {
                 ew_kpcn_up_px(x, y, &ua);
@@ -233,7 +233,7 @@ TEST(pool_and_up_backward_are_adjoints) {
 TEST(up_and_pool_preserve_constants) {
     float c[12], f[42];
     for (int i = 0; i < 12; i++) c[i] = 0.7f;
-    ew_kpcn_up_args ua = {7, 6, 4, 3, 1, flat(c, 4, 3), flat(f, 7, 6)};
+    ew_kpcn_up_args ua = {7, 6, 4, 3, 1, flat(c, 4, 3), flat(f, 7, 6), 0};
     for (int y = 0; y < 6; y++)
         for (int x = 0; x < 7; x++) ew_kpcn_up_px(x, y, &ua);
     for (int i = 0; i < 42; i++) CHECK_NEAR(f[i], 0.7, 1e-6);

@@ -70,12 +70,13 @@ static inline void kpcn_taps_span(const ew_kpcn_tensor *t, int y, int height, in
     }
 }
 
-/* Pixels x0 .. x0 + n - 1 (n <= EW_KPCN_SPAN) of row y, all at least
- * EW_KPCN_KR from the left and right borders. */
+/* Pixels x0 .. x0 + n - 1 (n <= EW_KPCN_SPAN) of the plane's row y (the
+ * logits' row y - y0), all at least EW_KPCN_KR from the left and right
+ * borders. */
 static inline void kpcn_filter_span(const ew_kpcn_filter_args *a, int y, int x0, int n) {
     float w[EW_KPCN_TAPS][EW_KPCN_SPAN], f[3][EW_KPCN_SPAN];
-    kpcn_softmax_span(&a->logits, 0, y, x0, n, w);
-    kpcn_taps_span(&a->radiance, y, a->height, x0, n, w, 0, f);
+    kpcn_softmax_span(&a->logits, 0, y - a->y0, x0, n, w);
+    kpcn_taps_span(&a->radiance, y, ew_kpcn_filter_rows(a), x0, n, w, 0, f);
     if (a->coarse.data)
         for (int i = 0; i < n; i++) {
             float v[3] = {f[0][i], f[1][i], f[2][i]};
@@ -84,8 +85,8 @@ static inline void kpcn_filter_span(const ew_kpcn_filter_args *a, int y, int x0,
         }
     if (a->albedo.data) {
         float m[3][EW_KPCN_SPAN];
-        kpcn_softmax_span(&a->logits, EW_KPCN_HEAD, y, x0, n, w);
-        kpcn_taps_span(&a->albedo, y, a->height, x0, n, w, 1, m);
+        kpcn_softmax_span(&a->logits, EW_KPCN_HEAD, y - a->y0, x0, n, w);
+        kpcn_taps_span(&a->albedo, y, ew_kpcn_filter_rows(a), x0, n, w, 1, m);
         for (int c = 0; c < 3; c++)
             for (int i = 0; i < n; i++) {
                 const float o = f[c][i] * m[c][i];
@@ -102,14 +103,14 @@ static EW_KROWS_ATTR_1 void rows_kpcn_filter(void *ctx, int64_t begin, int64_t e
     const int W = a->width, lo = EW_KPCN_KR, hi = W - EW_KPCN_KR;
     const int spans = a->logits.xs == 1 && hi > lo;
     for (int64_t yy = begin; yy < end; yy++) {
-        const int y = (int)yy;
+        const int yb = (int)yy, y = yb + a->y0; /* the yb-th row filtered, the plane's row y */
         if (!spans) {
-            for (int x = 0; x < W; x++) ew_kpcn_filter_px(x, y, a);
+            for (int x = 0; x < W; x++) ew_kpcn_filter_px(x, yb, a);
             continue;
         }
-        for (int x = 0; x < lo; x++) ew_kpcn_filter_px(x, y, a);
+        for (int x = 0; x < lo; x++) ew_kpcn_filter_px(x, yb, a);
         for (int x = lo; x < hi; x += EW_KPCN_SPAN) kpcn_filter_span(a, y, x, ew_mini(EW_KPCN_SPAN, hi - x));
-        for (int x = hi; x < W; x++) ew_kpcn_filter_px(x, y, a);
+        for (int x = hi; x < W; x++) ew_kpcn_filter_px(x, yb, a);
     }
 }
 
