@@ -97,6 +97,7 @@ typedef struct {
     float *fcolor;          /* streamed: the colour when its view is not read in place (else untouched) */
     float *target;          /* streamed: the result when the output view is not written in place (else untouched) */
     float *band_rad, *band_guide, *band_clamped, *band_removed; /* streamed: one band of rows and its margins */
+    float *band_above;      /* streamed: the clamped row above the band (exact: the band above's) */
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
@@ -142,20 +143,24 @@ static int passes_of(const ew_op *op) { return (int)ew_op_param(op, "passes"); }
  * radiance or guide: the firefly clamp (a 5x5 window) runs over bands of
  * BAND_ROWS rows with its window's rows above and below, each band's own
  * rows kept (the same bits as over the frame: a window inside the band's
- * rows is the frame's window), and with them the noise level's row sums
- * and the light the clamp took. Only the clamped radiance stays a frame
- * (the tiles read it around their cores), and the result goes straight
+ * rows is the frame's window). One sweep over the frame gives the noise
+ * level's row sums and the light the clamp took; then for each row of
+ * tiles the clamped radiance of its regions' rows, which the tiles read
+ * around their cores (a frame of it would be 95 MiB at 3840x2160; a row of
+ * kpcn-large's regions there is a third of that). The result goes straight
  * into the output view when that is packed RGB float: the colour is not
- * read after the bands. 7 floats a pixel less at the least (10 with the
- * output in place): 220 MiB of kpcn-large's peak at 3840x2160. Not with
- * several passes (they mirror frames of inputs), nor on a device with
- * memory of its own (the views are copied to it whole anyway). */
+ * read after the bands. Not with several passes (they mirror frames of
+ * inputs), nor on a device with memory of its own (the views are copied
+ * to it whole anyway). */
 #define BAND_ROWS 32
 #define BAND_FLOATS_PX 8 /* radiance 3, guide 1, clamped 3, removed 1 */
 static int can_stream(const ew_op *op) { return !op->dev->device_memory && passes_of(op) == 1; }
 /* the clamp's window's rows above and below a band */
 static int band_margin(void) { return ew_kpcn_clamp_params(1, 1, 0.0f).radius; }
-static size_t band_floats(int w) { return (size_t)(BAND_ROWS + 2 * band_margin()) * (size_t)w * BAND_FLOATS_PX; }
+/* a band and its margins, and the clamped row above it (the noise level's sums read it) */
+static size_t band_floats(int w) {
+    return (size_t)(BAND_ROWS + 2 * band_margin()) * (size_t)w * BAND_FLOATS_PX + 3 * (size_t)w;
+}
 
 /* The features the op reads from the caller's views where they are
  * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
@@ -191,10 +196,10 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
 
 /* Streamed (above): the parameters, the colour when it is not read in
  * place and the result when the output is not written in place (reserved;
- * their pages untouched otherwise), the features not read in place, the
- * clamped radiance and one band. */
-static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
-    return params_and_frame(net, w, h, 3 + 3 + 3 + feature_copies_px(op), band_floats(w));
+ * their pages untouched otherwise), the features not read in place, one
+ * band and the clamped radiance of `rows` rows (a row of regions). */
+static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rows) {
+    return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op), band_floats(w) + (size_t)w * (size_t)rows * 3);
 }
 
 /* The device floats of a tiled side x side region. */
@@ -222,14 +227,15 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_til
     plan_tiles(op, net, w, h, frame, t);
     *streamed = 0;
     if (t->nx * t->ny > 1 && can_stream(op)) {
-        /* with the smaller frame buffers the tiles may get more room */
+        /* with the smaller frame buffers the tiles may get more room:
+         * planned with a frame's rows of clamped radiance, then holding
+         * the rows of the regions they got */
         ew_tiling ts;
-        const size_t sframe = streamed_frame_floats(op, net, w, h);
-        plan_tiles(op, net, w, h, sframe, &ts);
+        plan_tiles(op, net, w, h, streamed_frame_floats(op, net, w, h, h), &ts);
         if (ts.nx * ts.ny > 1) {
             *t = ts;
             *streamed = 1;
-            frame = sframe;
+            frame = streamed_frame_floats(op, net, w, h, ts.rh);
         }
     }
     const int tiled = t->nx * t->ny > 1;
@@ -331,12 +337,13 @@ static ew_result commit(ew_op *op) {
     b->normal = in[1] ? in[1] : p; p += in[1] ? 0 : n * 3;
     b->depth = in[2] ? in[2] : p; p += in[2] ? 0 : n;
     if (streamed) {
-        s->clamped = p; p += n * 3;
-        const size_t bn = band_floats(w) / BAND_FLOATS_PX;
+        s->clamped = p; p += (size_t)w * (size_t)tiling.rh * 3; /* a row of regions */
+        const size_t bn = (band_floats(w) - 3 * (size_t)w) / BAND_FLOATS_PX;
         s->band_rad = p; p += bn * 3;
         s->band_guide = p; p += bn;
         s->band_clamped = p; p += bn * 3;
         s->band_removed = p; p += bn;
+        s->band_above = p; p += 3 * (size_t)w;
     } else {
         b->radiance = p; p += n * 3;
         s->clamped = p; p += n * 3;
@@ -485,7 +492,7 @@ static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile
 
 /* The network and the filters on one tile's region, keeping its core in
  * tile_target (the filtered radiance, or the colour); progress from p0 over the span dp. */
-static ew_result run_tile(ew_op *op, const float *radiance, float noise, const ew_tile *tile, double p0,
+static ew_result run_tile(ew_op *op, const float *radiance, int row0, float noise, const ew_tile *tile, double p0,
                           double dp) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -495,6 +502,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     ew_result r = layout_region(dev, s, rw, rh);
     if (r != EW_OK) return r;
     const long at = (long)tile->ry * W + tile->rx; /* the region's first pixel in the frame */
+    const float *rad = radiance + ((long)(tile->ry - row0) * W + tile->rx) * 3; /* ... in the clamped radiance */
     /* zeroed first, then member by member: the padding after depth_scale
      * would otherwise carry stale stack bytes to a device that copies the
      * struct as bytes (and to the launch-grid check, which reads every word
@@ -503,7 +511,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     memset(&ia, 0, sizeof ia);
     ia.width = rw;
     ia.height = rh;
-    ia.radiance = radiance + at * 3;
+    ia.radiance = rad;
     ia.albedo = b->albedo + at * 3;
     ia.normal = b->normal + at * 3;
     ia.depth = b->depth + at;
@@ -534,7 +542,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, float noise, const e
     }
     if (!ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the radiance pyramid, then the filters coarse to fine */
-    const ew_kpcn_tensor rad0 = {(float *)radiance + at * 3, 3, 3L * W, 1};
+    const ew_kpcn_tensor rad0 = {(float *)rad, 3, 3L * W, 1};
     ew_kpcn_tensor prev = rad0;
     for (int sc = 1; sc < S; sc++) {
         ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
@@ -596,15 +604,16 @@ static void mirror_inputs(ew_device *dev, const state *s, const float *radiance,
     }
 }
 
-/* Every tile of one run; progress from p0 over the span dp. */
-static ew_result run_frame(ew_op *op, const float *radiance, float noise, double p0, double dp) {
+/* The tiles of row ty (-1: every tile) of one run, the clamped radiance's
+ * row 0 the frame's row row0; progress from p0 over the span dp. */
+static ew_result run_tiles(ew_op *op, const float *radiance, int row0, int ty, float noise, double p0, double dp) {
     const state *s = (const state *)op->state;
     const ew_tiling *t = &s->tiling;
-    const int ntiles = t->nx * t->ny;
-    for (int i = 0; i < ntiles; i++) {
+    const int ntiles = t->nx * t->ny, first = ty < 0 ? 0 : ty * t->nx, end = ty < 0 ? ntiles : first + t->nx;
+    for (int i = first; i < end; i++) {
         ew_tile tile;
         ew_tile_at(t, i, &tile);
-        const ew_result r = run_tile(op, radiance, noise, &tile, p0 + dp * i / ntiles, dp / ntiles);
+        const ew_result r = run_tile(op, radiance, row0, noise, &tile, p0 + dp * i / ntiles, dp / ntiles);
         if (r != EW_OK) return r;
     }
     return EW_OK;
@@ -633,23 +642,25 @@ static ew_result put_features(ew_op *op) {
     return EW_OK;
 }
 
-/* Streamed: the radiance and its firefly clamp band by band into
- * s->clamped, the light the clamp took into the stage's plane, and the
- * noise level's row sums of the clamped radiance into s->rows (as the frame
- * path's reduce_rows over it: each row's sum reads that row and the one
- * above). */
-static ew_result clamp_bands(ew_op *op, const float *color) {
+/* Streamed: the demodulated radiance's firefly clamp of rows y_begin ..
+ * y_end, band by band. With dst, the clamped rows into dst (its row 0 the
+ * frame's row y_begin). A sweep (the whole frame): the light the clamp
+ * took into the stage's plane, and the noise level's row sums of the
+ * clamped radiance into s->rows (as the frame path's reduce_rows over it:
+ * each row's sum reads that row and the one above, the band above's last,
+ * kept in band_above). */
+static ew_result clamp_rows(ew_op *op, const float *color, int y_begin, int y_end, float *dst, int sweep) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     const ew_denoise_buffers *b = &s->buf;
     const int w = b->width, h = b->height;
     const float k = ew_op_param(op, "firefly_k");
-    float *removed = ew_harm_clamp_removed(op);
-    const size_t w3 = (size_t)w * 3;
+    float *removed = sweep ? ew_harm_clamp_removed(op) : NULL;
+    const size_t w3 = (size_t)w * 3, row_bytes = w3 * sizeof(float);
     const int margin = band_margin();
     ew_result r = EW_OK;
-    for (int y0 = 0; y0 < h && r == EW_OK; y0 += BAND_ROWS) {
-        const int y1 = y0 + BAND_ROWS < h ? y0 + BAND_ROWS : h;
+    for (int y0 = y_begin; y0 < y_end && r == EW_OK; y0 += BAND_ROWS) {
+        const int y1 = y0 + BAND_ROWS < y_end ? y0 + BAND_ROWS : y_end;
         const int e0 = y0 - margin > 0 ? y0 - margin : 0, e1 = y1 + margin < h ? y1 + margin : h;
         ew_denoise_buffers bb = *b;
         bb.height = e1 - e0;
@@ -663,26 +674,31 @@ static ew_result clamp_bands(ew_op *op, const float *color) {
         const ew_outlier_params fp = ew_kpcn_clamp_params(w, e1 - e0, k);
         const ew_outlier_buffers fb = {s->band_rad, NULL, NULL, s->band_clamped, 3, removed ? s->band_removed : NULL};
         dev->backend->outlier_guided(dev, &fp, &fb);
-        r = dev->backend->mem_copy(dev, s->clamped + (size_t)y0 * w3, s->band_clamped + (size_t)(y0 - e0) * w3,
-                                   (size_t)(y1 - y0) * w3 * sizeof(float));
+        float *core = s->band_clamped + (size_t)(y0 - e0) * w3;
+        if (dst) r = dev->backend->mem_copy(dev, dst + (size_t)(y0 - y_begin) * w3, core, (size_t)(y1 - y0) * row_bytes);
         if (r == EW_OK && removed)
             r = dev->backend->mem_copy(dev, removed + (size_t)y0 * w, s->band_removed + (size_t)(y0 - e0) * w,
                                        (size_t)(y1 - y0) * w * sizeof(float));
-        if (r == EW_OK && s->net.noise) {
-            /* from the frame's clamped rows: the row above the band's first
-             * (which gives nothing itself) is the band above's, exact there
-             * and not in this band's margin */
+        if (r == EW_OK && sweep && s->net.noise) {
+            /* the row above the band's first (which gives nothing itself)
+             * is the band above's, exact there and not in this band's
+             * margin: it goes where the margin's was */
             const int n0 = y0 > 0 ? y0 - 1 : 0;
-            dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, w, y1 - n0, s->clamped + (size_t)n0 * w3, s->row_out);
-            r = dev->backend->mem_download(dev, s->rows + 2 * (size_t)y0, s->row_out + 2 * (size_t)(y0 - n0),
-                                           (size_t)(y1 - y0) * 2 * sizeof(double));
+            if (y0 > 0) r = dev->backend->mem_copy(dev, core - w3, s->band_above, row_bytes);
+            if (r == EW_OK) {
+                dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, w, y1 - n0, core - (size_t)(y0 - n0) * w3, s->row_out);
+                r = dev->backend->mem_download(dev, s->rows + 2 * (size_t)y0, s->row_out + 2 * (size_t)(y0 - n0),
+                                               (size_t)(y1 - y0) * 2 * sizeof(double));
+            }
+            if (r == EW_OK) r = dev->backend->mem_copy(dev, s->band_above, core + (size_t)(y1 - y0 - 1) * w3, row_bytes);
         }
     }
     return r;
 }
 
-/* Streamed (above): the bands, then every tile, each core into the output
- * view (or the op's plane, copied out) */
+/* Streamed (above): the sweep, then each row of tiles on its rows of
+ * clamped radiance, each core into the output view (or the op's plane,
+ * copied out) */
 static ew_result execute_streamed(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -697,13 +713,32 @@ static ew_result execute_streamed(ew_op *op) {
         r = ew_dev_put_view(dev, cv, 3, s->fcolor, s->stage);
     }
     if (r == EW_OK) r = put_features(op);
-    if (r == EW_OK) r = clamp_bands(op, color);
+    if (r == EW_OK) r = clamp_rows(op, color, 0, b->height, NULL, 1);
     if (r != EW_OK) return r;
     const float noise = net->noise ? ew_kpcn_noise_from_rows(s->rows, b->height) : 0.0f;
     float *target = (float *)ew_dev_view_in_place(dev, ov, 3, NULL);
     if (!target) target = s->target;
     b->out = b->sliced = target; /* tile_target, and finished in place */
-    r = run_frame(op, s->clamped, noise, 0.0, 1.0);
+    /* a row of regions reads the rows of the row above's cores in its top
+     * halo, where an output over the colour has been written by then: those
+     * rows are already in the buffer (the region above reached its halo
+     * below), moved up; only the rows below them are clamped from the
+     * colour, whose windows start below those cores */
+    const ew_tiling *t = &s->tiling;
+    const size_t w3 = (size_t)b->width * 3;
+    int have0 = 0, have1 = 0; /* the frame's rows in s->clamped, from its row 0 */
+    for (int ty = 0; ty < t->ny && r == EW_OK; ty++) {
+        ew_tile first;
+        ew_tile_at(t, ty * t->nx, &first);
+        const int r0 = first.ry, r1 = first.ry + first.rh, keep = have1 > r0 ? have1 - r0 : 0;
+        for (int i = 0; i < keep && r0 > have0 && r == EW_OK; i++) /* row by row: the rows move up, overlapping */
+            r = dev->backend->mem_copy(dev, s->clamped + (size_t)i * w3, s->clamped + (size_t)(r0 - have0 + i) * w3,
+                                       w3 * sizeof(float));
+        if (r == EW_OK) r = clamp_rows(op, color, r0 + keep, r1, s->clamped + (size_t)keep * w3, 0);
+        if (r == EW_OK) r = run_tiles(op, s->clamped, r0, ty, noise, 0.0, 1.0);
+        have0 = r0;
+        have1 = r1;
+    }
     if (r == EW_OK && !net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
     if (r == EW_OK && target == s->target) r = ew_dev_get_view(dev, target, 3, ov, s->stage);
     /* as the frame path's: nothing here is read before it is written again */
@@ -752,7 +787,7 @@ static ew_result execute(ew_op *op) {
                 mirror_inputs(dev, s, radiance, axis);
                 at[axis] = m[axis];
             }
-        r = run_frame(op, radiance, noise, (double)i / passes, 1.0 / passes);
+        r = run_tiles(op, radiance, 0, -1, noise, (double)i / passes, 1.0 / passes);
         if (r == EW_OK && passes > 1) {
             ew_mirror_add_args a;
             memset(&a, 0, sizeof a);
