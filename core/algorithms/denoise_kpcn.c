@@ -259,18 +259,6 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     return bytes;
 }
 
-/* Rows of scale 0's band for a region rh rows tall (kpcn.h). */
-static int band_rows(int rh) { return (rh < EW_KPCN_BAND_ROWS ? rh : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN; }
-
-/* Floats of a region's scale buffers (the sizes of its scales), as
- * ew_kpcn_device_floats lays them out: scale 0's inputs and encoder output,
- * the other scales, then scale 0's band. */
-static size_t region_planes_floats(const ew_kpcn_net *net, const int *sw, const int *sh) {
-    size_t f = ew_gn_planes_floats(sw[0], sh[0], ew_kpcn_region0_planes(net)) + 16;
-    for (int k = 1; k < net->scales; k++) f += ew_gn_planes_floats(sw[k], sh[k], net->nplanes[k]) + 16;
-    return f + ew_gn_planes_floats(sw[0], band_rows(sh[0]), net->nplanes[0]) + 16;
-}
-
 static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
     const ew_image *color = ew_op_image(op, "color");
@@ -354,7 +342,7 @@ static ew_result commit(ew_op *op) {
     int rsw[EW_KPCN_MAX_SCALES], rsh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, tiling.rw, tiling.rh, rsw, rsh);
     s->scale_mem = p;
-    p += region_planes_floats(net, rsw, rsh);
+    p += ew_kpcn_planes_floats(net, tiling.rw, tiling.rh);
     s->scale_floats = (size_t)(p - s->scale_mem);
     for (int k = 1; k < net->scales; k++) {
         s->rad[k] = p; p += 3 * (size_t)rsw[k] * rsh[k];
@@ -417,7 +405,7 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
         ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], n);
         p += ew_gn_planes_floats(s->sw[k], s->sh[k], n) + 16;
     }
-    ew_gn_planes_layout(&s->band, p, rw, band_rows(rh), net->nplanes[0]);
+    ew_gn_planes_layout(&s->band, p, rw, ew_kpcn_band_rows(rh), net->nplanes[0]);
     s->lw = rw;
     s->lh = rh;
     return dev->backend->mem_zero(dev, s->scale_mem, s->scale_floats * sizeof(float));

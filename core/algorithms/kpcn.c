@@ -235,13 +235,20 @@ int ew_kpcn_region0_planes(const ew_kpcn_net *net) {
     return h > in ? h : in;
 }
 
+int ew_kpcn_band_rows(int h) { return (h < EW_KPCN_BAND_ROWS ? h : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN; }
+
+size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h) {
+    int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
+    ew_kpcn_scale_sizes(net, w, h, sw, sh);
+    size_t f = ew_gn_planes_floats(w, h, ew_kpcn_region0_planes(net)) + 16;
+    for (int s = 1; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
+    return f + ew_gn_planes_floats(w, ew_kpcn_band_rows(h), net->nplanes[0]) + 16;
+}
+
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, w, h, sw, sh);
-    const int band = (h < EW_KPCN_BAND_ROWS ? h : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN;
-    size_t f = ew_gn_planes_floats(w, h, ew_kpcn_region0_planes(net)) + 16 +
-               ew_gn_planes_floats(w, band, net->nplanes[0]) + 16;
-    for (int s = 1; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
+    size_t f = ew_kpcn_planes_floats(net, w, h);
     /* radiance and output of the scales below full resolution, 3 planes each */
     for (int s = 1; s < net->scales; s++) f += 2 * 3 * (size_t)sw[s] * sh[s];
     return f;

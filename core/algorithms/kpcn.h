@@ -166,10 +166,16 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net);
 #define EW_KPCN_BAND_ROWS 64
 #define EW_KPCN_BAND_MARGIN 6
 int ew_kpcn_region0_planes(const ew_kpcn_net *net);
+/* the rows of the band of a region h rows tall: its margins included */
+int ew_kpcn_band_rows(int h);
+/* Floats of the scale buffers of a w x h region, in the op's order: scale
+ * 0's inputs and encoder output, the other scales' planes, scale 0's band
+ * (each laid out by ew_gn_planes_layout, 16 floats apart). */
+size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h);
 
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
- * the scale buffers (the full-resolution scale's and its band's as above),
- * radiance pyramid and outputs of the scales below 0. */
+ * the scale buffers above, radiance pyramid and outputs of the scales
+ * below 0. */
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
 
 /* ---- tiles -------------------------------------------------------------
