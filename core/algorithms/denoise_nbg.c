@@ -41,7 +41,7 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off "
      "(the shipped models were trained with 3)"},
-    {"max_memory_mb", EW_PARAM_INT, 192.0f, 1.0f, 1048576.0f,
+    {"max_memory_mb", EW_PARAM_INT, 256.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose buffers would exceed it runs in "
      "tiles with a halo of what a pixel's grid cells and guides read (96 pixels for the 3-grid models, 24 for "
      "2layer-1grid), giving the same output; the frame's colour (12 bytes a pixel; 40 when the features are not "
