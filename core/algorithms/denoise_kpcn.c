@@ -414,18 +414,11 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
 /* Layer l of scale 0 on `rows` rows of its band from band row `row` (the
  * region's row y): Winograd tiles anchored at the frame's origin as conv's. */
 static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile, int row, int rows, int y) {
-    const ew_kpcn_layer *L = &s->net.layers[l];
-    const ew_gn_planes *B = &s->band;
     ew_conv_args a;
-    ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
-    a.width = B->width;
+    ew_kpcn_layer_args(&s->net, l, s->params, &s->band, &a); /* a layer of scale 0: the band's planes */
     a.rows = rows;
-    a.in = ew_gn_plane_row(B, L->in_plane, row);
-    a.in_rs = B->rs;
-    a.in_ps = B->ps;
-    a.out = ew_gn_plane_row(B, L->out_plane, row);
-    a.out_rs = B->rs;
-    a.out_ps = B->ps;
+    a.in += (long)row * a.in_rs;
+    a.out += (long)row * a.out_rs;
     a.winograd = 1;
     a.grid_x = tile->rx;
     a.grid_y = tile->ry + y;
@@ -701,7 +694,8 @@ static ew_result execute_streamed(ew_op *op) {
         r = ew_dev_put_view(dev, cv, 3, s->fcolor, s->stage);
     }
     if (r == EW_OK) r = put_features(op);
-    if (r == EW_OK) r = clamp_rows(op, color, 0, b->height, NULL, 1);
+    /* the sweep gives nothing when neither the noise level nor the clamp's light is wanted */
+    if (r == EW_OK && (net->noise || ew_harm_clamp_removed(op))) r = clamp_rows(op, color, 0, b->height, NULL, 1);
     if (r != EW_OK) return r;
     const float noise = net->noise ? ew_kpcn_noise_from_rows(s->rows, b->height) : 0.0f;
     float *target = (float *)ew_dev_view_in_place(dev, ov, 3, NULL);
