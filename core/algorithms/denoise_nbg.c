@@ -41,7 +41,7 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off "
      "(the shipped models were trained with 3)"},
-    {"max_memory_mb", EW_PARAM_INT, 256.0f, 1.0f, 1048576.0f,
+    {"max_memory_mb", EW_PARAM_INT, 224.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose buffers would exceed it runs in "
      "tiles with a halo of what a pixel's grid cells and guides read (96 pixels for the 3-grid models, 24 for "
      "2layer-1grid), giving the same output; the frame's colour (12 bytes a pixel; 40 when the features are not "
@@ -200,7 +200,7 @@ static ew_result commit(ew_op *op) {
     s->row_out = (double *)s->dmem.mem;
     /* device: row sums (doubles first, for alignment), then the
      * parameters, the frame's packed colour/albedo/normal (3 each) and
-     * depth, then the region's (nbg.h): its inputs when tiled, radiance,
+     * depth, then the region's (nbg.h): radiance,
      * clamped radiance, blend sum (sliced), one grid's slice (out, then the
      * result), the clamp's removed light when tiled, GuideNet outputs (the
      * hand-made guide that denoise_prepare also writes lands in the first
@@ -222,17 +222,10 @@ static ew_result commit(ew_op *op) {
     memset(b, 0, sizeof *b);
     b->width = w;
     b->height = h;
-    if (tiled) {
-        b->color = p; p += rn * 3;
-        b->albedo = p; p += rn * 3;
-        b->normal = p; p += rn * 3;
-        b->depth = p; p += rn;
-    } else {
-        b->color = fc;
-        b->albedo = fa;
-        b->normal = fn;
-        b->depth = fd;
-    }
+    b->color = fc; /* a tile reads its region of the frame's inputs where it lies (run_tile) */
+    b->albedo = fa;
+    b->normal = fn;
+    b->depth = fd;
     b->radiance = p; p += rn * 3;
     s->clamped = p; p += rn * 3;
     b->sliced = p; p += rn * 3;
@@ -283,13 +276,13 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
     ew_result r = EW_OK;
     b->width = t->rw;
     b->height = t->rh;
-    if (tiled) {
-        r = copy_rect(dev, (float *)b->color, t->rw, 0, 0, s->color, W, t->rx, t->ry, t->rw, t->rh, 3);
-        if (r == EW_OK) r = copy_rect(dev, (float *)b->albedo, t->rw, 0, 0, s->falbedo, W, t->rx, t->ry, t->rw, t->rh, 3);
-        if (r == EW_OK) r = copy_rect(dev, (float *)b->normal, t->rw, 0, 0, s->fnormal, W, t->rx, t->ry, t->rw, t->rh, 3);
-        if (r == EW_OK) r = copy_rect(dev, (float *)b->depth, t->rw, 0, 0, s->fdepth, W, t->rx, t->ry, t->rw, t->rh, 1);
-        if (r != EW_OK) return r;
-    }
+    /* the region's inputs where they lie in the frame's, W pixels a row */
+    const long at = (long)t->ry * W + t->rx;
+    b->in_stride = tiled ? W : 0;
+    b->color = s->color + at * 3;
+    b->albedo = s->falbedo + at * 3;
+    b->normal = s->fnormal + at * 3;
+    b->depth = s->fdepth + at;
     dev->backend->denoise_prepare(dev, b); /* radiance = colour / (albedo + eps) */
     const float k = ew_op_param(op, "firefly_k");
     const float *radiance = b->radiance;
@@ -318,6 +311,7 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
     f.albedo = b->albedo;
     f.normal = b->normal;
     f.depth = b->depth;
+    f.in_stride = b->in_stride;
     f.depth_scale = b->depth_scale;
     f.band_mem = s->band;
     f.band_rows = ew_nbg_band_rows(net, t->rh);
@@ -370,7 +364,6 @@ static ew_result execute(ew_op *op) {
         s->color = s->fcolor;
         r = ew_dev_put_view(dev, cv, 3, (float *)s->fcolor, s->stage);
     }
-    if (s->tiling.nx * s->tiling.ny == 1) b->color = s->color;
     if (r == EW_OK && s->falbedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)s->falbedo, s->stage);
     if (r == EW_OK && s->fnormal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)s->fnormal, s->stage);
     if (r == EW_OK && s->fdepth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)s->fdepth, s->stage);

@@ -446,7 +446,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
     b.depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
     b.radiance = raw;
     b.guide = raw + n * 3;
-    for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, &b);
+    for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, j, &b);
     const ew_outlier_params fp = ew_kpcn_clamp_params(width, height, firefly_k);
     const ew_outlier_buffers fb = {raw, NULL, NULL, f->radiance, 3, NULL};
     for (int y = 0; y < height; y++)

@@ -60,7 +60,7 @@ size_t ew_nbg_region_floats(const ew_guidenet *net, int rw, int rh, int tiled) {
         if (ew_bgrid_floats(&gp) > grid) grid = ew_bgrid_floats(&gp);
     }
     const size_t n = (size_t)rw * (size_t)rh;
-    const size_t per_px = 3 * 4 + (size_t)net->nout + (tiled ? 3 * 3 + 1 + 1 : 0);
+    const size_t per_px = 3 * 4 + (size_t)net->nout + (tiled ? 1 : 0);
     return n * per_px + ew_nbg_band_floats(net, rw, ew_nbg_band_rows(net, rh)) + grid;
 }
 
@@ -94,6 +94,7 @@ ew_result ew_nbg_guidenet_forward(ew_device *dev, const ew_nbg_forward *f, int (
         in.albedo = f->albedo;
         in.normal = f->normal;
         in.depth = f->depth;
+        in.in_stride = f->in_stride;
         in.depth_scale = f->depth_scale;
         in.dst = ew_gn_plane_row(&band, 0, in.y0 - top);
         in.rs = band.rs;

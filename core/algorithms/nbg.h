@@ -27,11 +27,13 @@ typedef struct ew_nbg_forward {
     const ew_guidenet *net;
     const float *params;   /* device memory, net->nparams floats */
     int width, height;
-    const float *color, *albedo, *normal, *depth; /* packed device buffers */
+    const float *color, *albedo, *normal, *depth; /* device buffers, in_stride pixels a row */
     float depth_scale;
     float *band_mem;       /* ew_nbg_band_floats(net, width, band_rows) floats of device memory */
     int band_rows;
     float *outputs;        /* nout * width * height floats of device memory */
+    long in_stride;        /* pixels a row of color, albedo, normal and depth (a tile's region of the
+                              frame's, read where they lie); 0: width */
 } ew_nbg_forward;
 
 /* Runs on the device. progress (may be NULL) is called after each band with
@@ -60,8 +62,8 @@ size_t ew_nbg_device_floats(const ew_guidenet *net, int width, int height, size_
  * runs it whole. */
 int ew_nbg_align(const ew_guidenet *net);
 int ew_nbg_halo(const ew_guidenet *net);
-/* Device floats of one rw x rh region beyond the frame's inputs: the
- * region's inputs when tiled, radiance, clamped radiance, blend sum, one
+/* Device floats of one rw x rh region beyond the frame's inputs (which a
+ * region reads where they lie): radiance, clamped radiance, blend sum, one
  * grid's slice, the firefly clamp's removed light (when tiled), nout
  * GuideNet outputs, one band, and the largest grid. */
 size_t ew_nbg_region_floats(const ew_guidenet *net, int rw, int rh, int tiled);

@@ -55,7 +55,7 @@ int ew_train_frame_init(ew_train_frame *f, int width, int height, const float *c
     b.depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
     b.radiance = raw;
     b.guide = raw + n * 3;
-    for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, &b);
+    for (long j = 0; j < n; j++) ew_denoise_prepare_px(j, j, &b);
     const ew_outlier_params fp = ew_outlier_plain_params(width, height, 2, firefly_k);
     const ew_outlier_buffers fb = {raw, NULL, NULL, f->radiance, 3, NULL};
     for (int y = 0; y < height; y++)

@@ -15,9 +15,13 @@
 #include "kernels/color.h"
 
 /* Packed per-pixel buffers of one denoise. albedo, normal and depth may be
- * NULL (feature absent). color/albedo/normal/out/sliced: 3 floats a pixel. */
+ * NULL (feature absent). color/albedo/normal/out/sliced: 3 floats a pixel.
+ * The inputs (color, albedo, normal, depth) may be a region of a wider
+ * frame read where it lies (a tile of it): in_stride pixels a row; 0 when
+ * they are packed width x height like the rest. */
 typedef struct ew_denoise_buffers {
     int width, height;
+    int in_stride;
     const float *color;
     const float *albedo;
     const float *normal;   /* in [-1, 1] */
@@ -35,11 +39,17 @@ EW_HD float ew_feature_or_zero(float v) { return ew_finitef(v) ? v : 0.0f; }
  * albedo counts as black, so it cannot turn a pixel into NaN. */
 EW_HD float ew_albedo_factor(float albedo) { return (ew_finitef(albedo) && albedo > 0.0f ? albedo : 0.0f) + EW_ALBEDO_EPSILON; }
 
-EW_HD void ew_denoise_prepare_px(long j, const ew_denoise_buffers *b) {
-    const float *c = b->color + j * 3;
+/* The inputs' index of pixel j of the buffers. */
+EW_HD long ew_denoise_in_px(const ew_denoise_buffers *b, long j) {
+    return b->in_stride ? j / b->width * b->in_stride + j % b->width : j;
+}
+
+/* Pixel j (of the buffers; i = ew_denoise_in_px of it) */
+EW_HD void ew_denoise_prepare_px(long j, long i, const ew_denoise_buffers *b) {
+    const float *c = b->color + i * 3;
     float *r = b->radiance + j * 3;
     for (int k = 0; k < 3; k++) {
-        float den = b->albedo ? ew_albedo_factor(b->albedo[j * 3 + k]) : 1.0f;
+        float den = b->albedo ? ew_albedo_factor(b->albedo[i * 3 + k]) : 1.0f;
         /* Negative radiance is not light (a compositing or reconstruction
          * artefact): splatted, one such sample darkens the whole cell
          * around it, so it counts as black. NaN and +-Inf stay non-finite
@@ -51,16 +61,16 @@ EW_HD void ew_denoise_prepare_px(long j, const ew_denoise_buffers *b) {
     float sum = 0.0f;
     int n = 0;
     if (b->albedo) {
-        for (int k = 0; k < 3; k++) sum += ew_clampf(ew_feature_or_zero(b->albedo[j * 3 + k]), 0.0f, 1.0f);
+        for (int k = 0; k < 3; k++) sum += ew_clampf(ew_feature_or_zero(b->albedo[i * 3 + k]), 0.0f, 1.0f);
         n += 3;
     }
     if (b->normal) {
         for (int k = 0; k < 3; k++)
-            sum += ew_clampf(0.5f * (ew_feature_or_zero(b->normal[j * 3 + k]) + 1.0f), 0.0f, 1.0f);
+            sum += ew_clampf(0.5f * (ew_feature_or_zero(b->normal[i * 3 + k]) + 1.0f), 0.0f, 1.0f);
         n += 3;
     }
     if (b->depth) {
-        sum += ew_clampf(ew_feature_or_zero(b->depth[j]) * b->depth_scale, 0.0f, 1.0f);
+        sum += ew_clampf(ew_feature_or_zero(b->depth[i]) * b->depth_scale, 0.0f, 1.0f);
         n += 1;
     }
     float g;
@@ -87,9 +97,9 @@ EW_HD void ew_denoise_refine_guide_px(long j, const ew_denoise_buffers *b, float
     b->guide[j] = (1.0f - color_weight) * b->guide[j] + color_weight * 255.0f * t;
 }
 
-EW_HD void ew_denoise_finish_px(long j, const ew_denoise_buffers *b) {
+EW_HD void ew_denoise_finish_px(long j, long i, const ew_denoise_buffers *b) {
     for (int k = 0; k < 3; k++) {
-        float a = b->albedo ? ew_albedo_factor(b->albedo[j * 3 + k]) : 1.0f;
+        float a = b->albedo ? ew_albedo_factor(b->albedo[i * 3 + k]) : 1.0f;
         float v = b->sliced[j * 3 + k] * a;
         b->out[j * 3 + k] = ew_finitef(v) ? v : 0.0f;
     }

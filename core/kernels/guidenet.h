@@ -97,7 +97,8 @@ EW_HD void ew_nbg_blend_px(long j, int s, int ngrids, const float *EW_RESTRICT o
 /* Work descriptions of the backend table's GuideNet entries. */
 typedef struct ew_gn_input_args {
     int width, y0, y1;   /* image rows [y0, y1) */
-    const float *color, *albedo, *normal, *depth; /* packed, whole image */
+    const float *color, *albedo, *normal, *depth; /* whole image, in_stride pixels a row (0: width) */
+    long in_stride;
     float depth_scale;
     float *dst;          /* plane 0 at image row y0, x = 0 */
     long rs, ps;

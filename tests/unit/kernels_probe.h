@@ -82,6 +82,7 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     ew_denoise_buffers db;
     db.width = EW_PW;
     db.height = EW_PH;
+    db.in_stride = 0;
     db.color = image;
     db.albedo = scratch + 2048;
     db.normal = scratch + 2304;
@@ -97,9 +98,9 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     }
     for (int i = 0; i < EW_PN; i++) scratch[2560 + i] = in[1100 + i] * 4.0f;
     for (long j = 0; j < EW_PN; j++) {
-        ew_denoise_prepare_px(j, &db);
+        ew_denoise_prepare_px(j, j, &db);
         ew_denoise_refine_guide_px(j, &db, 0.5f, 0.7f);
-        ew_denoise_finish_px(j, &db);
+        ew_denoise_finish_px(j, j, &db);
     }
     for (int i = 0; i < EW_PN; i++) out[o++] = db.guide[i];
     for (int i = 0; i < EW_PN * 3; i++) out[o++] = db.out[i];
@@ -301,6 +302,7 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     gi.normal = db.normal;
     gi.depth = db.depth;
     gi.depth_scale = 0.25f;
+    gi.in_stride = 0;
     gi.dst = planes + 2 * rs + 2;
     gi.rs = rs;
     gi.ps = ps;

@@ -316,6 +316,63 @@ TEST(denoise_prepare_refine_finish) {
     }
 }
 
+/* A tile's region read where it lies in the frame's inputs (in_stride):
+ * the same bits as the region packed first, on both devices. */
+TEST(denoise_on_a_region_of_the_frame) {
+    OPEN_PAIR(p, 0);
+    ew_denoise_buffers f = denoise_host(1);
+    const int x0 = 4, y0 = 3, rw = W - 9, rh = H - 7;
+    const size_t rn = (size_t)rw * rh;
+    /* the reference: the region packed */
+    ew_denoise_buffers k;
+    memset(&k, 0, sizeof k);
+    k.width = rw;
+    k.height = rh;
+    k.depth_scale = f.depth_scale;
+    float *kc = hnan(rn * 3), *ka = hnan(rn * 3), *kn = hnan(rn * 3), *kd = hnan(rn);
+    for (int y = 0; y < rh; y++) {
+        const size_t from = (size_t)(y0 + y) * W + x0, to = (size_t)y * rw;
+        memcpy(kc + to * 3, f.color + from * 3, (size_t)rw * 3 * sizeof(float));
+        memcpy(ka + to * 3, f.albedo + from * 3, (size_t)rw * 3 * sizeof(float));
+        memcpy(kn + to * 3, f.normal + from * 3, (size_t)rw * 3 * sizeof(float));
+        memcpy(kd + to, f.depth + from, (size_t)rw * sizeof(float));
+    }
+    k.color = kc, k.albedo = ka, k.normal = kn, k.depth = kd;
+    k.radiance = hnan(rn * 3);
+    k.guide = hnan(rn);
+    k.sliced = hrand(rn * 3, 0.0f, 2.0f, 43);
+    k.out = hnan(rn * 3);
+    /* the region where it lies */
+    ew_denoise_buffers h = k;
+    const size_t at = (size_t)y0 * W + x0;
+    h.in_stride = W;
+    h.color = f.color + at * 3, h.albedo = f.albedo + at * 3, h.normal = f.normal + at * 3, h.depth = f.depth + at;
+    h.radiance = hnan(rn * 3);
+    h.guide = hnan(rn);
+    h.out = hnan(rn * 3);
+    ew_denoise_buffers d = denoise_dev(p.dut, &f);
+    d.width = rw;
+    d.height = rh;
+    d.in_stride = W;
+    d.color += at * 3, d.albedo += at * 3, d.normal += at * 3, d.depth += at;
+    d.sliced = dup_to(p.dut, k.sliced, rn * 3);
+    ew_cpu_backend.denoise_prepare(p.cpu, &k);
+    ew_cpu_backend.denoise_prepare(p.cpu, &h);
+    p.dut->backend->denoise_prepare(p.dut, &d);
+    int ok = same(h.radiance, k.radiance, rn * 3, "radiance against the packed region's") &&
+             same(h.guide, k.guide, rn, "guide against the packed region's") &&
+             match(back(p.dut, d.radiance, rn * 3), h.radiance, rn * 3, "radiance") &&
+             match(back(p.dut, d.guide, rn), h.guide, rn, "guide");
+    ew_cpu_backend.denoise_finish(p.cpu, &k);
+    ew_cpu_backend.denoise_finish(p.cpu, &h);
+    p.dut->backend->denoise_finish(p.dut, &d);
+    ok = ok && same(h.out, k.out, rn * 3, "remodulated against the packed region's") &&
+         match(back(p.dut, d.out, rn * 3), h.out, rn * 3, "remodulated");
+    close_pair(&p);
+    CHECK(ok);
+    CHECK_NO_MISUSE();
+}
+
 TEST(outlier_clamp) {
     /* the denoisers' firefly clamp (plain statistics) and the op layer's
      * rejection (robust, with features and floors): one kernel, two uses */
@@ -934,6 +991,7 @@ TEST(guidenet_input_guides_blend) {
     h.normal = hrand(N * 3, -1.0f, 1.0f, 0);
     h.depth = hrand(N, 0.0f, 10.0f, 0);
     h.depth_scale = 0.1f;
+    h.in_stride = 0;
     h.dst = hnan((size_t)(ps * EW_GN_INPUTS));
     h.rs = rs;
     h.ps = ps;
@@ -946,6 +1004,25 @@ TEST(guidenet_input_guides_blend) {
     ew_cpu_backend.gn_input(p.cpu, &h);
     p.dut->backend->gn_input(p.dut, &d);
     int ok = match(back(p.dut, d.dst, (size_t)(ps * EW_GN_INPUTS)), h.dst, (size_t)(ps * EW_GN_INPUTS), "inputs");
+
+    /* a region of the frame, columns [3, W - 2), read where it lies: as
+     * from the whole frame's planes, on both devices */
+    ew_gn_input_args hr = h, dr = d;
+    const int x0 = 3, rw = W - 5;
+    hr.width = dr.width = rw;
+    hr.in_stride = dr.in_stride = W;
+    hr.color += x0 * 3, hr.albedo += x0 * 3, hr.normal += x0 * 3, hr.depth += x0;
+    dr.color += x0 * 3, dr.albedo += x0 * 3, dr.normal += x0 * 3, dr.depth += x0;
+    hr.dst = hnan((size_t)(ps * EW_GN_INPUTS));
+    dr.dst = dnan(p.dut, (size_t)(ps * EW_GN_INPUTS));
+    ew_cpu_backend.gn_input(p.cpu, &hr);
+    p.dut->backend->gn_input(p.dut, &dr);
+    ok = ok && match(back(p.dut, dr.dst, (size_t)(ps * EW_GN_INPUTS)), hr.dst, (size_t)(ps * EW_GN_INPUTS),
+                     "a region's inputs");
+    for (long c = 0; ok && c < EW_GN_INPUTS; c++)
+        for (int y = 0; ok && y < y1 - y0; y++)
+            ok = same(hr.dst + c * ps + (long)y * rs, h.dst + c * ps + (long)y * rs + x0, (size_t)rw,
+                      "a region's inputs against the frame's");
 
     float *outputs = hrand(N * 5, 0.0f, 1.0f, 0), *doutputs = dup_to(p.dut, outputs, N * 5);
     ew_cpu_backend.nbg_guides(p.cpu, (long)N, 3, outputs);

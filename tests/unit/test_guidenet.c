@@ -186,7 +186,7 @@ static int forward_matches(const char *arch, int w, int h, int band, unsigned se
         ew_device *dev = make_device(threads);
         float *band_mem = malloc(sizeof(float) * ew_nbg_band_floats(&net, w, band));
         float *outputs = malloc(sizeof(float) * net.nout * n);
-        ew_nbg_forward f = {&net, params, w, h, color, albedo, normal, depth, depth_scale, band_mem, band, outputs};
+        ew_nbg_forward f = {&net, params, w, h, color, albedo, normal, depth, depth_scale, band_mem, band, outputs, 0};
         ok = ew_nbg_guidenet_forward(dev, &f, NULL, NULL) == EW_OK;
         double worst = 0;
         for (long i = 0; ok && i < net.nout * n; i++) worst = fmax(worst, fabs(outputs[i] - ref[i]));

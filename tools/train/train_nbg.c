@@ -684,7 +684,7 @@ static int bench(const options *o, ew_device *dev) {
         float *band_mem = (float *)aligned_alloc(64, (ew_nbg_band_floats(&net, W, band) * sizeof(float) + 63) / 64 * 64);
         float *outputs = (float *)malloc(sizeof(float) * n * (size_t)net.nout);
         float ds = 0.01f;
-        ew_nbg_forward f = {&net, params, W, H, color, albedo, normal, depth, ds, band_mem, band, outputs};
+        ew_nbg_forward f = {&net, params, W, H, color, albedo, normal, depth, ds, band_mem, band, outputs, 0};
         TIME_IT(reps, gwall, gcpu, ew_nbg_guidenet_forward(dev, &f, NULL, NULL));
         const double flops = 2.0 * ew_guidenet_macs_per_pixel(&net) * (double)n;
         size_t grid4k, band4k;

@@ -28,13 +28,17 @@ typedef struct {
 static void prepare_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const ew_denoise_buffers *b = ((const cpu_job *)ctx)->b;
-    for (int64_t j = begin * b->width; j < end * b->width; j++) ew_denoise_prepare_px((long)j, b);
+    const long is = b->in_stride ? b->in_stride : b->width;
+    for (int64_t y = begin; y < end; y++)
+        for (long x = 0; x < b->width; x++) ew_denoise_prepare_px((long)y * b->width + x, (long)y * is + x, b);
 }
 
 static void finish_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     (void)tid;
     const ew_denoise_buffers *b = ((const cpu_job *)ctx)->b;
-    for (int64_t j = begin * b->width; j < end * b->width; j++) ew_denoise_finish_px((long)j, b);
+    const long is = b->in_stride ? b->in_stride : b->width;
+    for (int64_t y = begin; y < end; y++)
+        for (long x = 0; x < b->width; x++) ew_denoise_finish_px((long)y * b->width + x, (long)y * is + x, b);
 }
 
 static void cpu_denoise_prepare(ew_device *dev, const ew_denoise_buffers *b) {
@@ -832,7 +836,7 @@ static void input_rows_shifted(void *ctx, int64_t begin, int64_t end, int tid) {
     const ew_gn_input_args *a = (const ew_gn_input_args *)ctx;
     for (int64_t y = a->y0 + begin; y < a->y0 + end; y++) {
         float *dst = a->dst + (y - a->y0) * a->rs;
-        const long j0 = (long)y * a->width;
+        const long j0 = (long)y * (a->in_stride ? a->in_stride : a->width);
         for (int x = 0; x < a->width; x++)
             ew_gn_input_px(j0 + x, a->color, a->albedo, a->normal, a->depth, a->depth_scale, dst + x, a->ps);
     }

@@ -60,12 +60,12 @@ EW_HD ew_launch ew_kl_denoise_px(const ew_denoise_buffers *b) { return ew_launch
 EW_HD void ew_kb_denoise_prepare(const ew_thread *t, const ew_denoise_buffers *b) {
     const long j = ew_t1(t);
     if (j >= (long)b->width * b->height) return;
-    ew_denoise_prepare_px(j, b);
+    ew_denoise_prepare_px(j, ew_denoise_in_px(b, j), b);
 }
 EW_HD void ew_kb_denoise_finish(const ew_thread *t, const ew_denoise_buffers *b) {
     const long j = ew_t1(t);
     if (j >= (long)b->width * b->height) return;
-    ew_denoise_finish_px(j, b);
+    ew_denoise_finish_px(j, ew_denoise_in_px(b, j), b);
 }
 EW_HD void ew_kb_denoise_refine_guide(const ew_thread *t, const ew_denoise_buffers *b, float mean_lum,
                                       float color_weight) {
@@ -181,7 +181,7 @@ EW_HD ew_launch ew_kl_gn_input(const ew_gn_input_args *a) { return ew_launch_2d(
 EW_HD void ew_kb_gn_input(const ew_thread *t, const ew_gn_input_args *a) {
     const int x = ew_tx(t), y = a->y0 + ew_ty(t);
     if (x >= a->width || y >= a->y1) return;
-    ew_gn_input_px((long)y * a->width + x, a->color, a->albedo, a->normal, a->depth, a->depth_scale,
+    ew_gn_input_px((long)y * (a->in_stride ? a->in_stride : a->width) + x, a->color, a->albedo, a->normal, a->depth, a->depth_scale,
                    a->dst + (long)(y - a->y0) * a->rs + x, a->ps);
 }
 
