@@ -41,7 +41,7 @@ static const ew_param_desc params[] = {
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f,
      "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off "
      "(the shipped models were trained with 3)"},
-    {"max_memory_mb", EW_PARAM_INT, 224.0f, 1.0f, 1048576.0f,
+    {"max_memory_mb", EW_PARAM_INT, 192.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose buffers would exceed it runs in "
      "tiles with a halo of what a pixel's grid cells and guides read (96 pixels for the 3-grid models, 24 for "
      "2layer-1grid), giving the same output; the frame's colour (12 bytes a pixel; 40 when the features are not "
@@ -70,6 +70,13 @@ typedef struct {
     ew_tiling tiling;
     ew_denoise_buffers buf;  /* device: one region's buffers (the frame's inputs when untiled) */
     float *params, *clamped, *outputs, *removed, *band, *grid;
+    /* a colour the output overlaps, read where it is by tiles (inplace):
+     * what later tiles read of a core waits before it goes out */
+    int inplace;
+    float *strip;            /* the core's right halo columns, out after the next tile has read them (held) */
+    ew_tile held;            /* where they go (held.cw 0: none) */
+    float *pend;             /* two buffers of a frame's width and halo rows: a row of tiles' bottom rows,
+                                out after the next row of tiles has read them */
     double *row_out;         /* device: reduce_rows output, 2 x height */
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
     double *rows;            /* host: row_out read back */
@@ -109,17 +116,27 @@ static size_t frame_floats_px(const ew_op *op) {
     return 3 + (in[0] ? 0 : 3) + (in[1] ? 0 : 3) + (in[2] ? 0 : 1);
 }
 
+/* Whether tiles may read a colour the output overlaps where it is
+ * (execute: inplace), and so the commit holds strip and pend */
+static int colour_in_place_possible(const ew_op *op) {
+    const ew_image *c = ew_op_image(op, "color"), *o = ew_op_image(op, "output");
+    return ew_images_overlap(c, o) && ew_dev_view_in_place(op->dev, c, 3, NULL) != NULL;
+}
+
+/* Floats of strip and pend for a frame w x h and a tiling's halo */
+static size_t inplace_floats(int w, int h, int halo) { return (2 * (size_t)w + (size_t)h) * (size_t)halo * 3; }
+
 static size_t region_cost(const void *net, int rw, int rh) {
     return ew_nbg_region_floats((const ew_guidenet *)net, rw, rh, 1);
 }
 
 /* The tiles of a w x h frame under max_memory_mb, and the device floats of
  * the commit: parameters, the frame's packed colour, albedo, normal and
- * depth, then one region's buffers (nbg.h). A model without an exact tiling
- * runs whole. */
+ * depth, then one region's buffers (nbg.h), and strip and pend for a colour
+ * the output overlaps. A model without an exact tiling runs whole. */
 static size_t plan(const ew_op *op, const ew_guidenet *net, int w, int h, ew_tiling *t) {
     const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
-    const size_t frame = net->nparams + (size_t)w * (size_t)h * frame_floats_px(op);
+    size_t frame = net->nparams + (size_t)w * (size_t)h * frame_floats_px(op);
     const int align = ew_nbg_align(net);
     const size_t whole = frame + ew_nbg_region_floats(net, w, h, 0);
     if (!align || whole <= budget) {
@@ -130,6 +147,7 @@ static size_t plan(const ew_op *op, const ew_guidenet *net, int w, int h, ew_til
         t->align = 1;
         return whole;
     }
+    if (colour_in_place_possible(op)) frame += inplace_floats(w, h, ew_nbg_halo(net)); /* tiled: strip, pend */
     /* below a 256-pixel core the halos would more than double the work */
     const int least = MIN_CORE + 2 * ew_nbg_halo(net);
     const size_t floor = ew_nbg_region_floats(net, least, least, 1);
@@ -237,6 +255,10 @@ static ew_result commit(ew_op *op) {
     s->outputs = p; p += rn * (size_t)net->nout;
     b->guide = s->outputs;
     s->band = p; p += ew_nbg_band_floats(net, tiling.rw, ew_nbg_band_rows(net, tiling.rh));
+    if (tiled && colour_in_place_possible(op) && tiling.tw >= tiling.halo && tiling.th >= tiling.halo) {
+        s->strip = p; p += (size_t)h * tiling.halo * 3;
+        s->pend = p; p += 2 * (size_t)w * tiling.halo * 3;
+    }
     s->grid = p;
     ew_result r = dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
     return r;
@@ -260,6 +282,69 @@ static ew_result copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, c
     for (int y = 0; y < h && r == EW_OK; y++)
         r = dev->backend->mem_copy(dev, dst + (((long)(dy + y) * dw + dx) * c), src + (((long)(sy + y) * sw + sx) * c),
                                    (size_t)w * (size_t)c * sizeof(float));
+    return r;
+}
+
+/* The output view's pixels [x, x + w) x [y, y + h) */
+static ew_image out_crop(const ew_op *op, int x, int y, int w, int h) {
+    ew_image v = *ew_op_image(op, "output");
+    v.data = (char *)v.data + (long)y * v.row_stride + (long)x * v.pixel_stride;
+    v.width = w;
+    v.height = h;
+    return v;
+}
+
+/* The frame's pixels [x, x + w) x [y, y + h) from tile t's output into the
+ * output view, packed first where the radiance was (read by nothing now) */
+static ew_result out_rect(ew_op *op, const ew_tile *t, int x, int y, int w, int h) {
+    state *s = (state *)op->state;
+    if (w <= 0 || h <= 0) return EW_OK;
+    ew_result r = copy_rect(op->dev, s->buf.radiance, w, 0, 0, s->buf.out, t->rw, x - t->rx, y - t->ry, w, h, 3);
+    const ew_image v = out_crop(op, x, y, w, h);
+    return r == EW_OK ? ew_dev_get_view(op->dev, s->buf.radiance, 3, &v, s->stage) : r;
+}
+
+/* The held columns of the tile before, into the output */
+static ew_result flush_held(ew_op *op) {
+    state *s = (state *)op->state;
+    if (s->held.cw <= 0 || s->held.ch <= 0) return EW_OK;
+    const ew_image v = out_crop(op, s->held.cx, s->held.cy, s->held.cw, s->held.ch);
+    s->held.cw = 0;
+    return ew_dev_get_view(op->dev, s->strip, 3, &v, s->stage);
+}
+
+/* Tile t's core into the output when the output is the colour tiles read
+ * where it is (inplace): the next tile of the row reads the core's last
+ * halo columns and the next row of tiles its last halo rows, so those go
+ * out after them (strip, pend); the rest now, with the columns the tile
+ * before held, which this tile has read. Cores are at least a halo across
+ * (the commit), so no tile reads further back. */
+static ew_result core_in_place(ew_op *op, const ew_tile *t) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    const int W = s->tiling.width, H = s->tiling.height, halo = s->tiling.halo;
+    const int kr = t->cx + t->cw < W ? halo : 0, kb = t->cy + t->ch < H ? halo : 0;
+    const int row = t->cy / s->tiling.th;
+    float *pend = s->pend + (size_t)(row & 1) * (size_t)W * (size_t)halo * 3;
+    ew_result r = flush_held(op);
+    if (r == EW_OK) r = out_rect(op, t, t->cx, t->cy, t->cw - kr, t->ch - kb);
+    if (r == EW_OK && kr) {
+        r = copy_rect(dev, s->strip, kr, 0, 0, s->buf.out, t->rw, t->cx + t->cw - kr - t->rx, t->cy - t->ry, kr,
+                      t->ch - kb, 3);
+        s->held = *t;
+        s->held.cx = t->cx + t->cw - kr;
+        s->held.cw = kr;
+        s->held.ch = t->ch - kb;
+    }
+    if (r == EW_OK && kb)
+        r = copy_rect(dev, pend, W, t->cx, 0, s->buf.out, t->rw, t->cx - t->rx, t->cy + t->ch - kb - t->ry, t->cw, kb,
+                      3);
+    if (r == EW_OK && !kr && row > 0) {
+        /* the row's last tile: the row before's last rows, which this row
+         * of tiles read, go out */
+        const ew_image v = out_crop(op, 0, t->cy - halo, W, halo);
+        r = ew_dev_get_view(dev, s->pend + (size_t)((row - 1) & 1) * (size_t)W * (size_t)halo * 3, 3, &v, s->stage);
+    }
     return r;
 }
 
@@ -294,11 +379,6 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
         const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, tiled && removed ? s->removed : removed};
         dev->backend->outlier_guided(dev, &fp, &fb);
         radiance = s->clamped;
-        if (tiled && removed) {
-            r = copy_rect(dev, removed, W, t->cx, t->cy, s->removed, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch,
-                          1);
-            if (r != EW_OK) return r;
-        }
     }
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
 
@@ -333,18 +413,36 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
     dev->backend->denoise_finish(dev, b); /* out = blend * (albedo + eps) */
+    /* what the clamp took of the region (a tile's own buffer), where the
+     * stage reads it */
+    float *give = k > 0.0f && removed ? (tiled ? s->removed : removed) : NULL;
+    if (ew_harm_fused(op)) {
+        /* the stage's blend of the core and what its window reads around
+         * it, packed where the slices, the radiance and the clamped
+         * radiance were (read by nothing now): the clamped colour, the
+         * output and the clamp's share; then the core back */
+        const int m = ew_harm_region_margin(), ox = t->cx - t->rx, oy = t->cy - t->ry;
+        const int x0 = ox - m > 0 ? ox - m : 0, y0 = oy - m > 0 ? oy - m : 0;
+        const int x1 = ox + t->cw + m < t->rw ? ox + t->cw + m : t->rw, y1 = oy + t->ch + m < t->rh ? oy + t->ch + m : t->rh;
+        const int sw = x1 - x0, sh = y1 - y0;
+        float *in = b->sliced, *out = b->radiance, *share = give ? s->clamped : NULL;
+        r = copy_rect(dev, in, sw, 0, 0, s->color, W, t->rx + x0, t->ry + y0, sw, sh, 3);
+        if (r == EW_OK) r = copy_rect(dev, out, sw, 0, 0, b->out, t->rw, x0, y0, sw, sh, 3);
+        if (r == EW_OK && share) r = copy_rect(dev, share, sw, 0, 0, give, t->rw, x0, y0, sw, sh, 1);
+        if (r == EW_OK) r = ew_harm_region_done(op, sw, sh, in, out, share);
+        if (r == EW_OK) r = copy_rect(dev, b->out, t->rw, ox, oy, out, sw, ox - x0, oy - y0, t->cw, t->ch, 3);
+        if (r == EW_OK && share) r = copy_rect(dev, give, t->rw, ox, oy, share, sw, ox - x0, oy - y0, t->cw, t->ch, 1);
+        if (r != EW_OK) return r;
+    }
+    if (tiled && give) {
+        r = copy_rect(dev, removed, W, t->cx, t->cy, give, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch, 1);
+        if (r != EW_OK) return r;
+    }
     const ew_image *o = ew_op_image(op, "output");
     if (!tiled) return ew_dev_get_view(dev, b->out, 3, o, s->stage);
-    /* the core, packed where the radiance was (read by nothing now), into
-     * the output view's core (the inputs are all on the device already, so
-     * an output that is the colour view is no harm) */
-    r = copy_rect(dev, b->radiance, t->cw, 0, 0, b->out, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch, 3);
-    if (r != EW_OK) return r;
-    ew_image core = *o;
-    core.data = (char *)o->data + (long)t->cy * o->row_stride + (long)t->cx * o->pixel_stride;
-    core.width = t->cw;
-    core.height = t->ch;
-    return ew_dev_get_view(dev, b->radiance, 3, &core, s->stage);
+    if (s->inplace) return core_in_place(op, t);
+    /* the core into the output view's core */
+    return out_rect(op, t, t->cx, t->cy, t->cw, t->ch);
 }
 
 static ew_result execute(ew_op *op) {
@@ -354,11 +452,20 @@ static ew_result execute(ew_op *op) {
     const int W = s->tiling.width, H = s->tiling.height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
     /* the colour is read where it is when that is packed RGB (on the CPU;
-     * the do-no-harm stage hands its clamped colour so): fcolor's pages are
-     * then never touched. Not when the output overlaps it: tiles write
-     * their cores while later tiles still read it. */
+     * the do-no-harm stage hands its clamped colour so, or clamps the
+     * caller's in place when it runs in the tiles): fcolor's pages are then
+     * never touched */
     const ew_image *cv = ew_op_image(op, "color");
+    const int ntiles = s->tiling.nx * s->tiling.ny;
     s->color = ew_dev_view_in_place(dev, cv, 3, ew_op_image(op, "output"));
+    s->inplace = 0;
+    s->held.cw = 0;
+    if (!s->color && (ntiles == 1 || s->pend)) {
+        /* a colour the output overlaps: whole, the output goes out after
+         * the last read; in tiles, what later tiles read waits (inplace) */
+        s->color = ew_dev_view_in_place(dev, cv, 3, NULL);
+        s->inplace = s->color && ntiles > 1;
+    }
     ew_result r = EW_OK;
     if (!s->color) {
         s->color = s->fcolor;
@@ -377,7 +484,6 @@ static ew_result execute(ew_op *op) {
     for (int y = 0; y < H; y++)
         if (s->rows[2 * y] > mx) mx = s->rows[2 * y];
     b->depth_scale = mx > 0.0 ? (float)(1.0 / mx) : 1.0f;
-    const int ntiles = s->tiling.nx * s->tiling.ny;
     for (int i = 0; i < ntiles && r == EW_OK; i++) {
         ew_tile t;
         ew_tile_at(&s->tiling, i, &t);
@@ -411,6 +517,7 @@ const ew_op_type ew_denoise_nbg = {
     .commit = commit,
     .execute = execute,
     .release = release,
+    .stage_in_tiles = 1,
     .memory = memory,
     .set_data = set_data,
     .release_data = ew_net_model_release,

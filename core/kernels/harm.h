@@ -83,7 +83,9 @@ enum {
     EW_HARM_EXCESS = 12,  /* after REMOD: what the rejection took, as TAKE reads it, into excess */
     EW_HARM_PILOT_SQ = 13, /* after BLEND: each pixel's squared distances from the pilot, over the pilot */
     EW_HARM_PILOT_H = 14,  /* ... summed along the row into spread's first two planes */
-    EW_HARM_PILOT_V = 15   /* ... and along the column: the output blended toward the input by the pilot's alpha */
+    EW_HARM_PILOT_V = 15,  /* ... and along the column: the output blended toward the input by the pilot's alpha */
+    EW_HARM_LIGHT = 16     /* fused, on a tile's region after its blend: the light the method's clamp took
+                              into give (GIVE's numerator), while the region still holds the clamped colour */
 };
 #define EW_HARM_STATS_FLOATS 6
 
@@ -132,6 +134,10 @@ typedef struct ew_harm_args {
     float *pilot;           /* PILOT_*: 3 per pixel, another method's output on the same input (src/harm_stage.c);
                                PILOT_SQ overwrites its first two floats a pixel */
     float pilot_share;      /* PILOT_V: the pilot's alpha taken this share (0: none, 1: all) */
+    int fused;              /* 1: the stage ran inside the method's tiles (src/harm_stage.c), whose output
+                               has overwritten the clamped colour by GIVE and TAKE: give holds what LIGHT
+                               wrote, and excess what the rejection took already capped at give_cap x what
+                               it left (EXCESS); the same values GIVE and TAKE compute from the colour */
 } ew_harm_args;
 
 /* floats per pixel of clamped */
@@ -452,15 +458,24 @@ EW_HD void ew_harm_sum_v_px(int x, int y, const ew_harm_args *a) {
     a->spread[n + (long)y * a->width + x] = ew_harm_box_v(a, a->spread, x, y, a->give_radius);
 }
 
+/* the luminance of what the method's clamp took at pixel j: its share
+ * give[j] of the colour it was given (negative channels are no light) */
+EW_HD float ew_harm_clamp_light(long j, const ew_harm_args *a) {
+    const float *c1 = a->clamped + j * ew_harm_cch(a);
+    const float rgb[3] = {ew_maxf(c1[0], 0.0f), ew_maxf(c1[1], 0.0f), ew_maxf(c1[2], 0.0f)};
+    return a->give[j] * ew_luminance(rgb);
+}
+
+/* LIGHT (fused): that luminance into give[j] */
+EW_HD void ew_harm_light_px(long j, const ew_harm_args *a) { a->give[j] = ew_harm_clamp_light(j, a); }
+
 /* GIVE: g / S into give[j], g the luminance of what the method's clamp
  * took: its share of the colour it was given (the clamped colour; negative
  * channels are no light, as the methods demodulate them). The rejection's
  * share goes to the whole frame, TAKE. */
 EW_HD void ew_harm_give_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x, n = (long)a->width * a->height;
-    const float *c1 = a->clamped + j * ew_harm_cch(a);
-    const float rgb[3] = {ew_maxf(c1[0], 0.0f), ew_maxf(c1[1], 0.0f), ew_maxf(c1[2], 0.0f)};
-    const float m = a->give[j] * ew_luminance(rgb);
+    const float m = a->fused ? a->give[j] : ew_harm_clamp_light(j, a);
     const float lg = ew_minf(ew_finitef(m) && m > 0.0f ? m : 0.0f, a->give_limit), sum = a->spread[n + j];
     a->give[j] = sum > 0.0f ? lg / sum : 0.0f;
 }
@@ -477,21 +492,30 @@ EW_HD float ew_harm_excess_lum(long j, const ew_harm_args *a) {
     return ew_luminance(ex);
 }
 
+/* the luminance the rejection left at pixel j (of the clamped colour, negative as 0) */
+EW_HD float ew_harm_left_lum(long j, const ew_harm_args *a) {
+    return ew_maxf(ew_luminance(a->clamped + j * ew_harm_cch(a)), 0.0f);
+}
+
 /* EXCESS: that luminance kept for TAKE, the colour not needed after it.
  * Only where the rejection took something (excess is zero before): the
  * pixels it judges extreme are few, and a page not written is not held */
 EW_HD void ew_harm_excess_px(long j, const ew_harm_args *a) {
     const float le = ew_harm_excess_lum(j, a);
-    if (le != 0.0f) a->excess[j] = le;
+    if (le != 0.0f) a->excess[j] = a->fused ? ew_minf(le, a->give_cap * ew_harm_left_lum(j, a)) : le;
 }
 
 /* TAKE: the luminance of what the rejection took that comes back, at most
  * give_cap x the luminance it left and take_limit, into give[j] (the
  * frame's sum adds it up) */
 EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
-    const float *c1 = a->clamped + j * ew_harm_cch(a);
-    const float le = a->excess ? a->excess[j] : ew_harm_excess_lum(j, a), lk = ew_maxf(ew_luminance(c1), 0.0f);
-    const float lr = ew_minf(ew_minf(le, a->give_cap * lk), a->take_limit);
+    float lr;
+    if (a->fused) {
+        lr = ew_minf(a->excess[j], a->take_limit);
+    } else {
+        const float le = a->excess ? a->excess[j] : ew_harm_excess_lum(j, a);
+        lr = ew_minf(ew_minf(le, a->give_cap * ew_harm_left_lum(j, a)), a->take_limit);
+    }
     a->give[j] = lr > 0.0f ? lr : 0.0f;
 }
 
@@ -603,6 +627,7 @@ EW_HD void ew_harm_px(int step, int x, int y, const ew_harm_args *a) {
     case EW_HARM_PILOT_SQ: ew_harm_pilot_sq_px(j, a); break;
     case EW_HARM_PILOT_H: ew_harm_pilot_h_px(x, y, a); break;
     case EW_HARM_PILOT_V: ew_harm_pilot_v_px(x, y, a); break;
+    case EW_HARM_LIGHT: ew_harm_light_px(j, a); break;
     default: break;
     }
 }

@@ -41,6 +41,9 @@
  * All run on the op's device through the backend's `harm` and
  * `outlier_guided` entries, in buffers allocated at commit. With both
  * parameters at 0 the op runs exactly as it would without the stage.
+ * With the output written over the colour, a method that can runs the
+ * stage inside its tiles instead (fusable, below): the same bits, and no
+ * frame of RGB of the stage's own.
  */
 #include <string.h>
 
@@ -81,6 +84,8 @@
 #define HARM_FIREFLY_K 3.0f       /* the denoisers' firefly_k default, for a method without that clamp */
 #define HARM_PILOT_METHOD "kpcn"  /* the pilot: kpcn's default model (16 channels) */
 #define HARM_PILOT_MEMORY_MB 256  /* its max_memory_mb: tiles beyond that (the same output) */
+#define HARM_BAND_ROWS 64         /* fused: the rows the passes before the method take at a time */
+#define HARM_BAND_MARGIN 2        /* ... and above and below them, what the rejection's 5x5 window reads */
 
 static const ew_param_desc stage_on[] = {
     {"do_no_harm", EW_PARAM_BOOL, 1.0f, 0.0f, 1.0f,
@@ -129,6 +134,11 @@ typedef struct ew_harm_state {
     void *dmem;
     float *col, *alb, *nrm, *a, *b, *clamped;
     float *excess;  /* kept: the luminance the rejection took, a float a pixel (kernels/harm.h EW_HARM_EXCESS) */
+    int can_fuse;   /* the method may run the stage in its tiles (fusable) */
+    int fused;      /* ... and does, in this execute */
+    int blend;      /* fused: the regions are blended (do_no_harm, a frame not faded out) */
+    ew_harm_args region; /* fused: the blend's arguments but a region's buffers */
+    float *band;    /* can_fuse: two bands of rows of 3 floats a pixel for the passes before the method */
     float *fed;     /* the colour the method reads: clamped, or (pre 2) that after the firefly clamp too */
     float *removed; /* the share of each pixel the firefly clamp took, a float a pixel (the method's own
                        through ew_harm_clamp_removed, or the stage's for a filter), then what comes back */
@@ -158,12 +168,16 @@ static int slot(const ew_op *op, const char *name) {
  * filter alpha too (op_alpha.c). */
 static int clamped_channels(int cc, int pre) { return pre == 1 ? 3 : cc; }
 
+/* Floats of the two bands of a frame w wide (fused) */
+static size_t band_floats(int w) { return 2 * (size_t)(HARM_BAND_ROWS + 2 * HARM_BAND_MARGIN) * (size_t)w * 3; }
+
 /* The stage's device floats for a colour of cc channels (see the commit);
  * own: which of colour, albedo, normal it packs itself; kept: the
- * rejection's excess plane. */
-static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept) {
+ * rejection's excess plane; fuse: the bands of a frame w wide. */
+static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept, int fuse, int w) {
     return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
-                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)clamped_channels(cc, pre) + 1 + (size_t)kept);
+                EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)clamped_channels(cc, pre) + 1 + (size_t)kept) +
+           (fuse ? band_floats(w) : 0);
 }
 
 /* Colour, albedo and normal read from the caller's views where they are
@@ -181,6 +195,23 @@ static int views_in_place(const ew_op *op, int cc, int pre, const float *in[3], 
     in[2] = ew_dev_view_in_place(op->dev, ew_op_image(op, "normal"), 3, o);
     *kept = in[0] && o && ew_images_overlap(c, o);
     return (in[0] ? 0 : 1) | (in[1] ? 0 : 2) | (in[2] ? 0 : 4);
+}
+
+/* Whether the stage may run inside the method's tiles (ew_harm_fused): a
+ * method that can (stage_in_tiles) whose output is the very view of its
+ * colour, packed RGB on the CPU (a backend that blends in bands), with the
+ * rejection on: the clamped colour is written over the caller's (which the
+ * output replaces anyway; what the rejection took is kept in the excess
+ * plane) and the method blends each region before its core goes out, so
+ * that neither the clamped colour nor the radiance is held as a frame. */
+static int fusable(const ew_op *op, int cc, int pre, int own, int kept) {
+    const ew_image *c = ew_op_image(op, "color"), *o = ew_op_image(op, "output");
+    if (!op->type->stage_in_tiles || pre != 1 || own || !kept || cc != 3 || !op->dev->backend->harm_bands) return 0;
+    /* a frame whose two bands are about a quarter of its RGB or less: a
+     * smaller one saves little by it */
+    if (c->height < 4 * HARM_BAND_ROWS) return 0;
+    const float *in = ew_dev_view_in_place(op->dev, c, 3, NULL);
+    return in && ew_dev_view_in_place(op->dev, o, 3, NULL) == in && o->width == c->width && o->height == c->height;
 }
 
 /* What runs before the method: 0 nothing, 1 the rejection, 2 the rejection
@@ -205,13 +236,14 @@ uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     /* an RGBA colour with albedo and normal: the most the commit takes;
      * with the views of that size set, what they make it take */
     const ew_image *c = ew_op_image(op, "color");
-    int own = 7, cc = 4, kept = 0;
+    int own = 7, cc = 4, kept = 0, fuse = 0;
     if (c && c->width == w && c->height == h) {
         const float *in[3];
         cc = c->channels;
         own = views_in_place(op, cc, pre, in, &kept);
+        fuse = fusable(op, cc, pre, own, kept);
     }
-    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own, kept) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own, kept, fuse, w) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
            (uint64_t)(stage + (pre ? stage : 0)) * sizeof(float);
 }
 
@@ -230,10 +262,10 @@ ew_result ew_harm_commit(ew_op *op) {
     const int has_n = slot(op, "normal") >= 0 && op->images[slot(op, "normal")].channels >= 3;
     const float *in[3];
     int kept;
-    const int own = views_in_place(op, cc, pre, in, &kept);
+    const int own = views_in_place(op, cc, pre, in, &kept), fuse = fusable(op, cc, pre, own, kept);
     ew_harm_state *s = (ew_harm_state *)op->harm;
     if (s && s->w == w && s->h == h && s->cc == cc && s->has_a == has_a && s->has_n == has_n && s->pre == pre &&
-        s->own == own && s->kept == kept) {
+        s->own == own && s->kept == kept && s->can_fuse == fuse) {
         if (!(own & 1)) s->col = (float *)in[0];
         if (has_a && !(own & 2)) s->alb = (float *)in[1];
         if (has_n && !(own & 4)) s->nrm = (float *)in[2];
@@ -245,7 +277,7 @@ ew_result ew_harm_commit(ew_op *op) {
      * the method's output), b (a filter's rejected radiance, then the
      * residual statistics), clamped (clamped_channels; a denoiser's
      * rejected radiance first), removed (1), the rejection's excess (1, kept) */
-    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept);
+    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept, fuse, w);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
     const size_t hclamp = pre ? ew_dev_stage_floats(dev, n, clamped_channels(cc, pre)) : 0; /* the colour the method reads */
@@ -263,6 +295,7 @@ ew_result ew_harm_commit(ew_op *op) {
     s->pre = pre;
     s->own = own;
     s->kept = kept;
+    s->can_fuse = fuse;
     s->rows = s->host;
     s->stage = stage ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->hclamp = hclamp ? s->stage + stage : NULL;
@@ -277,6 +310,8 @@ ew_result ew_harm_commit(ew_op *op) {
     s->fed = pre == 2 ? m : s->clamped; m += pre == 2 ? n * (size_t)cc : 0;
     s->removed = m; m += n;
     s->excess = kept ? m : NULL; /* past b: not among the pages released while the method runs */
+    m += kept ? n : 0;
+    s->band = fuse ? m : NULL;
     return EW_OK;
 }
 
@@ -368,10 +403,7 @@ static float pilot_share_of(double noise) { return noise_ramp(noise, HARM_PILOT_
  * mean was the outliers' own (one 6e4 sample in a 64x64 frame lifts it 16
  * units), so the rejection runs again with the mean of what it left, at
  * most twice more. */
-static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
-    ew_device *dev = op->dev;
-    double mean;
-    ew_result r = frame_mean(s, dev, s->a, &mean);
+static ew_outlier_params rejection_params(const ew_op *op, const ew_harm_state *s) {
     ew_outlier_params p = ew_outlier_plain_params(s->w, s->h, HARM_OUTLIER_RADIUS, ew_op_param(op, "outlier_k"));
     p.robust = 1;
     p.albedo_tol = HARM_ALBEDO_TOL;
@@ -380,6 +412,14 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     /* a pixel that alone saw a light smaller than itself: judged in colour
      * (kernels/outlier.h), its albedo being the hits' own noise */
     p.emitter_albedo = HARM_EMITTER_ALBEDO;
+    return p;
+}
+
+static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
+    ew_device *dev = op->dev;
+    double mean;
+    ew_result r = frame_mean(s, dev, s->a, &mean);
+    ew_outlier_params p = rejection_params(op, s);
     /* the rejected radiance: where the clamped colour goes when that is
      * RGB (a denoiser's), remodulated there in place, so that no third
      * frame of RGB is held beside the radiance and the clamped colour */
@@ -423,6 +463,130 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
     }
     return r;
 }
+
+/* ---- fused (fusable): the passes before the method in bands of rows ---- */
+
+static int imin(int a, int b) { return a < b ? a : b; }
+static int imax(int a, int b) { return a > b ? a : b; }
+
+/* Rows [y0, y1) of the caller's colour (packed RGB) demodulated into dst */
+static void demod_rows(ew_device *dev, const ew_harm_state *s, const ew_harm_args *ha, int y0, int y1, float *dst) {
+    ew_harm_args d = *ha;
+    const size_t at = (size_t)y0 * (size_t)s->w;
+    d.height = y1 - y0;
+    d.color = s->col + at * 3;
+    d.albedo = s->alb ? s->alb + at * 3 : NULL;
+    d.radiance = dst;
+    dev->backend->harm(dev, EW_HARM_DEMOD, &d);
+}
+
+/* frame_noise's and frame_mean's values over the demodulated colour, from
+ * bands of it: the same row sums, added in the same order */
+static ew_result noise_and_mean_in_bands(ew_op *op, ew_harm_state *s, const ew_harm_args *ha, double *noise,
+                                         double *mean) {
+    ew_device *dev = op->dev;
+    const size_t w = (size_t)s->w;
+    double ns = 0.0, nc = 0.0, sum = 0.0;
+    ew_result r = EW_OK;
+    for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
+        const int y1 = imin(y0 + HARM_BAND_ROWS, s->h), lo = imax(y0 - 1, 0); /* NOISE reads the row above */
+        demod_rows(dev, s, ha, lo, y1, s->band);
+        dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, s->w, y1 - lo, s->band, s->row_out);
+        r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)(y1 - lo) * 2 * sizeof(double));
+        for (int y = y0; r == EW_OK && y < y1; y++) {
+            ns += s->rows[2 * (y - lo)];
+            nc += s->rows[2 * (y - lo) + 1];
+        }
+        if (r != EW_OK) break;
+        dev->backend->reduce_rows(dev, EW_REDUCE_LUM_SUM, s->w, y1 - y0, s->band + (size_t)(y0 - lo) * w * 3,
+                                  s->row_out);
+        r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)(y1 - y0) * 2 * sizeof(double));
+        for (int y = 0; r == EW_OK && y < y1 - y0; y++) sum += s->rows[2 * y];
+    }
+    *noise = nc > 0.0 ? ns / nc : 0.0;
+    *mean = sum / ((double)s->w * (double)s->h);
+    return r;
+}
+
+/* reject()'s passes with the radiance in bands (each band's rejection reads
+ * HARM_BAND_MARGIN rows beyond it): the rejected radiance into s->clamped's
+ * frame (released before the method); then band by band the clamped colour
+ * written over the caller's, and what the rejection took, capped as TAKE
+ * caps it, into the excess plane (ha->fused) */
+static ew_result reject_in_bands(ew_op *op, ew_harm_state *s, ew_harm_args *ha, double mean) {
+    ew_device *dev = op->dev;
+    const size_t w = (size_t)s->w;
+    float *rad = s->band, *out = s->band + (size_t)(HARM_BAND_ROWS + 2 * HARM_BAND_MARGIN) * w * 3;
+    float *rejected = s->clamped;
+    ew_outlier_params p = rejection_params(op, s);
+    ew_result r = EW_OK;
+    for (int pass = 0; r == EW_OK; pass++) {
+        p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
+        for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
+            const int y1 = imin(y0 + HARM_BAND_ROWS, s->h);
+            const int lo = imax(y0 - HARM_BAND_MARGIN, 0), hi = imin(y1 + HARM_BAND_MARGIN, s->h);
+            demod_rows(dev, s, ha, lo, hi, rad);
+            ew_outlier_params pb = p;
+            pb.height = hi - lo;
+            const ew_outlier_buffers ob = {rad, s->alb ? s->alb + (size_t)lo * w * 3 : NULL,
+                                           s->nrm ? s->nrm + (size_t)lo * w * 3 : NULL, out, 3, NULL};
+            dev->backend->outlier_guided(dev, &pb, &ob);
+            r = dev->backend->mem_copy(dev, rejected + (size_t)y0 * w * 3, out + (size_t)(y0 - lo) * w * 3,
+                                       (size_t)(y1 - y0) * w * 3 * sizeof(float));
+        }
+        double left;
+        if (r != EW_OK || pass == 2 || (r = frame_mean(s, dev, rejected, &left)) != EW_OK ||
+            left >= HARM_REJECT_KEEP * mean)
+            break;
+        mean = left;
+    }
+    if (r == EW_OK) r = ew_dev_zero(dev, s->excess, (size_t)s->w * s->h * sizeof(float));
+    ha->fused = 1;
+    for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
+        const int y1 = imin(y0 + HARM_BAND_ROWS, s->h);
+        const size_t at = (size_t)y0 * w;
+        demod_rows(dev, s, ha, y0, y1, rad);
+        ew_harm_args d = *ha;
+        d.height = y1 - y0;
+        d.color = s->col + at * 3;
+        d.albedo = s->alb ? s->alb + at * 3 : NULL;
+        d.radiance = rad;
+        d.rejected = rejected + at * 3;
+        d.clamped = out;
+        d.excess = s->excess + at;
+        dev->backend->harm(dev, EW_HARM_REMOD, &d);
+        dev->backend->harm(dev, EW_HARM_EXCESS, &d);
+        /* the caller's colour is the output's view (fusable): it is given
+         * up to the result, and holds the method's input until then */
+        r = dev->backend->mem_copy(dev, (float *)s->col + at * 3, out, (size_t)(y1 - y0) * w * 3 * sizeof(float));
+    }
+    return r;
+}
+
+int ew_harm_fused(const ew_op *op) {
+    const ew_harm_state *s = (const ew_harm_state *)op->harm;
+    return s && s->fused;
+}
+
+ew_result ew_harm_region_done(ew_op *op, int rw, int rh, const float *in, float *out, float *give) {
+    ew_harm_state *s = (ew_harm_state *)op->harm;
+    ew_harm_args ha = s->region;
+    ha.width = rw;
+    ha.height = rh;
+    ha.channels = 3;
+    ha.clamped_channels = 3;
+    ha.clamped = (float *)in;
+    ha.out = out;
+    ha.give = give;
+    ha.stats = s->b; /* a frame's statistics, for a backend out of memory for its bands (not touched else) */
+    if (s->blend) op->dev->backend->harm(op->dev, EW_HARM_STATS_BLEND, &ha);
+    if (give) op->dev->backend->harm(op->dev, EW_HARM_LIGHT, &ha);
+    return op->dev->backend->sync(op->dev, 0);
+}
+
+/* the blend's window, and the row and column of residuals a pixel's
+ * statistics read beyond it (kernels/harm.h) */
+int ew_harm_region_margin(void) { return HARM_BLEND_RADIUS + 1; }
 
 float *ew_harm_clamp_removed(const ew_op *op) {
     const ew_harm_state *s = (const ew_harm_state *)op->harm;
@@ -519,34 +683,55 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.z = HARM_BLEND_Z;
     ha.theta = HARM_BLEND_THETA;
     ha.kappa = HARM_BLEND_KAPPA;
-    /* the input's noise level, in demodulated radiance as kpcn measures it */
-    double noise;
-    dev->backend->harm(dev, EW_HARM_DEMOD, &ha);
-    r = frame_noise(s, dev, s->a, &noise);
+    ha.give_cap = HARM_GIVE_CAP;
+    /* the input's noise level, in demodulated radiance as kpcn measures it
+     * (fusable: and the mean radiance, from bands of it) */
+    double noise, mean = 0.0;
+    int fuse = s->can_fuse;
+    if (fuse) {
+        r = noise_and_mean_in_bands(op, s, &ha, &noise, &mean);
+    } else {
+        dev->backend->harm(dev, EW_HARM_DEMOD, &ha);
+        r = frame_noise(s, dev, s->a, &noise);
+    }
     if (r != EW_OK) return r;
     const float quiet = quietness(noise);
     ha.theta_n = HARM_BLEND_THETA_N * (1.0f - quiet);
     ha.tone_share = quiet;
     ha.kappa = HARM_BLEND_KAPPA - (HARM_BLEND_KAPPA - HARM_QUIET_KAPPA) * quiet;
     ha.fade = fade_of(noise);
+    const int post = ew_op_param(op, "do_no_harm") != 0.0f && ha.fade < 1.0f;
+    const float pilot_share = pilot_share_of(noise);
+    const int want_pilot = post && pilot_share > 0.0f && pilot_possible(op);
+    if (fuse && want_pilot) {
+        /* the pilot reads the clamped colour beside the caller's and its
+         * estimate the whole frame's: the stage runs around the method */
+        fuse = 0;
+        dev->backend->harm(dev, EW_HARM_DEMOD, &ha);
+    }
     const ew_image saved = op->images[ci];
     if (s->pre) {
-        r = reject(op, s, &ha);
+        r = fuse ? reject_in_bands(op, s, &ha, mean) : reject(op, s, &ha);
         if (r != EW_OK) return r;
-        /* the method reads the clamped colour where it reads views from */
-        if (s->hclamp) {
+        /* the method reads the clamped colour where it reads views from
+         * (fused: the caller's colour, which holds it now) */
+        if (!fuse && s->hclamp) {
             r = dev->backend->mem_download(dev, s->hclamp, s->fed, (size_t)s->w * s->h * ck * sizeof(float));
             if (r != EW_OK) return r;
             op->images[ci] = ew_image_packed(s->hclamp, s->w, s->h, ck);
-        } else {
+        } else if (!fuse) {
             op->images[ci] = ew_image_packed(s->fed, s->w, s->h, ck);
         }
     }
     /* the radiance and the rejected radiance are dead while the method
      * runs (its output and the residual statistics overwrite them after it):
      * their pages go before the clamp's plane is zeroed, so the two are
-     * not resident together */
-    ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
+     * not resident together (fused: the rejected radiance, in the clamped
+     * colour's place) */
+    if (fuse)
+        ew_dev_release_pages(dev, s->clamped, s->clamped + (size_t)s->w * s->h * 3);
+    else
+        ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
         r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * sizeof(float));
         if (r != EW_OK) return r;
@@ -554,16 +739,18 @@ ew_result ew_harm_execute(ew_op *op) {
     /* the pilot reads what the method reads, before the method may write
      * its output over the colour */
     float *pilot = NULL;
-    const int post = ew_op_param(op, "do_no_harm") != 0.0f && ha.fade < 1.0f;
-    const float pilot_share = pilot_share_of(noise);
-    if (post && pilot_share > 0.0f && pilot_possible(op)) {
+    if (want_pilot) {
         r = run_pilot(op, &pilot);
         if (r != EW_OK) {
             op->images[ci] = saved;
             return r;
         }
     }
+    s->region = ha;
+    s->blend = post;
+    s->fused = fuse;
     r = op->type->execute(op);
+    s->fused = 0;
     op->images[ci] = saved;
     if (r != EW_OK) {
         free(pilot);
@@ -588,8 +775,9 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.stats = s->b;
     ha.give = s->removed;
     /* faded out (a noisy frame), the blend would keep every pixel of the
-     * method's output: its statistics are not computed at all */
-    if (post) {
+     * method's output: its statistics are not computed at all; fused, the
+     * method's regions were blended */
+    if (post && !fuse) {
         /* a backend that blends in bands of rows keeps their statistics
          * itself: only the first 3 floats a pixel of b (the energy return's
          * box sums) are touched after the method */
@@ -610,10 +798,11 @@ ew_result ew_harm_execute(ew_op *op) {
      * Its limit a pixel, 50x the output's mean (30x, with the method's
      * clamp's, over the window before): the damaged 6.5e4 sample of the
      * stability suite's 4-spp renders stays within its bound (at 70x by
-     * 0.02 dB, at 100x not) */
+     * 0.02 dB, at 100x not). Fused, the clamped colour is gone: the
+     * regions left its part of both in give and excess (ha.fused) */
+    if (fuse) ha.clamped = NULL;
     ha.spread = s->b;
     ha.give_radius = HARM_GIVE_RADIUS;
-    ha.give_cap = HARM_GIVE_CAP;
     double out_mean, given;
     r = frame_mean(s, dev, res, &out_mean);
     if (r != EW_OK) return r;

@@ -85,6 +85,12 @@ typedef struct ew_op_type {
     /* 1: the op runs another op that has the stage (auto): it forwards the
      * stage's parameters (ew_harm_forward) instead of running it twice. */
     int stage_in_inner;
+    /* 1: when the do-no-harm stage asks (ew_harm_fused), the op finishes
+     * each tile's region through ew_harm_region_done before its core goes
+     * out, and reads a colour its output overlaps (the stage has clamped
+     * the caller's colour in place): the stage then holds no frame of RGB
+     * of its own. */
+    int stage_in_tiles;
     /* 1: a colour of 4 channels is premultiplied RGBA, and its alpha is
      * filtered with the colour's weights (op_alpha.c runs the method a second
      * time on the alpha), so a blur keeps colour <= alpha where it was and a
@@ -173,9 +179,25 @@ ew_result ew_harm_execute(ew_op *op);
 void ew_harm_release(ew_op *op);
 /* Where a denoiser's own firefly clamp records what it took from each pixel
  * (ew_outlier_buffers.removed; the stage gives it back after the method),
- * or NULL when the op runs without the stage. A device buffer of 3 floats
+ * or NULL when the op runs without the stage. A device buffer of 1 float
  * per pixel, zeroed before every execute. */
 float *ew_harm_clamp_removed(const ew_op *op);
+/* 1 while the stage runs inside the method's tiles (a stage_in_tiles op
+ * whose output is its colour, on the CPU): the method's colour holds the
+ * clamped colour in place of the caller's, and every region ends with
+ * ew_harm_region_done. */
+int ew_harm_fused(const ew_op *op);
+/* The stage's blend on a tile's region (rw x rh, packed): in is the clamped
+ * colour there (RGB), out the method's output (blended in place), give the
+ * share of each pixel the method's clamp took (ew_harm_clamp_removed's
+ * values for the region; rewritten as that light), or NULL when the clamp
+ * took nothing. The pixels ew_harm_region_margin or more from a region
+ * edge that is not the frame's come out as the whole-frame stage would
+ * give them. */
+ew_result ew_harm_region_done(ew_op *op, int rw, int rh, const float *in, float *out, float *give);
+/* The pixels a core's blend reads beyond it: a region that is the core and
+ * this margin (clipped to the frame) gives the core's pixels exactly. */
+int ew_harm_region_margin(void);
 /* The stage's allocations for images of w x h (ew_op_memory adds them). */
 uint64_t ew_harm_memory(const ew_op *op, int w, int h);
 /* Copy the stage's parameters of one op to another (auto -> its method). */

@@ -513,3 +513,98 @@ TEST(views_read_in_place_give_the_copies_output) {
     images_free(&im);
     free(c4); free(a4); free(n4); free(z2); free(ref);
 }
+
+/* A smooth frame (features of broad surfaces) with noise of relative
+ * amplitude amp and fireflies the do-no-harm stage's rejection takes. */
+static void smooth_images(images *im, int w, int h, float amp, unsigned seed) {
+    images_make(im, w, h, seed);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const long j = (long)y * w + x;
+            const int surface = (x / 97 + y / 89) % 3;
+            for (int c = 0; c < 3; c++) {
+                const float base = 0.3f + 0.2f * (float)surface + 0.1f * (float)c + 0.2f * (float)x / (float)w;
+                im->color[j * 3 + c] = base * (1.0f + amp * (2.0f * urand(&seed) - 1.0f));
+                im->albedo[j * 3 + c] = 0.4f + 0.15f * (float)surface;
+                im->normal[j * 3 + c] = c == 2 ? 1.0f : 0.0f;
+            }
+            im->depth[j] = 2.0f + (float)surface;
+        }
+    for (int k = 0; k < 40; k++) {
+        const long j = (long)(urand(&seed) * (float)(h - 1)) * w + (long)(urand(&seed) * (float)(w - 1));
+        im->color[j * 3 + 1] = 900.0f;
+    }
+}
+
+static char opts_what[128];
+
+static ew_result run_opts(ew_device *dev, images *im, float *out, int budget_mb, int harm, ew_progress_fn progress) {
+    ew_denoiser *d = NULL;
+    ew_image c = ew_image_packed(im->color, im->w, im->h, 3), a = ew_image_packed(im->albedo, im->w, im->h, 3);
+    ew_image n = ew_image_packed(im->normal, im->w, im->h, 3), z = ew_image_packed(im->depth, im->w, im->h, 1);
+    ew_image o = ew_image_packed(out, im->w, im->h, 3);
+    ew_result r = ew_denoiser_create(dev, "nbg", &d);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", &a);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", &n);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "do_no_harm", harm);
+    if (r == EW_OK && progress) r = ew_denoiser_set_progress(d, progress, NULL);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    snprintf(opts_what, sizeof opts_what, "%s", r == EW_OK ? ew_denoiser_describe(d) : "");
+    ew_denoiser_destroy(d);
+    return r;
+}
+
+/* With the output written over the colour (the CLI's denoise), the
+ * do-no-harm stage runs inside nbg's tiles: it clamps the caller's colour
+ * in place, nbg reads it where it is (what later tiles read of a core goes
+ * out after them) and blends each core before it goes out. The same bits
+ * as with the output apart (the stage around the method), tiled and whole,
+ * on frames noisy enough that the blend fades out, quiet enough that the
+ * pilot runs (the stage then stays around the method), and between, where
+ * it blends in the tiles. That it ran in the tiles shows in a run cancelled
+ * half way: the colour the tiles had not reached holds the clamped colour
+ * (around the method, the caller's colour is read only). */
+TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
+    enum { W = 613, H = 1117 };
+    const long n3 = (long)W * H * 3;
+    const float amps[4] = {0.05f, 0.12f, 0.2f, 0.5f};
+    ew_device *dev = make_device(2);
+    float *apart = malloc(sizeof(float) * n3), *off = malloc(sizeof(float) * n3);
+    int blended_in_tiles = 0;
+    for (int a = 0; a < 4; a++)
+        for (int budget = 1024; budget >= 1; budget /= 1024) {
+            images im;
+            smooth_images(&im, W, H, amps[a], 40 + a);
+            CHECK_EQ_INT(run_opts(dev, &im, apart, budget, 1, NULL), EW_OK);
+            CHECK_EQ_INT(run_opts(dev, &im, off, budget, 0, NULL), EW_OK);
+            long blended = 0, differ = 0;
+            for (long i = 0; i < n3; i++) blended += memcmp(&apart[i], &off[i], sizeof(float)) != 0;
+            /* a firefly in the last rows, which a cancelled run's tiles do not reach */
+            const long fly = ((long)(H - 20) * W + 300) * 3 + 1;
+            im.color[fly] = 900.0f;
+            float *keep = malloc(sizeof(float) * n3);
+            memcpy(keep, im.color, sizeof(float) * n3);
+            CHECK_EQ_INT(run_opts(dev, &im, im.color, budget, 1, cancel_at_half), EW_ERR_CANCELLED);
+            const int in_tiles = im.color[fly] < 900.0f;
+            memcpy(im.color, keep, sizeof(float) * n3);
+            CHECK_EQ_INT(run_opts(dev, &im, apart, budget, 1, NULL), EW_OK);
+            CHECK_EQ_INT(run_opts(dev, &im, im.color, budget, 1, NULL), EW_OK);
+            for (long i = 0; i < n3; i++) differ += memcmp(&apart[i], &im.color[i], sizeof(float)) != 0;
+            fprintf(stderr, "  amplitude %.2f, %s: blend changed %ld values, stage %s; %ld differ\n", (double)amps[a],
+                    opts_what, blended, in_tiles ? "in the tiles" : "around the method", differ);
+            CHECK(differ == 0);
+            if (budget == 1) CHECK_STR_CONTAINS(opts_what, "x4 tiles"); /* seams across and down */
+            blended_in_tiles += blended > 0 && in_tiles;
+            free(keep);
+            images_free(&im);
+        }
+    CHECK(blended_in_tiles >= 2); /* the blend in the tiles, whole and tiled */
+    free(apart);
+    free(off);
+    ew_device_destroy(dev);
+}
