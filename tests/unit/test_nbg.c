@@ -319,14 +319,15 @@ TEST(tiny_images_and_aliased_output) {
     free(w);
 }
 
-/* Run nbg with weights (NULL: the built-in default) under a memory budget;
- * the output goes to im->out; *what gets ew_denoiser_describe. */
-static ew_result run_budget(ew_device *dev, images *im, const void *weights, size_t size, int budget_mb, char *what,
-                            size_t len) {
+/* Run nbg with weights (NULL: the built-in default) under a memory budget,
+ * the do-no-harm blend on or off, with a progress callback (or NULL); the
+ * output goes to out; *what gets ew_denoiser_describe. */
+static ew_result run_with(ew_device *dev, images *im, float *out, const void *weights, size_t size, int budget_mb,
+                          int harm, ew_progress_fn progress, char *what, size_t len) {
     ew_denoiser *d = NULL;
     ew_image c = ew_image_packed(im->color, im->w, im->h, 3), a = ew_image_packed(im->albedo, im->w, im->h, 3);
     ew_image n = ew_image_packed(im->normal, im->w, im->h, 3), z = ew_image_packed(im->depth, im->w, im->h, 1);
-    ew_image o = ew_image_packed(im->out, im->w, im->h, 3);
+    ew_image o = ew_image_packed(out, im->w, im->h, 3);
     ew_result r = ew_denoiser_create(dev, "nbg", &d);
     if (r == EW_OK && weights) r = ew_denoiser_set_data(d, "weights", weights, size);
     if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
@@ -335,11 +336,19 @@ static ew_result run_budget(ew_device *dev, images *im, const void *weights, siz
     if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
     if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
     if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "do_no_harm", harm);
+    if (r == EW_OK && progress) r = ew_denoiser_set_progress(d, progress, NULL);
     if (r == EW_OK) r = ew_denoiser_commit(d);
     if (r == EW_OK) r = ew_denoiser_execute(d);
     snprintf(what, len, "%s", r == EW_OK ? ew_denoiser_describe(d) : "");
     ew_denoiser_destroy(d);
     return r;
+}
+
+/* ... with the blend on, into im->out */
+static ew_result run_budget(ew_device *dev, images *im, const void *weights, size_t size, int budget_mb, char *what,
+                            size_t len) {
+    return run_with(dev, im, im->out, weights, size, budget_mb, 1, NULL, what, len);
 }
 
 /* Weights of a random net whose grids have the given spatial rates. */
@@ -539,24 +548,7 @@ static void smooth_images(images *im, int w, int h, float amp, unsigned seed) {
 static char opts_what[128];
 
 static ew_result run_opts(ew_device *dev, images *im, float *out, int budget_mb, int harm, ew_progress_fn progress) {
-    ew_denoiser *d = NULL;
-    ew_image c = ew_image_packed(im->color, im->w, im->h, 3), a = ew_image_packed(im->albedo, im->w, im->h, 3);
-    ew_image n = ew_image_packed(im->normal, im->w, im->h, 3), z = ew_image_packed(im->depth, im->w, im->h, 1);
-    ew_image o = ew_image_packed(out, im->w, im->h, 3);
-    ew_result r = ew_denoiser_create(dev, "nbg", &d);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", &a);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", &n);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
-    if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
-    if (r == EW_OK) r = ew_denoiser_set_int(d, "do_no_harm", harm);
-    if (r == EW_OK && progress) r = ew_denoiser_set_progress(d, progress, NULL);
-    if (r == EW_OK) r = ew_denoiser_commit(d);
-    if (r == EW_OK) r = ew_denoiser_execute(d);
-    snprintf(opts_what, sizeof opts_what, "%s", r == EW_OK ? ew_denoiser_describe(d) : "");
-    ew_denoiser_destroy(d);
-    return r;
+    return run_with(dev, im, out, NULL, 0, budget_mb, harm, progress, opts_what, sizeof opts_what);
 }
 
 /* With the output written over the colour (the CLI's denoise), the
