@@ -22,6 +22,7 @@
 #include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
+#include "src/tile_writer.h"
 #include "src/op_model.h"
 
 static const ew_image_desc images[] = {
@@ -98,6 +99,7 @@ typedef struct {
     float *target;          /* streamed: the result when the output view is not written in place (else untouched) */
     float *band_rad, *band_guide, *band_clamped, *band_removed; /* streamed: one band of rows and its margins */
     float *band_above;      /* streamed: the clamped row above the band (exact: the band above's) */
+    ew_tile_writer tw;      /* streamed, with the stage in the tiles: the cores out (fused_core) */
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
@@ -194,12 +196,19 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
     return params_and_frame(net, w, h, px, 0);
 }
 
+/* The pixels around a core whose output must be exact too: the
+ * do-no-harm stage's blend's, when it may run in the tiles (fused_core) */
+static int fused_margin(const ew_op *op) { return ew_harm_may_fuse(op) ? ew_harm_region_margin() : 0; }
+
 /* Streamed (above): the parameters, the colour when it is not read in
  * place and the result when the output is not written in place (reserved;
  * their pages untouched otherwise), the features not read in place, one
- * band and the clamped radiance of `rows` rows (a row of regions). */
+ * band and the clamped radiance of `rows` rows (a row of regions), and
+ * what the tiles hold back of their cores when the stage may run in them. */
 static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rows) {
-    return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op), band_floats(w) + (size_t)w * (size_t)rows * 3);
+    const int m = fused_margin(op);
+    return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op),
+                            band_floats(w) + (size_t)w * (size_t)rows * 3 + (m ? ew_tile_writer_floats(w, h, m) : 0));
 }
 
 /* The device floats of a tiled side x side region. */
@@ -213,11 +222,12 @@ static void plan_tiles(const ew_op *op, const ew_kpcn_net *net, int w, int h, si
     const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
     /* below a 256-pixel core the halos would more than double the work:
      * such a tile's region is the least the tiles get */
-    const size_t floor = square_region_floats(net, MIN_CORE + 2 * ew_kpcn_halo(net));
+    const int margin = fused_margin(op);
+    const size_t floor = square_region_floats(net, MIN_CORE + 2 * ew_kpcn_halo_around(net, margin));
     size_t tiles = budget > frame + floor ? budget - frame : floor;
     const size_t fast = square_region_floats(net, FAST_REGION);
     if (!op->dev->device_memory && tiles > fast) tiles = fast;
-    ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, t);
+    ew_kpcn_tiling_plan(net, w, h, tiles, TILE_EXTRA_FLOATS, margin, t);
 }
 
 /* The tiles of a w x h frame under max_memory_mb, whether they are
@@ -332,6 +342,11 @@ static ew_result commit(ew_op *op) {
         s->band_clamped = p; p += bn * 3;
         s->band_removed = p; p += bn;
         s->band_above = p; p += 3 * (size_t)w;
+        s->tw.keep = fused_margin(op);
+        if (s->tw.keep) {
+            s->tw.strip = p; p += (size_t)h * (size_t)s->tw.keep * 3;
+            s->tw.pend = p; p += 2 * (size_t)w * (size_t)s->tw.keep * 3;
+        }
     } else {
         b->radiance = p; p += n * 3;
         s->clamped = p; p += n * 3;
@@ -471,6 +486,38 @@ static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile
     return EW_OK;
 }
 
+/* A streamed tile's end with the do-no-harm stage in the tiles
+ * (ew_harm_fused: the output is the colour's view, which holds the clamped
+ * colour; the halo reaches ew_harm_region_margin past the core): the
+ * region's output remodulated, blended on that colour (packed into fcolor,
+ * unused while the colour is read in place) with the share the clamp took
+ * (packed into target, unused while the output is written in place), the
+ * core's share back where the stage reads it, and the core out through the
+ * tile writer, which holds back what the next tiles' blends read. */
+static ew_result fused_core(ew_op *op, const ew_tile *tile) {
+    state *s = (state *)op->state;
+    ew_device *dev = op->dev;
+    const ew_denoise_buffers *b = &s->buf;
+    const int W = b->width, rw = tile->rw, rh = tile->rh, ox = tile->cx - tile->rx, oy = tile->cy - tile->ry;
+    const long at = (long)tile->ry * W + tile->rx;
+    if (!s->net.remod) { /* out = filtered * (albedo + eps), in place */
+        ew_denoise_buffers rb = *b;
+        rb.width = rw;
+        rb.height = rh;
+        rb.in_stride = W;
+        rb.albedo = b->albedo + at * 3;
+        rb.sliced = rb.out = s->tile_out;
+        dev->backend->denoise_finish(dev, &rb);
+    }
+    const float *color = ew_dev_view_in_place(dev, ew_op_image(op, "color"), 3, NULL);
+    float *removed = ew_harm_clamp_removed(op);
+    ew_result r = ew_dev_copy_rect(dev, s->fcolor, rw, 0, 0, color, W, tile->rx, tile->ry, rw, rh, 3);
+    if (r == EW_OK) r = ew_dev_copy_rect(dev, s->target, rw, 0, 0, removed, W, tile->rx, tile->ry, rw, rh, 1);
+    if (r == EW_OK) r = ew_harm_region_done(op, rw, rh, s->fcolor, s->tile_out, s->target);
+    if (r == EW_OK) r = ew_dev_copy_rect(dev, removed, W, tile->cx, tile->cy, s->target, rw, ox, oy, tile->cw, tile->ch, 1);
+    return r == EW_OK ? ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->fcolor) : r;
+}
+
 /* The network and the filters on one tile's region, keeping its core in
  * tile_target (the filtered radiance, or the colour); progress from p0 over the span dp. */
 static ew_result run_tile(ew_op *op, const float *radiance, int row0, float noise, const ew_tile *tile, double p0,
@@ -556,6 +603,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
         if (r == EW_OK && !ew_op_report(op, p0 + (0.3 + 0.65 * done / rh) * dp))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
+    if (r == EW_OK && s->tile_out && ew_harm_fused(op)) return fused_core(op, tile);
     if (s->tile_out) {
         const size_t row = (size_t)tile->cw * 3 * sizeof(float);
         for (int y = tile->cy; y < tile->cy + tile->ch && r == EW_OK; y++)
@@ -701,6 +749,10 @@ static ew_result execute_streamed(ew_op *op) {
     float *target = (float *)ew_dev_view_in_place(dev, ov, 3, NULL);
     if (!target) target = s->target;
     b->out = b->sliced = target; /* tile_target, and finished in place */
+    s->tw.dev = dev;
+    s->tw.out = ov;
+    s->tw.stage = s->stage;
+    s->tw.held.cw = 0;
     /* a row of regions reads the rows of the row above's cores in its top
      * halo, where an output over the colour has been written by then: those
      * rows are already in the buffer (the region above reached its halo
@@ -721,7 +773,8 @@ static ew_result execute_streamed(ew_op *op) {
         have0 = r0;
         have1 = r1;
     }
-    if (r == EW_OK && !net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
+    /* out = filtered * (albedo + eps) (fused: each tile's) */
+    if (r == EW_OK && !net->remod && !ew_harm_fused(op)) dev->backend->denoise_finish(dev, b);
     if (r == EW_OK && target == s->target) r = ew_dev_get_view(dev, target, 3, ov, s->stage);
     /* as the frame path's: nothing here is read before it is written again */
     ew_dev_release_pages(dev, s->fcolor, (char *)s->dmem.mem + s->dmem.bytes);
@@ -786,6 +839,13 @@ static ew_result execute(ew_op *op) {
     }
     if (r != EW_OK) return r;
     if (!net->remod) dev->backend->denoise_finish(dev, b); /* out = filtered * (albedo + eps) */
+    if (ew_harm_fused(op)) {
+        /* the stage in the tiles, here one region: the frame's blend on the
+         * clamped colour its view holds (the output goes there only below) */
+        const float *color = ew_dev_view_in_place(dev, ew_op_image(op, "color"), 3, NULL);
+        r = ew_harm_region_done(op, w, h, color, b->out, ew_harm_clamp_removed(op));
+        if (r != EW_OK) return r;
+    }
     /* the frame's buffers and the regions' are written again before they
      * are read at the next execute (the parameters before them stay; the
      * planes' zero padding comes back as zeros): the do-no-harm stage's
@@ -819,6 +879,7 @@ const ew_op_type ew_denoise_kpcn = {
     .execute = execute,
     .release = release,
     .memory = memory,
+    .stage_in_tiles = 1,
     .set_data = set_data,
     .release_data = ew_net_model_release,
     .device_memory = 1,

@@ -22,6 +22,7 @@
 #include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
+#include "src/tile_writer.h"
 #include "src/op_model.h"
 #include "src/tiling.h"
 
@@ -71,12 +72,10 @@ typedef struct {
     ew_denoise_buffers buf;  /* device: one region's buffers (the frame's inputs when untiled) */
     float *params, *clamped, *outputs, *removed, *band, *grid;
     /* a colour the output overlaps, read where it is by tiles (inplace):
-     * what later tiles read of a core waits before it goes out */
+     * what later tiles read of a core waits before it goes out (tw.strip
+     * NULL: the commit could not have that) */
     int inplace;
-    float *strip;            /* the core's right halo columns, out after the next tile has read them (held) */
-    ew_tile held;            /* where they go (held.cw 0: none) */
-    float *pend;             /* two buffers of a frame's width and halo rows: a row of tiles' bottom rows,
-                                out after the next row of tiles has read them */
+    ew_tile_writer tw;
     double *row_out;         /* device: reduce_rows output, 2 x height */
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
     double *rows;            /* host: row_out read back */
@@ -117,14 +116,11 @@ static size_t frame_floats_px(const ew_op *op) {
 }
 
 /* Whether tiles may read a colour the output overlaps where it is
- * (execute: inplace), and so the commit holds strip and pend */
+ * (execute: inplace), and so the commit holds a tile writer's buffers */
 static int colour_in_place_possible(const ew_op *op) {
     const ew_image *c = ew_op_image(op, "color"), *o = ew_op_image(op, "output");
     return ew_images_overlap(c, o) && ew_dev_view_in_place(op->dev, c, 3, NULL) != NULL;
 }
-
-/* Floats of strip and pend for a frame w x h and a tiling's halo */
-static size_t inplace_floats(int w, int h, int halo) { return (2 * (size_t)w + (size_t)h) * (size_t)halo * 3; }
 
 static size_t region_cost(const void *net, int rw, int rh) {
     return ew_nbg_region_floats((const ew_guidenet *)net, rw, rh, 1);
@@ -147,7 +143,7 @@ static size_t plan(const ew_op *op, const ew_guidenet *net, int w, int h, ew_til
         t->align = 1;
         return whole;
     }
-    if (colour_in_place_possible(op)) frame += inplace_floats(w, h, ew_nbg_halo(net)); /* tiled: strip, pend */
+    if (colour_in_place_possible(op)) frame += ew_tile_writer_floats(w, h, ew_nbg_halo(net)); /* tiled */
     /* below a 256-pixel core the halos would more than double the work */
     const int least = MIN_CORE + 2 * ew_nbg_halo(net);
     const size_t floor = ew_nbg_region_floats(net, least, least, 1);
@@ -255,9 +251,10 @@ static ew_result commit(ew_op *op) {
     s->outputs = p; p += rn * (size_t)net->nout;
     b->guide = s->outputs;
     s->band = p; p += ew_nbg_band_floats(net, tiling.rw, ew_nbg_band_rows(net, tiling.rh));
-    if (tiled && colour_in_place_possible(op) && tiling.tw >= tiling.halo && tiling.th >= tiling.halo) {
-        s->strip = p; p += (size_t)h * tiling.halo * 3;
-        s->pend = p; p += 2 * (size_t)w * tiling.halo * 3;
+    if (tiled && colour_in_place_possible(op) && ew_tile_writer_fits(&tiling, tiling.halo)) {
+        s->tw.keep = tiling.halo; /* what a region reads of its neighbours' cores */
+        s->tw.strip = p; p += (size_t)h * tiling.halo * 3;
+        s->tw.pend = p; p += 2 * (size_t)w * tiling.halo * 3;
     }
     s->grid = p;
     ew_result r = dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
@@ -274,17 +271,6 @@ static int band_progress(void *user, double f) {
     return ew_op_report(c->op, c->from + c->span * f);
 }
 
-/* Copies rows of c floats a pixel between two packed images of widths dw
- * and sw: w x h pixels from (sx, sy) of src to (dx, dy) of dst. */
-static ew_result copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx,
-                           int sy, int w, int h, int c) {
-    ew_result r = EW_OK;
-    for (int y = 0; y < h && r == EW_OK; y++)
-        r = dev->backend->mem_copy(dev, dst + (((long)(dy + y) * dw + dx) * c), src + (((long)(sy + y) * sw + sx) * c),
-                                   (size_t)w * (size_t)c * sizeof(float));
-    return r;
-}
-
 /* The output view's pixels [x, x + w) x [y, y + h) */
 static ew_image out_crop(const ew_op *op, int x, int y, int w, int h) {
     ew_image v = *ew_op_image(op, "output");
@@ -299,53 +285,9 @@ static ew_image out_crop(const ew_op *op, int x, int y, int w, int h) {
 static ew_result out_rect(ew_op *op, const ew_tile *t, int x, int y, int w, int h) {
     state *s = (state *)op->state;
     if (w <= 0 || h <= 0) return EW_OK;
-    ew_result r = copy_rect(op->dev, s->buf.radiance, w, 0, 0, s->buf.out, t->rw, x - t->rx, y - t->ry, w, h, 3);
+    ew_result r = ew_dev_copy_rect(op->dev, s->buf.radiance, w, 0, 0, s->buf.out, t->rw, x - t->rx, y - t->ry, w, h, 3);
     const ew_image v = out_crop(op, x, y, w, h);
     return r == EW_OK ? ew_dev_get_view(op->dev, s->buf.radiance, 3, &v, s->stage) : r;
-}
-
-/* The held columns of the tile before, into the output */
-static ew_result flush_held(ew_op *op) {
-    state *s = (state *)op->state;
-    if (s->held.cw <= 0 || s->held.ch <= 0) return EW_OK;
-    const ew_image v = out_crop(op, s->held.cx, s->held.cy, s->held.cw, s->held.ch);
-    s->held.cw = 0;
-    return ew_dev_get_view(op->dev, s->strip, 3, &v, s->stage);
-}
-
-/* Tile t's core into the output when the output is the colour tiles read
- * where it is (inplace): the next tile of the row reads the core's last
- * halo columns and the next row of tiles its last halo rows, so those go
- * out after them (strip, pend); the rest now, with the columns the tile
- * before held, which this tile has read. Cores are at least a halo across
- * (the commit), so no tile reads further back. */
-static ew_result core_in_place(ew_op *op, const ew_tile *t) {
-    state *s = (state *)op->state;
-    ew_device *dev = op->dev;
-    const int W = s->tiling.width, H = s->tiling.height, halo = s->tiling.halo;
-    const int kr = t->cx + t->cw < W ? halo : 0, kb = t->cy + t->ch < H ? halo : 0;
-    const int row = t->cy / s->tiling.th;
-    float *pend = s->pend + (size_t)(row & 1) * (size_t)W * (size_t)halo * 3;
-    ew_result r = flush_held(op);
-    if (r == EW_OK) r = out_rect(op, t, t->cx, t->cy, t->cw - kr, t->ch - kb);
-    if (r == EW_OK && kr) {
-        r = copy_rect(dev, s->strip, kr, 0, 0, s->buf.out, t->rw, t->cx + t->cw - kr - t->rx, t->cy - t->ry, kr,
-                      t->ch - kb, 3);
-        s->held = *t;
-        s->held.cx = t->cx + t->cw - kr;
-        s->held.cw = kr;
-        s->held.ch = t->ch - kb;
-    }
-    if (r == EW_OK && kb)
-        r = copy_rect(dev, pend, W, t->cx, 0, s->buf.out, t->rw, t->cx - t->rx, t->cy + t->ch - kb - t->ry, t->cw, kb,
-                      3);
-    if (r == EW_OK && !kr && row > 0) {
-        /* the row's last tile: the row before's last rows, which this row
-         * of tiles read, go out */
-        const ew_image v = out_crop(op, 0, t->cy - halo, W, halo);
-        r = ew_dev_get_view(dev, s->pend + (size_t)((row - 1) & 1) * (size_t)W * (size_t)halo * 3, 3, &v, s->stage);
-    }
-    return r;
 }
 
 /* The whole method on one tile's region (the frame when untiled): its
@@ -426,21 +368,21 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
         const int x1 = ox + t->cw + m < t->rw ? ox + t->cw + m : t->rw, y1 = oy + t->ch + m < t->rh ? oy + t->ch + m : t->rh;
         const int sw = x1 - x0, sh = y1 - y0;
         float *in = b->sliced, *out = b->radiance, *share = give ? s->clamped : NULL;
-        r = copy_rect(dev, in, sw, 0, 0, s->color, W, t->rx + x0, t->ry + y0, sw, sh, 3);
-        if (r == EW_OK) r = copy_rect(dev, out, sw, 0, 0, b->out, t->rw, x0, y0, sw, sh, 3);
-        if (r == EW_OK && share) r = copy_rect(dev, share, sw, 0, 0, give, t->rw, x0, y0, sw, sh, 1);
+        r = ew_dev_copy_rect(dev, in, sw, 0, 0, s->color, W, t->rx + x0, t->ry + y0, sw, sh, 3);
+        if (r == EW_OK) r = ew_dev_copy_rect(dev, out, sw, 0, 0, b->out, t->rw, x0, y0, sw, sh, 3);
+        if (r == EW_OK && share) r = ew_dev_copy_rect(dev, share, sw, 0, 0, give, t->rw, x0, y0, sw, sh, 1);
         if (r == EW_OK) r = ew_harm_region_done(op, sw, sh, in, out, share);
-        if (r == EW_OK) r = copy_rect(dev, b->out, t->rw, ox, oy, out, sw, ox - x0, oy - y0, t->cw, t->ch, 3);
-        if (r == EW_OK && share) r = copy_rect(dev, give, t->rw, ox, oy, share, sw, ox - x0, oy - y0, t->cw, t->ch, 1);
+        if (r == EW_OK) r = ew_dev_copy_rect(dev, b->out, t->rw, ox, oy, out, sw, ox - x0, oy - y0, t->cw, t->ch, 3);
+        if (r == EW_OK && share) r = ew_dev_copy_rect(dev, give, t->rw, ox, oy, share, sw, ox - x0, oy - y0, t->cw, t->ch, 1);
         if (r != EW_OK) return r;
     }
     if (tiled && give) {
-        r = copy_rect(dev, removed, W, t->cx, t->cy, give, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch, 1);
+        r = ew_dev_copy_rect(dev, removed, W, t->cx, t->cy, give, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch, 1);
         if (r != EW_OK) return r;
     }
     const ew_image *o = ew_op_image(op, "output");
     if (!tiled) return ew_dev_get_view(dev, b->out, 3, o, s->stage);
-    if (s->inplace) return core_in_place(op, t);
+    if (s->inplace) return ew_tile_writer_core(&s->tw, &s->tiling, t, b->out, b->radiance);
     /* the core into the output view's core */
     return out_rect(op, t, t->cx, t->cy, t->cw, t->ch);
 }
@@ -459,8 +401,11 @@ static ew_result execute(ew_op *op) {
     const int ntiles = s->tiling.nx * s->tiling.ny;
     s->color = ew_dev_view_in_place(dev, cv, 3, ew_op_image(op, "output"));
     s->inplace = 0;
-    s->held.cw = 0;
-    if (!s->color && (ntiles == 1 || s->pend)) {
+    s->tw.dev = dev;
+    s->tw.out = ew_op_image(op, "output");
+    s->tw.stage = s->stage;
+    s->tw.held.cw = 0;
+    if (!s->color && (ntiles == 1 || s->tw.strip)) {
         /* a colour the output overlaps: whole, the output goes out after
          * the last read; in tiles, what later tiles read waits (inplace) */
         s->color = ew_dev_view_in_place(dev, cv, 3, NULL);

@@ -300,7 +300,9 @@ static span reach_output(const ew_kpcn_net *net, int k, span a) {
 
 int ew_kpcn_align(const ew_kpcn_net *net) { return 1 << (net->scales - 1); }
 
-int ew_kpcn_halo(const ew_kpcn_net *net) {
+int ew_kpcn_halo(const ew_kpcn_net *net) { return ew_kpcn_halo_around(net, 0); }
+
+int ew_kpcn_halo_around(const ew_kpcn_net *net, int margin) {
     const int align = ew_kpcn_align(net), base = 64 * align; /* far from the frame's edges */
     int halo = 0;
     for (int x = base; x < base + align; x++) {
@@ -308,7 +310,7 @@ int ew_kpcn_halo(const ew_kpcn_net *net) {
         if (x - r.lo > halo) halo = x - r.lo;
         if (r.hi - x > halo) halo = r.hi - x;
     }
-    return (halo + align - 1) / align * align; /* regions start on the pooling grid too */
+    return (halo + margin + align - 1) / align * align; /* regions start on the pooling grid too */
 }
 
 typedef struct {
@@ -322,9 +324,9 @@ static size_t region_floats(const void *ctx, int w, int h) {
 }
 
 void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_floats, size_t region_extra_floats,
-                         ew_tiling *t) {
+                         int margin, ew_tiling *t) {
     const region_cost c = {net, region_extra_floats};
-    ew_tiling_plan(w, h, ew_kpcn_halo(net), ew_kpcn_align(net), budget_floats, region_floats, &c, t);
+    ew_tiling_plan(w, h, ew_kpcn_halo_around(net, margin), ew_kpcn_align(net), budget_floats, region_floats, &c, t);
 }
 
 /* The layer of src that net's layer l continues, or -1 for a new one; *skip:

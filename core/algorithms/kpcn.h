@@ -193,13 +193,16 @@ size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h);
  * pixels as the whole frame's; the output is the same bits as one
  * whole-frame pass (tests/unit/test_kpcn.c). */
 int ew_kpcn_halo(const ew_kpcn_net *net);
+/* ... for an output exact `margin` pixels around the core too (what a
+ * blend's window reads around it: src/harm_stage.c, in the tiles) */
+int ew_kpcn_halo_around(const ew_kpcn_net *net, int margin);
 int ew_kpcn_align(const ew_kpcn_net *net);
 
-/* Tiles of a w x h frame (src/tiling.h) with kpcn's halo and alignment,
- * each region within budget_floats device floats (ew_kpcn_device_floats +
- * region_extra_floats a region pixel). */
+/* Tiles of a w x h frame (src/tiling.h) with kpcn's halo (around margin
+ * pixels) and alignment, each region within budget_floats device floats
+ * (ew_kpcn_device_floats + region_extra_floats a region pixel). */
 void ew_kpcn_tiling_plan(const ew_kpcn_net *net, int w, int h, size_t budget_floats, size_t region_extra_floats,
-                         ew_tiling *t);
+                         int margin, ew_tiling *t);
 
 /* ---- training (host) ---------------------------------------------------- */
 #define EW_KPCN_LOSS_TM 0  /* L1 of the metrics' tone curve (kernels/guidenet.h ew_nbg_tm) */

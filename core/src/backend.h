@@ -174,6 +174,11 @@ void ew_dev_prefault(ew_device *dev, void *from, void *to);
  * a buffer written sparsely afterwards holds only the pages written; the
  * partial pages at its ends, and device memory, through mem_zero. */
 ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes);
+/* Rows of c floats a pixel between two packed device images of widths dw
+ * and sw: w x h pixels from (sx, sy) of src to (dx, dy) of dst (a tile's
+ * region and the frame, or a rect and its packed copy). */
+ew_result ew_dev_copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx, int sy,
+                           int w, int h, int c);
 /* A device block an op keeps from one commit to the next: a graph commits
  * its ops again every frame with the same images, and a new block would be
  * mapped and faulted in again. */

@@ -158,6 +158,15 @@ void *ew_host_alloc(size_t bytes) {
 
 void ew_host_free(void *ptr) { free(ptr); }
 
+ew_result ew_dev_copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx, int sy,
+                           int w, int h, int c) {
+    ew_result r = EW_OK;
+    for (int y = 0; y < h && r == EW_OK; y++)
+        r = dev->backend->mem_copy(dev, dst + ((long)(dy + y) * dw + dx) * c, src + ((long)(sy + y) * sw + sx) * c,
+                                   (size_t)w * (size_t)c * sizeof(float));
+    return r;
+}
+
 ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes) {
 #if defined(__linux__)
     const uintptr_t p = (uintptr_t)ptr, e = p + bytes;

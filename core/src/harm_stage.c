@@ -563,6 +563,16 @@ static ew_result reject_in_bands(ew_op *op, ew_harm_state *s, ew_harm_args *ha, 
     return r;
 }
 
+int ew_harm_may_fuse(const ew_op *op) {
+    const ew_image *c = ew_op_image(op, "color"), *o = ew_op_image(op, "output");
+    const int pre = pre_steps(op);
+    if (!has_stage(op->type) || op->type->stage_in_inner || !c || !o || c->channels < 3) return 0;
+    const float *in[3];
+    int kept;
+    const int own = views_in_place(op, c->channels, pre, in, &kept);
+    return fusable(op, c->channels, pre, own, kept);
+}
+
 int ew_harm_fused(const ew_op *op) {
     const ew_harm_state *s = (const ew_harm_state *)op->harm;
     return s && s->fused;

@@ -187,6 +187,10 @@ float *ew_harm_clamp_removed(const ew_op *op);
  * clamped colour in place of the caller's, and every region ends with
  * ew_harm_region_done. */
 int ew_harm_fused(const ew_op *op);
+/* Whether the stage would run in the tiles with the op's views and
+ * parameters as they are (a method's commit plans for it: the blend's
+ * margin, what its tiles hold back). */
+int ew_harm_may_fuse(const ew_op *op);
 /* The stage's blend on a tile's region (rw x rh, packed): in is the clamped
  * colour there (RGB), out the method's output (blended in place), give the
  * share of each pixel the method's clamp took (ew_harm_clamp_removed's

@@ -754,7 +754,7 @@ static void tiling_plan_case(const char *arch) {
         for (size_t bi = 0; bi < sizeof budgets / sizeof budgets[0]; bi++) {
             const int w = sizes[si][0], h = sizes[si][1];
             ew_tiling t;
-            ew_kpcn_tiling_plan(&net, w, h, budgets[bi], 3, &t);
+            ew_kpcn_tiling_plan(&net, w, h, budgets[bi], 3, 0, &t);
             unsigned char *cover = calloc((size_t)w * h, 1);
             int ok = 1;
             for (int i = 0; i < t.nx * t.ny; i++) {
@@ -1076,5 +1076,80 @@ TEST(uhd_frame_fits_the_default_budget) {
     CHECK(bytes[1] > 0 && bytes[1] < (uint64_t)2 << 30);
     CHECK(bytes[4] <= (bytes[3] > bytes[1] ? bytes[3] : bytes[1]));
     CHECK(bytes[5] <= (bytes[3] > bytes[2] ? bytes[3] : bytes[2]));
+    ew_device_destroy(dev);
+}
+
+/* ---- the do-no-harm stage in kpcn's tiles ---------------------------------- */
+static int cancel_at_half(void *user, double f) {
+    (void)user;
+    return f < 0.5;
+}
+
+/* kpcn (the built-in model) on sc with the stage's defaults under a budget,
+ * the output into out (which may be sc->color); 0: cancelled half way */
+static ew_result denoise_stage(ew_device *dev, const scene *sc, float *out, int budget_mb, int harm, int cancel,
+                               char *what, size_t len) {
+    ew_denoiser *d = NULL;
+    ew_result r = ew_denoiser_create(dev, "kpcn", &d);
+    if (r != EW_OK) return r;
+    set_frame(d, sc->color, sc->albedo, sc->normal, sc->depth, out, sc->w, sc->h);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "do_no_harm", harm);
+    if (r == EW_OK && cancel) r = ew_denoiser_set_progress(d, cancel_at_half, NULL);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    snprintf(what, len, "%s", r == EW_OK ? ew_denoiser_describe(d) : "");
+    ew_denoiser_destroy(d);
+    return r;
+}
+
+/* With the output written over the colour (the CLI's denoise), the
+ * do-no-harm stage runs inside kpcn's tiles: it clamps the caller's colour
+ * in place, the tiles' halo reaches the blend's margin past the core, and
+ * each core is remodulated and blended before it goes out (what the next
+ * tiles' blends read of it after them). With direct convolutions the same
+ * bits as the output apart (the stage around the method), whole and in
+ * streamed tiles, where the blend runs and where it fades out. That it ran
+ * in the tiles shows in a run cancelled half way: the colour the tiles had
+ * not reached holds the clamped colour. */
+TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
+    ew_device *dev = make_direct_device(2);
+    const float amps[2] = {0.2f, 0.9f};
+    int blended_in_tiles = 0;
+    for (int a = 0; a < 2; a++)
+        for (int budget = 1024; budget >= 1; budget /= 1024) {
+            scene sc;
+            scene_make(&sc, 613, 587, 11 + a);
+            unsigned seed = 90 + a;
+            const long n3 = (long)sc.w * sc.h * 3;
+            for (long i = 0; i < n3; i++) sc.color[i] = sc.ref[i] * (1.0f + amps[a] * (2.0f * urand(&seed) - 1.0f));
+            for (int k = 0; k < 30; k++)
+                sc.color[((long)(urand(&seed) * (float)(sc.h - 1)) * sc.w + (long)(urand(&seed) * (float)(sc.w - 1))) * 3 + 1] = 900.0f;
+            const long fly = ((long)(sc.h - 12) * sc.w + 300) * 3 + 1; /* where a cancelled run does not reach */
+            sc.color[fly] = 900.0f;
+            float *apart = malloc(sizeof(float) * n3), *off = malloc(sizeof(float) * n3), *keep = malloc(sizeof(float) * n3);
+            char what[128], what_over[128], scratch[128];
+            CHECK_EQ_INT(denoise_stage(dev, &sc, apart, budget, 1, 0, what, sizeof what), EW_OK);
+            CHECK_EQ_INT(denoise_stage(dev, &sc, off, budget, 0, 0, scratch, sizeof scratch), EW_OK);
+            long blended = 0, differ = 0;
+            for (long i = 0; i < n3; i++) blended += memcmp(&apart[i], &off[i], sizeof(float)) != 0;
+            memcpy(keep, sc.color, sizeof(float) * n3);
+            CHECK_EQ_INT(denoise_stage(dev, &sc, sc.color, budget, 1, 1, scratch, sizeof scratch), EW_ERR_CANCELLED);
+            const int in_tiles = sc.color[fly] < 900.0f;
+            memcpy(sc.color, keep, sizeof(float) * n3);
+            CHECK_EQ_INT(denoise_stage(dev, &sc, sc.color, budget, 1, 0, what_over, sizeof what_over), EW_OK);
+            for (long i = 0; i < n3; i++) differ += memcmp(&apart[i], &sc.color[i], sizeof(float)) != 0;
+            fprintf(stderr, "  amplitude %.1f, %s / over the colour %s: blend changed %ld values, stage %s; %ld differ\n",
+                    (double)amps[a], what, what_over, blended, in_tiles ? "in the tiles" : "around the method", differ);
+            CHECK(differ == 0);
+            CHECK(in_tiles);
+            if (budget == 1) CHECK_STR_CONTAINS(what_over, "tiles");
+            blended_in_tiles += blended > 0;
+            free(apart);
+            free(off);
+            free(keep);
+            scene_free(&sc);
+        }
+    CHECK(blended_in_tiles >= 2);
     ew_device_destroy(dev);
 }
