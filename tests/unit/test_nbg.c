@@ -562,41 +562,44 @@ static ew_result run_opts(ew_device *dev, images *im, float *out, int budget_mb,
  * half way: the colour the tiles had not reached holds the clamped colour
  * (around the method, the caller's colour is read only). */
 TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
-    enum { W = 613, H = 1117 };
+    enum { W = 600, H = 640 };
     const long n3 = (long)W * H * 3;
-    const float amps[4] = {0.05f, 0.12f, 0.2f, 0.5f};
+    const float amps[3] = {0.05f, 0.2f, 0.5f};
     ew_device *dev = make_device(2);
-    float *apart = malloc(sizeof(float) * n3), *off = malloc(sizeof(float) * n3);
+    float *apart = malloc(sizeof(float) * n3), *off = malloc(sizeof(float) * n3), *keep = malloc(sizeof(float) * n3);
     int blended_in_tiles = 0;
-    for (int a = 0; a < 4; a++)
+    for (int a = 0; a < 3; a++) {
+        images im;
+        smooth_images(&im, W, H, amps[a], 40 + a);
+        /* a firefly in the last rows, which a cancelled run's tiles do not reach */
+        const long fly = ((long)(H - 20) * W + 300) * 3 + 1;
+        im.color[fly] = 900.0f;
+        memcpy(keep, im.color, sizeof(float) * n3);
+        long blended = 0;
         for (int budget = 1024; budget >= 1; budget /= 1024) {
-            images im;
-            smooth_images(&im, W, H, amps[a], 40 + a);
             CHECK_EQ_INT(run_opts(dev, &im, apart, budget, 1, NULL), EW_OK);
-            CHECK_EQ_INT(run_opts(dev, &im, off, budget, 0, NULL), EW_OK);
-            long blended = 0, differ = 0;
-            for (long i = 0; i < n3; i++) blended += memcmp(&apart[i], &off[i], sizeof(float)) != 0;
-            /* a firefly in the last rows, which a cancelled run's tiles do not reach */
-            const long fly = ((long)(H - 20) * W + 300) * 3 + 1;
-            im.color[fly] = 900.0f;
-            float *keep = malloc(sizeof(float) * n3);
-            memcpy(keep, im.color, sizeof(float) * n3);
+            if (budget == 1024) { /* whether the blend runs at all (the same bits in tiles) */
+                CHECK_EQ_INT(run_opts(dev, &im, off, budget, 0, NULL), EW_OK);
+                for (long i = 0; i < n3; i++) blended += memcmp(&apart[i], &off[i], sizeof(float)) != 0;
+            }
             CHECK_EQ_INT(run_opts(dev, &im, im.color, budget, 1, cancel_at_half), EW_ERR_CANCELLED);
             const int in_tiles = im.color[fly] < 900.0f;
             memcpy(im.color, keep, sizeof(float) * n3);
-            CHECK_EQ_INT(run_opts(dev, &im, apart, budget, 1, NULL), EW_OK);
             CHECK_EQ_INT(run_opts(dev, &im, im.color, budget, 1, NULL), EW_OK);
+            long differ = 0;
             for (long i = 0; i < n3; i++) differ += memcmp(&apart[i], &im.color[i], sizeof(float)) != 0;
             fprintf(stderr, "  amplitude %.2f, %s: blend changed %ld values, stage %s; %ld differ\n", (double)amps[a],
                     opts_what, blended, in_tiles ? "in the tiles" : "around the method", differ);
             CHECK(differ == 0);
-            if (budget == 1) CHECK_STR_CONTAINS(opts_what, "x4 tiles"); /* seams across and down */
+            if (budget == 1) CHECK_STR_CONTAINS(opts_what, "3x2 tiles"); /* seams across and down */
             blended_in_tiles += blended > 0 && in_tiles;
-            free(keep);
-            images_free(&im);
+            memcpy(im.color, keep, sizeof(float) * n3);
         }
+        images_free(&im);
+    }
     CHECK(blended_in_tiles >= 2); /* the blend in the tiles, whole and tiled */
     free(apart);
     free(off);
+    free(keep);
     ew_device_destroy(dev);
 }
