@@ -248,6 +248,12 @@ static int scan(FILE *f, long long file_size, ewio_exr_layout *out, char *why, s
             left -= size;
         }
         if (attrs == 0) break; /* the empty header that ends a multi-part list */
+        /* a required attribute: without it OpenEXR takes a default window
+         * whose offset table this file need not have room for, and rebuilds
+         * the table from whatever follows (one such header made it ask for
+         * over 512 MB) */
+        if (!p.have_window)
+            return refuse(why, whylen, "the header of part %d has no data window (a damaged file)", out->parts);
         if (out->parts == 0) *first = p;
         out->parts++;
         out->channels += p.channels;

@@ -1024,6 +1024,21 @@ TEST(bad_header_sizes_beyond_the_file) {
     CHECK(ewio_read(p, &f, err, sizeof err) != 0);
     CHECK_STR_CONTAINS(err, "data window is empty (0 x 4 pixels)");
 
+    /* no data window at all: OpenEXR would take a default one and rebuild
+     * its offset table from what follows (the fuzz corpus's
+     * oom_tiled_part_without_data_window.exr asked for over 512 MB so) */
+    snprintf(p, sizeof p, "%s/no_window.exr", dir);
+    fp = exr_start(p);
+    CHECK(fp != NULL);
+    put_attr(fp, "comments", "string", 4);
+    fwrite("abcd", 1, 4, fp);
+    fputc(0, fp);
+    for (int k = 0; k < 8; k++) put_u32(fp, 0);
+    CHECK(fclose(fp) == 0);
+    CHECK(ewio_read(p, &f, err, sizeof err) != 0);
+    CHECK(f == NULL);
+    CHECK_STR_CONTAINS(err, "has no data window");
+
     /* A channel list shorter than its entries: OpenEXR reads entries up to the
      * empty name, then the rest of the header out of step; here the
      * "comments" string's text becomes the next size it reads. It reads any
