@@ -364,8 +364,8 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
          * radiance were (read by nothing now): the clamped colour, the
          * output and the clamp's share; then the core back */
         const int m = ew_harm_region_margin(), ox = t->cx - t->rx, oy = t->cy - t->ry;
-        const int x0 = ox - m > 0 ? ox - m : 0, y0 = oy - m > 0 ? oy - m : 0;
-        const int x1 = ox + t->cw + m < t->rw ? ox + t->cw + m : t->rw, y1 = oy + t->ch + m < t->rh ? oy + t->ch + m : t->rh;
+        const int x0 = ew_maxi(ox - m, 0), y0 = ew_maxi(oy - m, 0);
+        const int x1 = ew_mini(ox + t->cw + m, t->rw), y1 = ew_mini(oy + t->ch + m, t->rh);
         const int sw = x1 - x0, sh = y1 - y0;
         float *in = b->sliced, *out = b->radiance, *share = give ? s->clamped : NULL;
         r = ew_dev_copy_rect(dev, in, sw, 0, 0, s->color, W, t->rx + x0, t->ry + y0, sw, sh, 3);

@@ -466,9 +466,6 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
 
 /* ---- fused (fusable): the passes before the method in bands of rows ---- */
 
-static int imin(int a, int b) { return a < b ? a : b; }
-static int imax(int a, int b) { return a > b ? a : b; }
-
 /* Rows [y0, y1) of the caller's colour (packed RGB) demodulated into dst */
 static void demod_rows(ew_device *dev, const ew_harm_state *s, const ew_harm_args *ha, int y0, int y1, float *dst) {
     ew_harm_args d = *ha;
@@ -489,7 +486,7 @@ static ew_result noise_and_mean_in_bands(ew_op *op, ew_harm_state *s, const ew_h
     double ns = 0.0, nc = 0.0, sum = 0.0;
     ew_result r = EW_OK;
     for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
-        const int y1 = imin(y0 + HARM_BAND_ROWS, s->h), lo = imax(y0 - 1, 0); /* NOISE reads the row above */
+        const int y1 = ew_mini(y0 + HARM_BAND_ROWS, s->h), lo = ew_maxi(y0 - 1, 0); /* NOISE reads the row above */
         demod_rows(dev, s, ha, lo, y1, s->band);
         dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, s->w, y1 - lo, s->band, s->row_out);
         r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)(y1 - lo) * 2 * sizeof(double));
@@ -523,8 +520,8 @@ static ew_result reject_in_bands(ew_op *op, ew_harm_state *s, ew_harm_args *ha, 
     for (int pass = 0; r == EW_OK; pass++) {
         p.abs_floor = HARM_MEAN_FLOOR * (float)mean;
         for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
-            const int y1 = imin(y0 + HARM_BAND_ROWS, s->h);
-            const int lo = imax(y0 - HARM_BAND_MARGIN, 0), hi = imin(y1 + HARM_BAND_MARGIN, s->h);
+            const int y1 = ew_mini(y0 + HARM_BAND_ROWS, s->h);
+            const int lo = ew_maxi(y0 - HARM_BAND_MARGIN, 0), hi = ew_mini(y1 + HARM_BAND_MARGIN, s->h);
             demod_rows(dev, s, ha, lo, hi, rad);
             ew_outlier_params pb = p;
             pb.height = hi - lo;
@@ -543,7 +540,7 @@ static ew_result reject_in_bands(ew_op *op, ew_harm_state *s, ew_harm_args *ha, 
     if (r == EW_OK) r = ew_dev_zero(dev, s->excess, (size_t)s->w * s->h * sizeof(float));
     ha->fused = 1;
     for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
-        const int y1 = imin(y0 + HARM_BAND_ROWS, s->h);
+        const int y1 = ew_mini(y0 + HARM_BAND_ROWS, s->h);
         const size_t at = (size_t)y0 * w;
         demod_rows(dev, s, ha, y0, y1, rad);
         ew_harm_args d = *ha;
