@@ -89,7 +89,7 @@ typedef struct {
     float *scale_mem;       /* the scale buffers of one region */
     size_t scale_floats;
     int lw, lh;             /* the region size sb is laid out for (0: none yet) */
-    ew_gn_planes sb[EW_KPCN_MAX_SCALES]; /* scale 0: its inputs and encoder output only (ew_kpcn_region0_planes) */
+    ew_gn_planes sb[EW_KPCN_MAX_SCALES]; /* the scales below full resolution (sb[0] unused) */
     ew_gn_planes band;                   /* every plane of scale 0 on a band of rows (kpcn.h) */
     float *rad[EW_KPCN_MAX_SCALES], *out[EW_KPCN_MAX_SCALES]; /* scales below full resolution: 3 planes each */
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
@@ -415,10 +415,9 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
     const ew_kpcn_net *net = &s->net;
     ew_kpcn_scale_sizes(net, rw, rh, s->sw, s->sh);
     float *p = s->scale_mem;
-    for (int k = 0; k < net->scales; k++) {
-        const int n = k ? net->nplanes[k] : ew_kpcn_region0_planes(net);
-        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], n);
-        p += ew_gn_planes_floats(s->sw[k], s->sh[k], n) + 16;
+    for (int k = 1; k < net->scales; k++) {
+        ew_gn_planes_layout(&s->sb[k], p, s->sw[k], s->sh[k], net->nplanes[k]);
+        p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
     }
     ew_gn_planes_layout(&s->band, p, rw, ew_kpcn_band_rows(rh), net->nplanes[0]);
     s->lw = rw;
@@ -440,31 +439,82 @@ static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile
     dev->backend->conv5(dev, &a);
 }
 
-/* Scale 0's end on the region's rows b0 .. b0 + EW_KPCN_BAND_ROWS (kpcn.h):
- * the encoder's output of the band and its margins copied in, the next
- * scale's output upsampled, the decoder on the band and 4 rows either side,
- * the head and the kernel filter (rad0, out, albedo: the region's tensors;
- * albedo NULL: no remodulation) on the band. The band's planes hold its
- * margins from row t0; past the region's last row they read zeros, as the
- * region's planes would. */
-static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile, int b0, const ew_kpcn_tensor *rad0,
-                             const ew_kpcn_tensor *out, const ew_kpcn_tensor *albedo) {
+/* The network's inputs of the region's rows y0 .. y1 into the band, whose
+ * first row is the region's row t0; `region`: kpcn_input's arguments for
+ * the whole region (its sources at the region's first pixel). */
+static void band_inputs(ew_device *dev, const state *s, const ew_kpcn_input_args *region, int t0, int y0, int y1) {
+    ew_kpcn_input_args a = *region;
+    const long at = (long)y0 * a.src_rs;
+    a.height = y1 - y0;
+    a.radiance += at * 3;
+    a.albedo += at * 3;
+    a.normal += at * 3;
+    a.depth += at;
+    a.dst = ew_gn_plane_row(&s->band, s->net.in[0], y0 - t0);
+    a.rs = s->band.rs;
+    a.ps = s->band.ps;
+    (void)EW_RUN(dev, kpcn_input, &a);
+}
+
+/* The band's rows t0 .. t1 of the region's rows: past the region's last
+ * row the planes read zeros, as a whole region's padding would (a shorter
+ * last band leaves the rows of the band before there). */
+static ew_result band_rows(ew_device *dev, const state *s, int t0, int t1) {
+    const ew_gn_planes *B = &s->band;
+    ew_result r = EW_OK;
+    for (int pl = 0; t1 == s->sh[0] && pl < B->nplanes && r == EW_OK; pl++)
+        r = dev->backend->mem_zero(dev, ew_gn_plane_row(B, pl, t1 - t0), (size_t)EW_CONV_R * (size_t)B->rs * sizeof(float));
+    return r;
+}
+
+/* Scale 0's encoder on the region's rows e0 .. e0 + EW_KPCN_BAND_ROWS, its
+ * inputs 2 rows beyond them, and its pooling into scale 1's inputs
+ * (kpcn.h): e0 is even, so the poolings pair the rows the whole region's
+ * do. */
+static ew_result encode0_band(ew_device *dev, const state *s, const ew_tile *tile, const ew_kpcn_input_args *in,
+                              int e0) {
     const ew_kpcn_net *net = &s->net;
     const ew_gn_planes *B = &s->band;
-    const int rh = s->sh[0], C = net->ch, S = net->scales, M = EW_KPCN_BAND_MARGIN;
-    const int b1 = b0 + EW_KPCN_BAND_ROWS < rh ? b0 + EW_KPCN_BAND_ROWS : rh;
-    const int t0 = b0 - M > 0 ? b0 - M : 0, t1 = b1 + M < rh ? b1 + M : rh;
-    const int o0 = b0 - M + 2 > 0 ? b0 - M + 2 : 0, o1 = b1 + M - 2 < rh ? b1 + M - 2 : rh;
-    ew_result r = EW_OK;
-    for (int c = 0; c < C && r == EW_OK; c++)
-        r = dev->backend->mem_copy(dev, ew_gn_plane_row(B, net->h[0] + c, 0), ew_gn_plane_row(&s->sb[0], net->h[0] + c, t0),
-                                   (size_t)(t1 - t0) * (size_t)B->rs * sizeof(float));
-    /* the region's last rows: the zero padding below them */
-    for (int pl = 0; t1 == rh && pl < B->nplanes && r == EW_OK; pl++)
-        r = dev->backend->mem_zero(dev, ew_gn_plane_row(B, pl, t1 - t0), (size_t)EW_CONV_R * (size_t)B->rs * sizeof(float));
+    const int rh = s->sh[0], e1 = ew_mini(e0 + EW_KPCN_BAND_ROWS, rh);
+    const int t0 = ew_maxi(e0 - EW_CONV_R, 0), t1 = ew_mini(e1 + EW_CONV_R, rh);
+    band_inputs(dev, s, in, t0, t0, t1);
+    const ew_result r = band_rows(dev, s, t0, t1);
     if (r != EW_OK) return r;
-    ew_kpcn_up_args ua = {B->width, t1 - t0, s->sw[1], s->sh[1], C,
-                          planes_t(&s->sb[1], S - 1 == 1 ? net->hb : net->d[1]), planes_t(B, net->u[0]), t0};
+    band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
+    ew_kpcn_pool_args a = {B->width, e1 - e0, s->sw[1], ew_kpcn_half(e1 - e0), net->ch, planes_t(B, net->h[0]),
+                           planes_t(&s->sb[1], net->in[1])};
+    a.src.data = ew_gn_plane_row(B, net->h[0], e0 - t0);
+    a.dst.data = ew_gn_plane_row(&s->sb[1], net->in[1], e0 / 2);
+    (void)EW_RUN(dev, kpcn_pool, &a);
+    return EW_OK;
+}
+
+/* Scale 0's end on the region's rows b0 .. b0 + EW_KPCN_BAND_ROWS (kpcn.h):
+ * the inputs and the encoder's output of the band and its margins again,
+ * the next scale's output upsampled, the decoder on the band and 4 rows
+ * either side, the head and the kernel filter (rad0, out, albedo: the
+ * region's tensors; albedo NULL: no remodulation) on the band. The band's
+ * planes hold its margins from row t0; past the region's last row they
+ * read zeros, as the region's planes would. */
+static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile, const ew_kpcn_input_args *in, int b0,
+                             const ew_kpcn_tensor *rad0, const ew_kpcn_tensor *out, const ew_kpcn_tensor *albedo) {
+    const ew_kpcn_net *net = &s->net;
+    const ew_gn_planes *B = &s->band;
+    const int rh = s->sh[0], C = net->ch, S = net->scales;
+    const int b1 = ew_mini(b0 + EW_KPCN_BAND_ROWS, rh);
+    const int t0 = ew_maxi(b0 - EW_KPCN_BAND_MARGIN, 0), t1 = ew_mini(b1 + EW_KPCN_BAND_MARGIN, rh);
+    const int e0 = ew_maxi(b0 - EW_KPCN_ENC_MARGIN, 0), e1 = ew_mini(b1 + EW_KPCN_ENC_MARGIN, rh);
+    const int o0 = ew_maxi(b0 - EW_KPCN_DEC_MARGIN, 0), o1 = ew_mini(b1 + EW_KPCN_DEC_MARGIN, rh);
+    /* the decoder reads the encoder's output and the upsampled planes 2 rows beyond its own */
+    const int u0 = ew_maxi(o0 - EW_CONV_R, 0), u1 = ew_mini(o1 + EW_CONV_R, rh);
+    band_inputs(dev, s, in, t0, t0, t1);
+    const ew_result r = band_rows(dev, s, t0, t1);
+    if (r != EW_OK) return r;
+    band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
+    /* over the inputs, which only the encoder reads (ew_kpcn_inference_planes) */
+    ew_kpcn_up_args ua = {B->width, u1 - u0, s->sw[1], s->sh[1], C,
+                          planes_t(&s->sb[1], S - 1 == 1 ? net->hb : net->d[1]), planes_t(B, net->u[0]), u0};
+    ua.dst.data = ew_gn_plane_row(B, net->u[0], u0 - t0);
     (void)EW_RUN(dev, kpcn_up, &ua);
     band_conv(dev, s, net->dec[0], tile, o0 - t0, o1 - o0, o0);
     band_conv(dev, s, net->lhead[0], tile, b0 - t0, b1 - b0, b0);
@@ -544,19 +594,17 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     ia.normal = b->normal + at * 3;
     ia.depth = b->depth + at;
     ia.depth_scale = b->depth_scale;
-    ia.dst = ew_gn_plane_row(&s->sb[0], net->in[0], 0);
-    ia.rs = s->sb[0].rs;
-    ia.ps = s->sb[0].ps;
     ia.noise_plane = net->noise;
     ia.noise = noise;
     ia.src_rs = W;
-    (void)EW_RUN(dev, kpcn_input, &ia);
+    /* the network (algorithms/kpcn.h's layer list): scale 0's encoder in bands, ... */
+    for (int e0 = 0; e0 < rh && r == EW_OK; e0 += EW_KPCN_BAND_ROWS) r = encode0_band(dev, s, tile, &ia, e0);
+    if (r != EW_OK) return r;
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    /* the network (algorithms/kpcn.h's layer list) but scale 0's end */
+    /* ... the coarser scales whole ... */
     const int S = net->scales;
-    conv(dev, s, net->enc[0], tile);
     for (int k = 1; k < S - 1; k++) {
-        pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
+        if (k > 1) pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
         conv(dev, s, net->enc[k], tile);
     }
     pool(dev, &s->sb[S - 2], net->h[S - 2], &s->sb[S - 1], net->in[S - 1], C);
@@ -593,12 +641,12 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
         fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
         (void)EW_RUN(dev, kpcn_filter, &fa);
     }
-    /* scale 0's end in bands (kpcn.h): one tile writes the frame; several
-     * write their region, and keep the core */
+    /* ... and scale 0's end in bands (kpcn.h): one tile writes the frame;
+     * several write their region, and keep the core */
     const ew_kpcn_tensor o = {s->tile_out ? s->tile_out : tile_target(s, net), 3, 3L * rw, 1};
     const ew_kpcn_tensor al = {(float *)b->albedo + at * 3, 3, 3L * W, 1};
     for (int b0 = 0; b0 < rh && r == EW_OK; b0 += EW_KPCN_BAND_ROWS) {
-        r = scale0_band(dev, s, tile, b0, &rad0, &o, net->remod ? &al : NULL);
+        r = scale0_band(dev, s, tile, &ia, b0, &rad0, &o, net->remod ? &al : NULL);
         const int done = b0 + EW_KPCN_BAND_ROWS < rh ? b0 + EW_KPCN_BAND_ROWS : rh;
         if (r == EW_OK && !ew_op_report(op, p0 + (0.3 + 0.65 * done / rh) * dp))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");

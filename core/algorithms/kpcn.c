@@ -230,17 +230,12 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net) {
     }
 }
 
-int ew_kpcn_region0_planes(const ew_kpcn_net *net) {
-    const int h = net->h[0] + net->ch, in = net->in[0] + net->inputs;
-    return h > in ? h : in;
-}
-
 int ew_kpcn_band_rows(int h) { return (h < EW_KPCN_BAND_ROWS ? h : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN; }
 
 size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h) {
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     ew_kpcn_scale_sizes(net, w, h, sw, sh);
-    size_t f = ew_gn_planes_floats(w, h, ew_kpcn_region0_planes(net)) + 16;
+    size_t f = 0;
     for (int s = 1; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
     return f + ew_gn_planes_floats(w, ew_kpcn_band_rows(h), net->nplanes[0]) + 16;
 }

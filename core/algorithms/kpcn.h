@@ -153,24 +153,32 @@ extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
  * needs shrink with it. The arithmetic is the same. */
 void ew_kpcn_inference_planes(ew_kpcn_net *net);
 
-/* The full-resolution scale's end in bands of rows. Its upsampled planes,
- * decoder and head (and its kernel filter) run on EW_KPCN_BAND_ROWS rows at
- * a time, so the region holds only what outlives them at that scale: the
- * inputs and the encoder's output (ew_kpcn_region0_planes), and a band of
- * every plane. A band's head reads its decoder 2 rows beyond it, which
- * reads the encoder's output and the upsampled planes 2 rows further; the
- * decoder runs on 4 rows beyond the band, so that on the CPU its Winograd
- * tiles (4 rows, anchored at the frame's origin) are whole and the
- * frame's own: EW_KPCN_BAND_MARGIN rows of them either side. The same bits
- * as the planes of the whole region. */
+/* The full-resolution scale in bands of rows: a region holds no plane of
+ * it, only a band of EW_KPCN_BAND_ROWS rows of every plane with margins.
+ * Encoding, band after band: the inputs, the encoder on the band's rows
+ * (the inputs 2 rows beyond them) and its 2x2 pooling into the next
+ * scale's inputs. Decoding, once the coarser scales are done: each band
+ * computes its inputs and the encoder's output again, upsamples the next
+ * scale's output, runs the decoder, the head and the kernel filter. A
+ * band's head reads its decoder 2 rows beyond it, which reads the encoder's
+ * output and the upsampled planes 2 rows further; on the CPU every
+ * convolution's Winograd tiles (4 rows, anchored at the frame's origin)
+ * must be whole and the frame's own, so the decoder runs on
+ * EW_KPCN_DEC_MARGIN rows beyond the band, the encoder on
+ * EW_KPCN_ENC_MARGIN (6 rounded up to the tiles), and the inputs reach
+ * EW_KPCN_BAND_MARGIN rows either side. The same bits as the planes of the
+ * whole region; the encoder's second run costs about 8 % more multiply-adds
+ * of kpcn-large, for 43 planes of a region it no longer holds (120 MiB of
+ * a 4K frame's tile). */
 #define EW_KPCN_BAND_ROWS 64
-#define EW_KPCN_BAND_MARGIN 6
-int ew_kpcn_region0_planes(const ew_kpcn_net *net);
+#define EW_KPCN_DEC_MARGIN 4
+#define EW_KPCN_ENC_MARGIN 8
+#define EW_KPCN_BAND_MARGIN (EW_KPCN_ENC_MARGIN + EW_CONV_R)
 /* the rows of the band of a region h rows tall: its margins included */
 int ew_kpcn_band_rows(int h);
-/* Floats of the scale buffers of a w x h region, in the op's order: scale
- * 0's inputs and encoder output, the other scales' planes, scale 0's band
- * (each laid out by ew_gn_planes_layout, 16 floats apart). */
+/* Floats of the scale buffers of a w x h region, in the op's order: the
+ * planes of the scales below full resolution, scale 0's band (each laid out
+ * by ew_gn_planes_layout, 16 floats apart). */
 size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h);
 
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
