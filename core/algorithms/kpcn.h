@@ -167,9 +167,9 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net);
  * EW_KPCN_DEC_MARGIN rows beyond the band, the encoder on
  * EW_KPCN_ENC_MARGIN (6 rounded up to the tiles), and the inputs reach
  * EW_KPCN_BAND_MARGIN rows either side. The same bits as the planes of the
- * whole region; the encoder's second run costs about 8 % more multiply-adds
- * of kpcn-large, for 43 planes of a region it no longer holds (120 MiB of
- * a 4K frame's tile). */
+ * whole region. The encoder's second run costs about 8 % more multiply-adds
+ * of kpcn-large; holding its inputs and output for the decoder would take
+ * 43 planes of the region (120 MiB of a 4K frame's tile). */
 #define EW_KPCN_BAND_ROWS 64
 #define EW_KPCN_DEC_MARGIN 4
 #define EW_KPCN_ENC_MARGIN 8
