@@ -28,7 +28,7 @@
 #define EW_KERNEL_LIST(X)                                                              \
     X(atrous, ew_atrous_args, ew_atrous_px, w, h, 1)                                   \
     X(kpcn_input, ew_kpcn_input_args, ew_kpcn_input_px, width, height, 0)              \
-    X(kpcn_pool, ew_kpcn_pool_args, ew_kpcn_pool_px, cw, ch, 0)                        \
+    X(kpcn_pool, ew_kpcn_pool_args, ew_kpcn_pool_px, cw, ch, 2)                        \
     X(kpcn_up, ew_kpcn_up_args, ew_kpcn_up_px, fw, fh, 2)                              \
     X(kpcn_filter, ew_kpcn_filter_args, ew_kpcn_filter_px, width, height, 2)          \
     X(mirror_swap, ew_mirror_swap_args, ew_mirror_swap_px, dw, dh, 0)                  \

@@ -1087,6 +1087,13 @@ TEST(kpcn_input_pool_up_filter) {
     (void)EW_RUN(p.cpu, kpcn_up, &hu);
     (void)EW_RUN(p.dut, kpcn_up, &du);
     ok = ok && match(back(p.dut, dupd, N * 3), upd, N * 3, "kpcn up");
+    /* ... and pooled back from those planes (the network's planar layout) */
+    float *pp = hnan(NC * 3), *dpp = dnan(p.dut, NC * 3);
+    ew_kpcn_pool_args hq = {W, H, cw, ch, 3, {upd, 1, W, (long)N}, {pp, 1, cw, (long)NC}};
+    ew_kpcn_pool_args dq = {W, H, cw, ch, 3, {dupd, 1, W, (long)N}, {dpp, 1, cw, (long)NC}};
+    (void)EW_RUN(p.cpu, kpcn_pool, &hq);
+    (void)EW_RUN(p.dut, kpcn_pool, &dq);
+    ok = ok && match(back(p.dut, dpp, NC * 3), pp, NC * 3, "kpcn pool of planes");
 
     /* the filter with and without a coarser scale, into packed RGB; then
      * remodulating by its albedo kernel (variant 2) */

@@ -38,6 +38,7 @@ EW_KERNEL_LIST(EW_KROWS_)
 
 /* the kernels of VEC 2 */
 #include "cpu_kpcn_filter.h"
+#include "cpu_kpcn_pool.h"
 #include "cpu_kpcn_up.h"
 
 ew_result ew_cpu_run(ew_device *dev, int id, const void *args, size_t args_size) {
