@@ -439,28 +439,24 @@ static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile
     dev->backend->conv5(dev, &a);
 }
 
-/* The network's inputs of the region's rows y0 .. y1 into the band, whose
- * first row is the region's row t0; `region`: kpcn_input's arguments for
- * the whole region (its sources at the region's first pixel). */
-static void band_inputs(ew_device *dev, const state *s, const ew_kpcn_input_args *region, int t0, int y0, int y1) {
+/* The band's rows: the region's rows t0 .. t1 of the network's inputs from
+ * its first row on (`region`: kpcn_input's arguments for the whole region,
+ * its sources at the region's first pixel), and when t1 is the region's
+ * last row, zeros below it in every plane, as a whole region's padding
+ * (a shorter last band would leave the rows of the band before there). */
+static ew_result band_inputs(ew_device *dev, const state *s, const ew_kpcn_input_args *region, int t0, int t1) {
+    const ew_gn_planes *B = &s->band;
     ew_kpcn_input_args a = *region;
-    const long at = (long)y0 * a.src_rs;
-    a.height = y1 - y0;
+    const long at = (long)t0 * a.src_rs;
+    a.height = t1 - t0;
     a.radiance += at * 3;
     a.albedo += at * 3;
     a.normal += at * 3;
     a.depth += at;
-    a.dst = ew_gn_plane_row(&s->band, s->net.in[0], y0 - t0);
-    a.rs = s->band.rs;
-    a.ps = s->band.ps;
+    a.dst = ew_gn_plane_row(B, s->net.in[0], 0);
+    a.rs = B->rs;
+    a.ps = B->ps;
     (void)EW_RUN(dev, kpcn_input, &a);
-}
-
-/* The band's rows t0 .. t1 of the region's rows: past the region's last
- * row the planes read zeros, as a whole region's padding would (a shorter
- * last band leaves the rows of the band before there). */
-static ew_result band_rows(ew_device *dev, const state *s, int t0, int t1) {
-    const ew_gn_planes *B = &s->band;
     ew_result r = EW_OK;
     for (int pl = 0; t1 == s->sh[0] && pl < B->nplanes && r == EW_OK; pl++)
         r = dev->backend->mem_zero(dev, ew_gn_plane_row(B, pl, t1 - t0), (size_t)EW_CONV_R * (size_t)B->rs * sizeof(float));
@@ -477,8 +473,7 @@ static ew_result encode0_band(ew_device *dev, const state *s, const ew_tile *til
     const ew_gn_planes *B = &s->band;
     const int rh = s->sh[0], e1 = ew_mini(e0 + EW_KPCN_BAND_ROWS, rh);
     const int t0 = ew_maxi(e0 - EW_CONV_R, 0), t1 = ew_mini(e1 + EW_CONV_R, rh);
-    band_inputs(dev, s, in, t0, t0, t1);
-    const ew_result r = band_rows(dev, s, t0, t1);
+    const ew_result r = band_inputs(dev, s, in, t0, t1);
     if (r != EW_OK) return r;
     band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
     ew_kpcn_pool_args a = {B->width, e1 - e0, s->sw[1], ew_kpcn_half(e1 - e0), net->ch, planes_t(B, net->h[0]),
@@ -507,8 +502,7 @@ static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile
     const int o0 = ew_maxi(b0 - EW_KPCN_DEC_MARGIN, 0), o1 = ew_mini(b1 + EW_KPCN_DEC_MARGIN, rh);
     /* the decoder reads the encoder's output and the upsampled planes 2 rows beyond its own */
     const int u0 = ew_maxi(o0 - EW_CONV_R, 0), u1 = ew_mini(o1 + EW_CONV_R, rh);
-    band_inputs(dev, s, in, t0, t0, t1);
-    const ew_result r = band_rows(dev, s, t0, t1);
+    const ew_result r = band_inputs(dev, s, in, t0, t1);
     if (r != EW_OK) return r;
     band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
     /* over the inputs, which only the encoder reads (ew_kpcn_inference_planes) */
