@@ -324,12 +324,7 @@ static ew_result reduce(ew_device *dev, state *s, int kind, const float *src, do
 }
 
 /* Rows y .. y + n - 1 of a view. */
-static ew_image view_rows(const ew_image *v, int y, int n) {
-    ew_image r = *v;
-    r.data = (char *)v->data + (int64_t)y * v->row_stride;
-    r.height = n;
-    return r;
-}
+static ew_image view_rows(const ew_image *v, int y, int n) { return ew__image_crop(v, 0, y, v->width, n); }
 
 /* Input i's rows of region bb, packed: in the frame it is read from, or
  * packed into the region's buffer. */

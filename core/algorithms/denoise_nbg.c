@@ -273,11 +273,7 @@ static int band_progress(void *user, double f) {
 
 /* The output view's pixels [x, x + w) x [y, y + h) */
 static ew_image out_crop(const ew_op *op, int x, int y, int w, int h) {
-    ew_image v = *ew_op_image(op, "output");
-    v.data = (char *)v.data + (long)y * v.row_stride + (long)x * v.pixel_stride;
-    v.width = w;
-    v.height = h;
-    return v;
+    return ew__image_crop(ew_op_image(op, "output"), x, y, w, h);
 }
 
 /* The frame's pixels [x, x + w) x [y, y + h) from tile t's output into the

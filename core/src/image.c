@@ -26,6 +26,16 @@ int64_t ew__row_stride(const ew_image *img) {
     return img->row_stride ? img->row_stride : ew__pixel_stride(img) * img->width;
 }
 
+ew_image ew__image_crop(const ew_image *img, int x, int y, int w, int h) {
+    ew_image v = *img;
+    v.pixel_stride = ew__pixel_stride(img);
+    v.row_stride = ew__row_stride(img);
+    v.data = (char *)img->data + (int64_t)y * v.row_stride + (int64_t)x * v.pixel_stride;
+    v.width = w;
+    v.height = h;
+    return v;
+}
+
 int ew__image_packed_as(const ew_image *img, int floats) {
     return ew__pixel_stride(img) == (int64_t)sizeof(float) * floats &&
            ew__row_stride(img) == (int64_t)sizeof(float) * floats * img->width;

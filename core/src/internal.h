@@ -85,6 +85,10 @@ int64_t ew__row_stride(const ew_image *img);
 /* Whether the view is packed floats, `floats` a pixel, rows back to back
  * (what the fast packers and in-place reads need). */
 int ew__image_packed_as(const ew_image *img, int floats);
+/* The view's pixels [x, x + w) x [y, y + h), with its strides filled in:
+ * a packed view's 0 strides would mean another row stride at the crop's
+ * width (and offsets of 0). */
+ew_image ew__image_crop(const ew_image *img, int x, int y, int w, int h);
 
 static inline float *ew__pixel(const ew_image *img, int x, int y) {
     return (float *)((char *)img->data + (int64_t)y * ew__row_stride(img) +

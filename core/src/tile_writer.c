@@ -9,10 +9,7 @@ int ew_tile_writer_fits(const ew_tiling *t, int keep) { return t->tw >= keep && 
 /* The output view's pixels [x, x + w) x [y, y + h) from packed src */
 static ew_result out_packed(ew_tile_writer *tw, const float *src, int x, int y, int w, int h) {
     if (w <= 0 || h <= 0) return EW_OK;
-    ew_image v = *tw->out;
-    v.data = (char *)v.data + (long)y * v.row_stride + (long)x * v.pixel_stride;
-    v.width = w;
-    v.height = h;
+    const ew_image v = ew__image_crop(tw->out, x, y, w, h);
     return ew_dev_get_view(tw->dev, src, 3, &v, tw->stage);
 }
 
