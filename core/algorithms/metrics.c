@@ -25,8 +25,8 @@ static ew_result check_pair(ew_device *dev, const ew_image *a, const ew_image *b
     ew__clear_error(dev);
     const char *why;
     if (!out) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "metric output pointer is NULL");
-    if (!ew__image_valid(a, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "test image: %s", why);
-    if (!ew__image_valid(b, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "reference image: %s", why);
+    if (!ew__float_image_valid(a, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "test image: %s", why);
+    if (!ew__float_image_valid(b, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "reference image: %s", why);
     if (a->width != b->width || a->height != b->height)
         return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "test image is %dx%d but reference is %dx%d", a->width,
                         a->height, b->width, b->height);
@@ -163,7 +163,7 @@ ew_result ew_image_temporal_diff(ew_device *dev, const ew_image *test_prev, cons
     C = C < C3 ? C : C3;
     if (vector) {
         const char *why;
-        if (!ew__image_valid(vector, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "vector image: %s", why);
+        if (!ew__float_image_valid(vector, &why)) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "vector image: %s", why);
         if (vector->channels < 2 || vector->width != test->width || vector->height != test->height)
             return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "vector image is %dx%d with %d channels; %dx%d with 2 needed",
                             vector->width, vector->height, vector->channels, test->width, test->height);

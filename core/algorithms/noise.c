@@ -10,7 +10,7 @@ static float compressed_lum(const ew_image *c, const ew_image *a, int x, int y) 
     const float *p = ew__pixel(c, x, y);
     float rgb[3];
     for (int k = 0; k < 3; k++) {
-        float al = a ? ew__pixel(a, x, y)[k] : 1.0f;
+        float al = a ? ew__channel(a, x, y, k) : 1.0f; /* a half albedo too */
         rgb[k] = p[k] / ((isfinite(al) && al > 0.0f ? al : 0.0f) + (a ? 0.01f : 0.0f));
     }
     float l = ew_luminance(rgb);

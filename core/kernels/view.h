@@ -9,12 +9,14 @@
 #define EW_KERNELS_VIEW_H
 
 #include "kernels/compat.h"
+#include "kernels/half.h"
 
 typedef struct ew_view_desc {
     char *data;              /* pixel (0, 0) */
     int width, height;
     long long pixel_stride;  /* bytes */
     long long row_stride;    /* bytes, may be negative */
+    int half;                /* 1: EW_FORMAT_HALF channels (read only: packed as floats) */
 } ew_view_desc;
 
 EW_HD float *ew_view_px(const ew_view_desc *v, int x, int y) {
@@ -23,8 +25,13 @@ EW_HD float *ew_view_px(const ew_view_desc *v, int x, int y) {
 
 /* The first c channels of pixel (x, y) into the packed buffer dst. */
 EW_HD void ew_view_pack_px(int x, int y, const ew_view_desc *v, int c, float *EW_RESTRICT dst) {
-    const float *p = ew_view_px(v, x, y);
     float *d = dst + ((long)y * v->width + x) * c;
+    if (v->half) {
+        const unsigned short *p = (const unsigned short *)(const void *)ew_view_px(v, x, y);
+        for (int k = 0; k < c; k++) d[k] = ew_half_to_float(p[k]);
+        return;
+    }
+    const float *p = ew_view_px(v, x, y);
     for (int k = 0; k < c; k++) d[k] = p[k];
 }
 

@@ -219,6 +219,7 @@ static ew_view_desc view_desc(const ew_image *img) {
     v.height = img->height;
     v.pixel_stride = ew__pixel_stride(img);
     v.row_stride = ew__row_stride(img);
+    v.half = img->format == EW_FORMAT_HALF;
     return v;
 }
 
@@ -241,7 +242,7 @@ static void view_span(const ew_image *img, const char **lo, const char **hi) {
     const int64_t dx = (int64_t)(img->width - 1) * ps, dy = (int64_t)(img->height - 1) * rs;
     const int64_t a = (dx < 0 ? dx : 0) + (dy < 0 ? dy : 0), b = (dx > 0 ? dx : 0) + (dy > 0 ? dy : 0);
     *lo = (const char *)img->data + a;
-    *hi = (const char *)img->data + b + (int64_t)img->channels * (int64_t)sizeof(float);
+    *hi = (const char *)img->data + b + (int64_t)img->channels * ew__channel_bytes(img);
 }
 
 int ew_images_overlap(const ew_image *a, const ew_image *b) {

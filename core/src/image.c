@@ -18,8 +18,10 @@ ew_image ew_image_packed(float *data, int32_t width, int32_t height, int32_t cha
     return v;
 }
 
+int64_t ew__channel_bytes(const ew_image *img) { return img->format == EW_FORMAT_HALF ? 2 : (int64_t)sizeof(float); }
+
 int64_t ew__pixel_stride(const ew_image *img) {
-    return img->pixel_stride ? img->pixel_stride : (int64_t)img->channels * (int64_t)sizeof(float);
+    return img->pixel_stride ? img->pixel_stride : (int64_t)img->channels * ew__channel_bytes(img);
 }
 
 int64_t ew__row_stride(const ew_image *img) {
@@ -37,7 +39,7 @@ ew_image ew__image_crop(const ew_image *img, int x, int y, int w, int h) {
 }
 
 int ew__image_packed_as(const ew_image *img, int floats) {
-    return ew__pixel_stride(img) == (int64_t)sizeof(float) * floats &&
+    return img->format == EW_FORMAT_FLOAT && ew__pixel_stride(img) == (int64_t)sizeof(float) * floats &&
            ew__row_stride(img) == (int64_t)sizeof(float) * floats * img->width;
 }
 
@@ -50,17 +52,21 @@ int ew__image_valid(const ew_image *img, const char **why) {
              (int64_t)img->width * img->height > EW_MAX_PIXELS)
         w = "image is larger than 65536 pixels per side or 2^28 pixels";
     else if (img->channels <= 0 || img->channels > 64) w = "channel count must be 1..64";
-    else if (img->format != EW_FORMAT_FLOAT) w = "only EW_FORMAT_FLOAT images are supported";
-    else if ((uintptr_t)img->data % sizeof(float) != 0) w = "image data is not aligned to a float (4 bytes)";
-    else if (img->pixel_stride % (int64_t)sizeof(float) != 0 || img->row_stride % (int64_t)sizeof(float) != 0)
-        w = "image strides must be multiples of 4 bytes (float alignment)";
+    else if (img->format != EW_FORMAT_FLOAT && img->format != EW_FORMAT_HALF)
+        w = "unknown image format (EW_FORMAT_FLOAT or EW_FORMAT_HALF)";
+    else if ((uintptr_t)img->data % (uintptr_t)ew__channel_bytes(img) != 0)
+        w = img->format == EW_FORMAT_HALF ? "image data is not aligned to a half (2 bytes)"
+                                          : "image data is not aligned to a float (4 bytes)";
+    else if (img->pixel_stride % ew__channel_bytes(img) != 0 || img->row_stride % ew__channel_bytes(img) != 0)
+        w = img->format == EW_FORMAT_HALF ? "image strides must be multiples of 2 bytes (half alignment)"
+                                          : "image strides must be multiples of 4 bytes (float alignment)";
     else {
         /* Bounds first, so that nothing below overflows: a stride may be any
          * int64 the caller writes (INT64_MIN has no absolute value). */
         const int64_t lim = INT64_MAX / 2;
         int64_t ps = ew__pixel_stride(img);
         int64_t rs = img->row_stride;
-        if (ps < (int64_t)img->channels * (int64_t)sizeof(float)) w = "pixel stride smaller than a pixel";
+        if (ps < (int64_t)img->channels * ew__channel_bytes(img)) w = "pixel stride smaller than a pixel";
         else if (ps > lim / img->width) w = "pixel stride too large (the row would overflow)";
         else if (rs < -lim || rs > lim) w = "row stride too large (the image would overflow)";
         else {
@@ -103,4 +109,11 @@ long ew__finite_fallback(ew_device *dev, const ew_image *out, const ew_image *in
     finite_job j = {out, in && in->data != out->data ? in : NULL, out->channels, in ? in->channels : 0, 0};
     ew_pool_run(dev->pool, out->height, 0, finite_rows, &j);
     return j.replaced;
+}
+
+int ew__float_image_valid(const ew_image *img, const char **why) {
+    if (!ew__image_valid(img, why)) return 0;
+    if (img->format == EW_FORMAT_FLOAT) return 1;
+    if (why) *why = "this call reads EW_FORMAT_FLOAT images only";
+    return 0;
 }

@@ -6,6 +6,7 @@
 #define EW_INTERNAL_H
 
 #include "edgewise/edgewise.h"
+#include "kernels/half.h"
 #include "src/thread_pool.h"
 
 #include <pthread.h>
@@ -76,9 +77,13 @@ void ew__device_release(ew_device *dev);
 int ew__device_init_common(ew_device *dev);
 void ew__device_free_common(ew_device *dev);
 
-/* Checks a view: non-null data, positive size within limits, float format,
+/* Checks a view: non-null data, positive size within limits, a known format,
  * strides at least as large as the pixel. Fills *why on failure. */
 int ew__image_valid(const ew_image *img, const char **why);
+/* ew__image_valid and EW_FORMAT_FLOAT (calls that read views themselves). */
+int ew__float_image_valid(const ew_image *img, const char **why);
+/* Bytes of a channel: 4 (EW_FORMAT_FLOAT) or 2 (EW_FORMAT_HALF). */
+int64_t ew__channel_bytes(const ew_image *img);
 /* Byte strides with packed defaults filled in. */
 int64_t ew__pixel_stride(const ew_image *img);
 int64_t ew__row_stride(const ew_image *img);
@@ -93,6 +98,12 @@ ew_image ew__image_crop(const ew_image *img, int x, int y, int w, int h);
 static inline float *ew__pixel(const ew_image *img, int x, int y) {
     return (float *)((char *)img->data + (int64_t)y * ew__row_stride(img) +
                      (int64_t)x * ew__pixel_stride(img));
+}
+
+/* Channel k of pixel (x, y) of a float or half view, as a float. */
+static inline float ew__channel(const ew_image *img, int x, int y, int k) {
+    const void *p = ew__pixel(img, x, y);
+    return img->format == EW_FORMAT_HALF ? ew_half_to_float(((const unsigned short *)p)[k]) : ((const float *)p)[k];
 }
 
 /* Largest accepted image side and pixel count. */

@@ -1,3 +1,4 @@
+#include "kernels/half.h"
 #include "src/finite.h"
 #include "src/op.h"
 
@@ -73,6 +74,7 @@ static void op_free(ew_op *op) {
     ew_device *dev = op->dev;
     release(op);
     if (op->data_state && op->type->release_data) op->type->release_data(op);
+    ew_op_half_release(op);
     free(op);
     ew__device_release(dev);
 }
@@ -144,7 +146,12 @@ ew_result ew_op_set_image(ew_op *op, const char *name, const ew_image *view) {
             if (view->channels < t->images[i].min_channels)
                 return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "image '%s' needs at least %d channels, got %d",
                                 name, t->images[i].min_channels, view->channels);
-            op->images[i] = *view;
+            uint32_t flags = 0;
+            ew_method_image_flags(t->kind, t->name, i, &flags);
+            if (view->format == EW_FORMAT_HALF && (flags & EW_IMAGE_OUTPUT))
+                return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT,
+                                "image '%s' is written: it must be EW_FORMAT_FLOAT (halves are for inputs)", name);
+            op->images[i] = op->given[i] = *view;
         }
         op->has_image[i] = view != NULL;
         op->committed = 0;
@@ -289,7 +296,8 @@ static ew_result commit_checked(ew_op *op) {
         }
     }
     op->committed = 0;
-    ew_result r = t->commit(op);
+    ew_result r = ew_op_half_commit(op);
+    if (r == EW_OK) r = t->commit(op);
     if (r == EW_OK) r = ew_harm_commit(op);
     if (r == EW_OK) r = ew_op_alpha_commit(op);
     if (r == EW_OK) op->committed = 1;
@@ -316,6 +324,7 @@ ew_result ew_op_execute(ew_op *op) {
     else if (!ew_op_report(op, 0.0))
         r = ew__fail(op->dev, EW_ERR_CANCELLED, "cancelled");
     else {
+        ew_op_half_execute(op);
         r = ew_op_alpha_execute(op);
         if (r == EW_OK) r = op->harm ? ew_harm_execute(op) : op->type->execute(op);
         if (r == EW_OK && !strcmp(op->type->kind, "filter"))
@@ -329,10 +338,12 @@ ew_result ew_op_execute(ew_op *op) {
 }
 
 void ew_view_pack(const ew_image *img, int c, float *dst) {
+    const int half = img->format == EW_FORMAT_HALF;
     for (int y = 0; y < img->height; y++)
         for (int x = 0; x < img->width; x++) {
-            const float *p = ew__pixel(img, x, y);
-            for (int k = 0; k < c; k++) *dst++ = p[k];
+            const void *p = ew__pixel(img, x, y);
+            for (int k = 0; k < c; k++)
+                *dst++ = half ? ew_half_to_float(((const unsigned short *)p)[k]) : ((const float *)p)[k];
         }
 }
 

@@ -69,6 +69,10 @@ typedef struct ew_op_type {
     /* Optional, NULL-terminated: inputs the "output" view may be the very
      * same view of (filtering in place). */
     const char *const *inplace_inputs;
+    /* Optional, NULL-terminated: inputs the method reads as EW_FORMAT_HALF
+     * views itself (EW_IMAGE_HALF_IN_PLACE); other half views are packed
+     * into float copies for it (op_half.c). */
+    const char *const *half_inputs;
     /* Optional, NULL-terminated: parameters that, all 0, make execute a
      * copy of the input (EW_PARAM_NOOP_AT_ZERO). */
     const char *const *noop_at_zero;
@@ -110,8 +114,12 @@ typedef struct ew_op_type {
 struct ew_op {
     const ew_op_type *type;
     ew_device *dev;
-    ew_image images[EW_OP_MAX_IMAGES];
+    ew_image images[EW_OP_MAX_IMAGES]; /* what the method reads: given, or a float copy of it */
     int has_image[EW_OP_MAX_IMAGES];
+    ew_image given[EW_OP_MAX_IMAGES]; /* the caller's views */
+    /* floats packed from half views the method does not read itself (op_half.c) */
+    float *half_copy[EW_OP_MAX_IMAGES];
+    size_t half_copy_floats[EW_OP_MAX_IMAGES];
     float params[EW_OP_MAX_PARAMS];
     ew_progress_fn progress;
     void *progress_user;
@@ -216,6 +224,16 @@ ew_result ew_op_alpha_execute(ew_op *op);
 void ew_op_alpha_store(ew_op *op);
 void ew_op_alpha_pass(ew_op *op);
 void ew_op_alpha_release(ew_op *op);
+
+/* op_half.c: half views the method does not read itself (half_inputs).
+ * commit gives the method a float copy's view in op->images (after the
+ * sizes are checked, before the method's commit); execute packs the
+ * caller's views into the copies; memory: their bytes for w x h; release
+ * frees them (with the op). */
+ew_result ew_op_half_commit(ew_op *op);
+void ew_op_half_execute(ew_op *op);
+uint64_t ew_op_half_memory(const ew_op *op, int w, int h);
+void ew_op_half_release(ew_op *op);
 
 /* Pack the first c channels of a view into a dense buffer, and back. */
 void ew_view_pack(const ew_image *img, int c, float *dst);

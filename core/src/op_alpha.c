@@ -59,7 +59,7 @@ ew_result ew_op_alpha_commit(ew_op *op) {
         const char *name = t->images[i].name;
         if (!op->has_image[i] || !strcmp(name, "color") || !strcmp(name, "output") || is_extra_output(t, name))
             continue;
-        a->images[i] = op->images[i];
+        a->images[i] = a->given[i] = op->images[i]; /* a half input: the float copy the op packs */
         a->has_image[i] = 1;
     }
     if (!(op->alpha_out = (float *)malloc((size_t)w * (size_t)h * sizeof(float)))) {

@@ -16,7 +16,8 @@ ew_result ew_op_memory(ew_op *op, int32_t width, int32_t height, uint64_t *bytes
         return ew__fail(op->dev, EW_ERR_UNSUPPORTED, "%s '%s' gives no memory estimate", op->type->kind,
                         op->type->name);
     *bytes = op->type->memory(op, width, height);
-    if (*bytes) *bytes += ew_harm_memory(op, width, height); /* the do-no-harm stage around it */
+    if (*bytes) *bytes += ew_harm_memory(op, width, height) /* the do-no-harm stage around it */
+                          + ew_op_half_memory(op, width, height); /* float copies of half inputs */
     if (!*bytes)
         return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "%s '%s': no memory estimate for %dx%d with these parameters",
                         op->type->kind, op->type->name, width, height);

@@ -1261,7 +1261,7 @@ TEST(view_pack_unpack_strided_bottom_up) {
     const long row_floats = W * 5 + 3;
     const size_t total = (size_t)(row_floats * H);
     float *buf = hrand(total, 0.0f, 1.0f, 0), *dbuf = dup_to(p.dut, buf, total);
-    ew_view_desc hv = {(char *)(buf + row_floats * (H - 1)), W, H, 5 * 4, -row_floats * 4};
+    ew_view_desc hv = {(char *)(buf + row_floats * (H - 1)), W, H, 5 * 4, -row_floats * 4, 0};
     ew_view_desc dv = hv;
     dv.data = (char *)(dbuf + row_floats * (H - 1));
     float *packed = hnan(N * 3), *dpacked = dnan(p.dut, N * 3);
@@ -1273,6 +1273,16 @@ TEST(view_pack_unpack_strided_bottom_up) {
     ew_cpu_backend.view_unpack(p.cpu, src, 3, &hv);
     p.dut->backend->view_unpack(p.dut, dup_to(p.dut, src, N * 3), 3, &dv);
     ok = ok && match(back(p.dut, dbuf, total), buf, total, "unpacked view (spare floats untouched)");
+    /* the same bytes as halves, 10 a pixel: every finite half there is */
+    unsigned short *hb = (unsigned short *)(void *)buf;
+    for (size_t i = 0; i < total * 2; i++) hb[i] = (unsigned short)((i * 7919u) % 0x7c00u | (i & 1u) << 15);
+    ew_view_desc hh = {(char *)(buf + row_floats * (H - 1)), W, H, 5 * 4, -row_floats * 4, 1};
+    ew_view_desc dh = hh;
+    dh.data = (char *)(dup_to(p.dut, buf, total) + row_floats * (H - 1));
+    ew_cpu_backend.view_pack(p.cpu, &hh, 3, packed);
+    p.dut->backend->view_pack(p.dut, &dh, 3, dpacked);
+    ok = ok && match(back(p.dut, dpacked, N * 3), packed, N * 3, "packed halves");
+    CHECK(packed[0] == ew_half_to_float(hb[(row_floats * (H - 1)) * 2]));
     close_pair(&p);
     CHECK(ok);
     CHECK_NO_MISUSE();

@@ -129,19 +129,28 @@ EW_API const char *ew_device_last_error(const ew_device *dev);
 
 /* ---- image views ------------------------------------------------------ */
 typedef enum ew_format {
-    EW_FORMAT_FLOAT = 1 /* 32-bit float per channel */
+    EW_FORMAT_FLOAT = 1, /* 32-bit float per channel */
+    /* 16-bit IEEE 754 half per channel (an EXR's half pass, numpy's
+     * float16): for images that are only read, never an output. The
+     * methods read the values exactly (every half is a float); kpcn and
+     * auto read half albedo, normal and depth where they are, so a caller
+     * holding them as halves holds half the bytes (ew_method_image_flags:
+     * EW_IMAGE_HALF_IN_PLACE); every other method and image packs a float
+     * copy at execute. */
+    EW_FORMAT_HALF = 2
 } ew_format;
 
-/* A view of caller-owned pixels. Stride rules:
+/* A view of caller-owned pixels. Stride rules (E: the bytes of a channel,
+ * 4 for EW_FORMAT_FLOAT, 2 for EW_FORMAT_HALF):
  *   - Strides are in bytes. A stride of 0 is EW_STRIDE_PACKED: "the packed
- *     value" (pixel_stride = channels * 4, row_stride = pixel_stride *
+ *     value" (pixel_stride = channels * E, row_stride = pixel_stride *
  *     width), never a repeated pixel or row. A view whose pixels or rows
  *     repeat (numpy's broadcast_to, stride 0) cannot be passed as it is:
  *     copy it first (the Python package does).
- *   - pixel_stride >= channels * 4; |row_stride| >= pixel_stride * width;
+ *   - pixel_stride >= channels * E; |row_stride| >= pixel_stride * width;
  *     row_stride may be negative (OFX hosts pass bottom-up images): row y
  *     starts at data + y * row_stride.
- *   - data and both strides are multiples of 4 (float alignment).
+ *   - data and both strides are multiples of E (the channel's alignment).
  *   - The whole view (|row_stride| * height) must fit in an int64.
  * Views breaking a rule are refused with EW_ERR_INVALID_ARGUMENT when set. */
 #define EW_STRIDE_PACKED 0
@@ -330,6 +339,9 @@ EW_API const char *ew_method_kind(const char *name);
 /* Image direction and aliasing. */
 #define EW_IMAGE_OUTPUT 0x1u  /* written by execute; every other image is read */
 #define EW_IMAGE_INPLACE 0x2u /* an input the "output" view may be the very same view of */
+/* an input the method reads as EW_FORMAT_HALF where it is (no float copy
+ * of the frame): a caller choosing how to hold a pass holds it as halves */
+#define EW_IMAGE_HALF_IN_PLACE 0x4u
 EW_API ew_result ew_method_image_flags(const char *kind, const char *name, int32_t index, uint32_t *flags);
 
 /* Enum parameters: an EW_PARAM_INT whose value is the index of a choice

@@ -1,0 +1,158 @@
+/* EW_FORMAT_HALF input views: every half converts exactly (against the
+ * compiler's own _Float16), every method gives from half inputs the very
+ * bits it gives from float inputs holding the same values, and a half
+ * output is refused. */
+#include "ew_test.h"
+
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "edgewise/edgewise.h"
+#include "kernels/half.h"
+
+#define W 72
+#define H 56
+
+TEST(every_half_converts_as_the_compilers_float16) {
+    int bad = 0;
+    for (uint32_t u = 0; u < 65536u; u++) {
+        const uint16_t bits = (uint16_t)u;
+        _Float16 h;
+        memcpy(&h, &bits, sizeof h);
+        const float want = (float)h, got = ew_half_to_float(bits);
+        if (isnan(want) ? !isnan(got) : memcmp(&want, &got, sizeof want) != 0) bad++;
+    }
+    CHECK_EQ_INT(bad, 0);
+    CHECK(ew_half_to_float(0x3c00u) == 1.0f && ew_half_to_float(0xc000u) == -2.0f);
+    CHECK(ew_half_to_float(0x7bffu) == 65504.0f && ew_half_to_float(0x0001u) == 5.9604644775390625e-8f);
+}
+
+static uint32_t rng = 12345u;
+static float frand(float lo, float hi) {
+    rng = rng * 1664525u + 1013904223u;
+    return lo + (hi - lo) * (float)(rng >> 8) / 16777216.0f;
+}
+
+/* An input of c channels: float values that halves hold exactly, and the
+ * same as halves. */
+typedef struct {
+    float *f;
+    uint16_t *h;
+    int c;
+} plane;
+
+static plane make_plane(const char *name, int c) {
+    plane p = {malloc(sizeof(float) * W * H * (size_t)c), malloc(sizeof(uint16_t) * W * H * (size_t)c), c};
+    const int normal = !strcmp(name, "normal"), vector = !strcmp(name, "vector");
+    for (size_t i = 0; i < (size_t)W * H * (size_t)c; i++) {
+        float v = normal ? frand(-1.0f, 1.0f) : vector ? frand(-2.0f, 2.0f) : frand(0.05f, 1.0f);
+        if (!strcmp(name, "color") && i % 97 == 0) v = 40.0f; /* fireflies */
+        const _Float16 h = (_Float16)v;
+        p.f[i] = (float)h;
+        memcpy(&p.h[i], &h, sizeof h);
+    }
+    return p;
+}
+
+static ew_image view_of(const plane *p, int half) {
+    ew_image v = ew_image_packed(p->f, W, H, p->c);
+    if (half) {
+        v.data = p->h;
+        v.format = EW_FORMAT_HALF;
+        v.pixel_stride = EW_STRIDE_PACKED;
+        v.row_stride = EW_STRIDE_PACKED;
+    }
+    return v;
+}
+
+/* The method's outputs with every input set, as halves or as floats; 0
+ * when the method does not commit with these inputs. */
+static int run(ew_device *dev, const char *method, int half, plane *in, float **out, int ni) {
+    ew_op *op = NULL;
+    if (ew_op_create(dev, method, &op) != EW_OK) return 0;
+    for (int i = 0; i < ni; i++) {
+        ew_image_info im;
+        uint32_t fl = 0;
+        ew_method_image(NULL, method, i, &im);
+        ew_method_image_flags(NULL, method, i, &fl);
+        ew_image v = (fl & EW_IMAGE_OUTPUT) ? ew_image_packed(out[i], W, H, in[i].c) : view_of(&in[i], half);
+        if (ew_op_set_image(op, im.name, &v) != EW_OK) {
+            fprintf(stderr, "  %s: set_image %s: %s\n", method, im.name, ew_device_last_error(dev));
+            ew_op_destroy(op);
+            return 0;
+        }
+    }
+    int ok = ew_op_commit(op) == EW_OK && ew_op_execute(op) == EW_OK;
+    if (!ok) fprintf(stderr, "  %s (%s): %s\n", method, half ? "half" : "float", ew_device_last_error(dev));
+    ew_op_destroy(op);
+    return ok;
+}
+
+TEST(every_method_reads_half_inputs_as_the_floats_they_hold) {
+    ew_device *dev = NULL;
+    CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
+    int methods = 0;
+    for (int32_t m = 0; m < ew_method_count(NULL); m++) {
+        const char *name = NULL;
+        int32_t ni = 0;
+        ew_method_get(NULL, m, &name, NULL, &ni, NULL);
+        plane in[8];
+        float *a[8], *b[8];
+        for (int i = 0; i < ni; i++) {
+            ew_image_info im;
+            ew_method_image(NULL, name, i, &im);
+            const int c = !strcmp(im.name, "color") || !strcmp(im.name, "output") ? 3 : im.min_channels < 1 ? 1 : im.min_channels;
+            in[i] = make_plane(im.name, c);
+            a[i] = calloc((size_t)W * H * (size_t)c, sizeof(float));
+            b[i] = calloc((size_t)W * H * (size_t)c, sizeof(float));
+        }
+        const int ran_float = run(dev, name, 0, in, a, ni);
+        const int ran_half = run(dev, name, 1, in, b, ni);
+        CHECK_EQ_INT(ran_half, ran_float);
+        if (ran_float && ran_half) {
+            methods++;
+            for (int i = 0; i < ni; i++) {
+                uint32_t fl = 0;
+                ew_method_image_flags(NULL, name, i, &fl);
+                if (!(fl & EW_IMAGE_OUTPUT)) continue;
+                const int same = !memcmp(a[i], b[i], sizeof(float) * W * H * (size_t)in[i].c);
+                if (!same) fprintf(stderr, "  %s: output %d differs between half and float inputs\n", name, i);
+                CHECK(same);
+            }
+        }
+        for (int i = 0; i < ni; i++) {
+            free(in[i].f);
+            free(in[i].h);
+            free(a[i]);
+            free(b[i]);
+        }
+    }
+    CHECK(methods == ew_method_count(NULL));
+    ew_device_destroy(dev);
+}
+
+TEST(a_half_output_or_misaligned_half_is_refused) {
+    ew_device *dev = NULL;
+    CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
+    ew_op *op = NULL;
+    CHECK_EQ_INT(ew_op_create(dev, "kpcn", &op), EW_OK);
+    static uint16_t px[W * H * 3 + 1];
+    ew_image v = {px, W, H, 3, 0, 0, EW_FORMAT_HALF};
+    CHECK_EQ_INT(ew_op_set_image(op, "output", &v), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "EW_FORMAT_FLOAT");
+    CHECK_EQ_INT(ew_op_set_image(op, "albedo", &v), EW_OK);
+    v.data = (char *)px + 1;
+    CHECK_EQ_INT(ew_op_set_image(op, "albedo", &v), EW_ERR_INVALID_ARGUMENT);
+    CHECK_STR_CONTAINS(ew_device_last_error(dev), "half");
+    v.data = px;
+    v.pixel_stride = 5; /* not a multiple of 2 */
+    CHECK_EQ_INT(ew_op_set_image(op, "albedo", &v), EW_ERR_INVALID_ARGUMENT);
+    v.pixel_stride = 4; /* smaller than 3 halves */
+    CHECK_EQ_INT(ew_op_set_image(op, "albedo", &v), EW_ERR_INVALID_ARGUMENT);
+    v.pixel_stride = 6;
+    v.format = (ew_format)7;
+    CHECK_EQ_INT(ew_op_set_image(op, "albedo", &v), EW_ERR_INVALID_ARGUMENT);
+    ew_op_destroy(op);
+    ew_device_destroy(dev);
+}
