@@ -349,6 +349,9 @@ const ew_op_type ew_denoise_auto = {
      * and reads the views only through the device (frame_noise) */
     .device_memory = 1,
     .inplace_inputs = (const char *const[]){"color", NULL},
+    /* the noise estimate reads them as they are; the method it runs gets
+     * the views (kpcn reads halves in bands, the others pack floats) */
+    .half_inputs = (const char *const[]){"albedo", "normal", "depth", NULL},
     .choices = (const ew_param_choices[]){{"quality", quality_names}, {NULL, NULL}},
     .flags = EW_METHOD_HOST,
 };

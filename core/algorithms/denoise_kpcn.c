@@ -99,6 +99,10 @@ typedef struct {
     float *target;          /* streamed: the result when the output view is not written in place (else untouched) */
     float *band_rad, *band_guide, *band_clamped, *band_removed; /* streamed: one band of rows and its margins */
     float *band_above;      /* streamed: the clamped row above the band (exact: the band above's) */
+    /* streamed: albedo, normal, depth held by the caller as halves
+     * (ew_dev_view_half_rows), each read a band of rows at a time into
+     * its buffer (feature_rows), else NULL */
+    float *frows[3];
     ew_tile_writer tw;      /* streamed, with the stage in the tiles: the cores out (fused_core) */
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
@@ -164,6 +168,24 @@ static size_t band_floats(int w) {
     return (size_t)(BAND_ROWS + 2 * band_margin()) * (size_t)w * BAND_FLOATS_PX + 3 * (size_t)w;
 }
 
+/* albedo, normal, depth and their floats a pixel */
+static const char *const feature_names[3] = {"albedo", "normal", "depth"};
+static const int feature_channels[3] = {3, 3, 1};
+
+/* The rows of a band of a half feature's view read at once (feature_rows):
+ * the clamp's bands, the network's (kpcn.h) and the remodulation's, each
+ * with its margins */
+static int feature_band_rows(void) {
+    return ew_maxi(BAND_ROWS + 2 * band_margin(), EW_KPCN_BAND_ROWS + 2 * EW_KPCN_BAND_MARGIN);
+}
+
+/* Which features a streamed op reads from the caller's half views in
+ * bands (no float copy of the frame) */
+static void features_half(const ew_op *op, int half[3]) {
+    for (int i = 0; i < 3; i++)
+        half[i] = can_stream(op) && ew_dev_view_half_rows(op->dev, ew_op_image(op, feature_names[i]), feature_channels[i]);
+}
+
 /* The features the op reads from the caller's views where they are
  * (ew_dev_view_in_place: on the CPU, views already packed as the op packs
  * them), else NULL; the output is written while they are still read.
@@ -184,15 +206,29 @@ static size_t params_and_frame(const ew_kpcn_net *net, int w, int h, size_t px, 
     return ((size_t)net->nparams + 15) / 16 * 16 + (size_t)w * (size_t)h * px + more + 64;
 }
 
-/* Floats a pixel of the features the op copies (those not read in place). */
-static size_t feature_copies_px(const ew_op *op) {
+/* Floats a pixel of the features the op copies (those not read in place,
+ * nor, streamed, read from halves in bands). */
+static size_t feature_copies_px(const ew_op *op, int streamed) {
     const float *in[3];
+    int half[3];
     features_in_place(op, in);
-    return (in[0] ? 0 : 3) + (in[1] ? 0 : 3) + (in[2] ? 0 : 1);
+    features_half(op, half);
+    size_t px = 0;
+    for (int i = 0; i < 3; i++) px += in[i] || (streamed && half[i]) ? 0 : (size_t)feature_channels[i];
+    return px;
+}
+
+/* Streamed: the band buffers of the features read from halves */
+static size_t feature_band_floats(const ew_op *op, int w) {
+    int half[3];
+    features_half(op, half);
+    size_t px = 0;
+    for (int i = 0; i < 3; i++) px += half[i] ? (size_t)feature_channels[i] : 0;
+    return px * (size_t)feature_band_rows() * (size_t)w;
 }
 
 static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
-    const size_t px = FRAME_FLOATS - FEATURE_FLOATS + feature_copies_px(op) + (passes_of(op) > 1 ? 3 : 0); /* the passes' sum */
+    const size_t px = FRAME_FLOATS - FEATURE_FLOATS + feature_copies_px(op, 0) + (passes_of(op) > 1 ? 3 : 0); /* the passes' sum */
     return params_and_frame(net, w, h, px, 0);
 }
 
@@ -202,13 +238,15 @@ static int fused_margin(const ew_op *op) { return ew_harm_may_fuse(op) ? ew_harm
 
 /* Streamed (above): the parameters, the colour when it is not read in
  * place and the result when the output is not written in place (reserved;
- * their pages untouched otherwise), the features not read in place, one
- * band and the clamped radiance of `rows` rows (a row of regions), and
- * what the tiles hold back of their cores when the stage may run in them. */
+ * their pages untouched otherwise), the features not read in place (a
+ * band of those read from halves), one band and the clamped radiance of
+ * `rows` rows (a row of regions), and what the tiles hold back of their
+ * cores when the stage may run in them. */
 static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rows) {
     const int m = fused_margin(op);
-    return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op),
-                            band_floats(w) + (size_t)w * (size_t)rows * 3 + (m ? ew_tile_writer_floats(w, h, m) : 0));
+    return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op, 1),
+                            band_floats(w) + feature_band_floats(op, w) + (size_t)w * (size_t)rows * 3 +
+                                (m ? ew_tile_writer_floats(w, h, m) : 0));
 }
 
 /* The device floats of a tiled side x side region. */
@@ -323,7 +361,9 @@ static ew_result commit(ew_op *op) {
     b->width = w;
     b->height = h;
     const float *in[3];
+    int half[3];
     features_in_place(op, in);
+    features_half(op, half);
     if (streamed) {
         s->fcolor = p; p += n * 3;
         s->target = p; p += n * 3;
@@ -331,9 +371,18 @@ static ew_result commit(ew_op *op) {
         b->out = p; /* the colour is read by denoise_prepare only: the output takes its place */
         b->color = p; p += n * 3;
     }
-    b->albedo = in[0] ? in[0] : p; p += in[0] ? 0 : n * 3;
-    b->normal = in[1] ? in[1] : p; p += in[1] ? 0 : n * 3;
-    b->depth = in[2] ? in[2] : p; p += in[2] ? 0 : n;
+    const float **fp[3] = {&b->albedo, &b->normal, &b->depth};
+    for (int i = 0; i < 3; i++) {
+        const size_t c = (size_t)feature_channels[i];
+        if (in[i]) {
+            *fp[i] = in[i];
+        } else if (streamed && half[i]) { /* no plane: feature_rows reads bands into frows */
+            *fp[i] = NULL;
+            s->frows[i] = p; p += (size_t)feature_band_rows() * (size_t)w * c;
+        } else {
+            *fp[i] = p; p += n * c;
+        }
+    }
     if (streamed) {
         s->clamped = p; p += (size_t)w * (size_t)tiling.rh * 3; /* a row of regions */
         const size_t bn = (band_floats(w) - 3 * (size_t)w) / BAND_FLOATS_PX;
@@ -439,20 +488,56 @@ static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile
     dev->backend->conv5(dev, &a);
 }
 
+/* Rows y0 .. y1 (columns x0 .. x1) of feature i (albedo, normal, depth)
+ * as floats at the frame's width, from its row y0: the op's plane or the
+ * view read in place, or, streamed from a half view, those rows converted
+ * into its band buffer (one band at a time: the caller reads them before
+ * the next call). */
+static const float *feature_rows(ew_op *op, int i, int y0, int y1, int x0, int x1) {
+    const state *s = (const state *)op->state;
+    const ew_denoise_buffers *b = &s->buf;
+    const float *plane = i == 0 ? b->albedo : i == 1 ? b->normal : b->depth;
+    const size_t c = (size_t)feature_channels[i];
+    if (plane) return plane + (size_t)y0 * (size_t)b->width * c;
+    ew_dev_view_rows(op->dev, ew_op_image(op, feature_names[i]), (int)c, y0, y1, x0, x1, s->frows[i]);
+    return s->frows[i];
+}
+
+/* out = filtered * (albedo + eps) on the frame's rect x0, y0, w x h, out
+ * (packed w wide) holding the filtered radiance: at once, or a band of
+ * rows at a time when the albedo is read from halves */
+static void finish_rows(ew_op *op, int x0, int y0, int w, int h, float *out) {
+    const state *s = (const state *)op->state;
+    const int W = s->buf.width, step = s->frows[0] ? feature_band_rows() : h;
+    for (int y = 0; y < h; y += step) {
+        const int n = ew_mini(step, h - y);
+        ew_denoise_buffers rb = s->buf;
+        rb.width = w;
+        rb.height = n;
+        rb.in_stride = W;
+        rb.albedo = feature_rows(op, 0, y0 + y, y0 + y + n, x0, x0 + w) + (size_t)x0 * 3;
+        rb.sliced = rb.out = out + (size_t)y * (size_t)w * 3;
+        op->dev->backend->denoise_finish(op->dev, &rb);
+    }
+}
+
 /* The band's rows: the region's rows t0 .. t1 of the network's inputs from
  * its first row on (`region`: kpcn_input's arguments for the whole region,
  * its sources at the region's first pixel), and when t1 is the region's
  * last row, zeros below it in every plane, as a whole region's padding
  * (a shorter last band would leave the rows of the band before there). */
-static ew_result band_inputs(ew_device *dev, const state *s, const ew_kpcn_input_args *region, int t0, int t1) {
+static ew_result band_inputs(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *region, int t0, int t1) {
+    ew_device *dev = op->dev;
+    const state *s = (const state *)op->state;
     const ew_gn_planes *B = &s->band;
     ew_kpcn_input_args a = *region;
     const long at = (long)t0 * a.src_rs;
     a.height = t1 - t0;
     a.radiance += at * 3;
-    a.albedo += at * 3;
-    a.normal += at * 3;
-    a.depth += at;
+    const float **f[3] = {&a.albedo, &a.normal, &a.depth};
+    for (int i = 0; i < 3; i++) /* the region's rows t0 .. t1 of each, at its first column */
+        *f[i] = feature_rows(op, i, tile->ry + t0, tile->ry + t1, tile->rx, tile->rx + tile->rw) +
+                (size_t)tile->rx * (size_t)feature_channels[i];
     a.dst = ew_gn_plane_row(B, s->net.in[0], 0);
     a.rs = B->rs;
     a.ps = B->ps;
@@ -467,13 +552,14 @@ static ew_result band_inputs(ew_device *dev, const state *s, const ew_kpcn_input
  * inputs 2 rows beyond them, and its pooling into scale 1's inputs
  * (kpcn.h): e0 is even, so the poolings pair the rows the whole region's
  * do. */
-static ew_result encode0_band(ew_device *dev, const state *s, const ew_tile *tile, const ew_kpcn_input_args *in,
-                              int e0) {
+static ew_result encode0_band(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in, int e0) {
+    ew_device *dev = op->dev;
+    const state *s = (const state *)op->state;
     const ew_kpcn_net *net = &s->net;
     const ew_gn_planes *B = &s->band;
     const int rh = s->sh[0], e1 = ew_mini(e0 + EW_KPCN_BAND_ROWS, rh);
     const int t0 = ew_maxi(e0 - EW_CONV_R, 0), t1 = ew_mini(e1 + EW_CONV_R, rh);
-    const ew_result r = band_inputs(dev, s, in, t0, t1);
+    const ew_result r = band_inputs(op, tile, in, t0, t1);
     if (r != EW_OK) return r;
     band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
     ew_kpcn_pool_args a = {B->width, e1 - e0, s->sw[1], ew_kpcn_half(e1 - e0), net->ch, planes_t(B, net->h[0]),
@@ -487,12 +573,14 @@ static ew_result encode0_band(ew_device *dev, const state *s, const ew_tile *til
 /* Scale 0's end on the region's rows b0 .. b0 + EW_KPCN_BAND_ROWS (kpcn.h):
  * the inputs and the encoder's output of the band and its margins again,
  * the next scale's output upsampled, the decoder on the band and 4 rows
- * either side, the head and the kernel filter (rad0, out, albedo: the
- * region's tensors; albedo NULL: no remodulation) on the band. The band's
+ * either side, the head and the kernel filter (rad0, out: the region's
+ * tensors; remod: with the remodulation over the albedo) on the band. The band's
  * planes hold its margins from row t0; past the region's last row they
  * read zeros, as the region's planes would. */
-static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile, const ew_kpcn_input_args *in, int b0,
-                             const ew_kpcn_tensor *rad0, const ew_kpcn_tensor *out, const ew_kpcn_tensor *albedo) {
+static ew_result scale0_band(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in, int b0,
+                             const ew_kpcn_tensor *rad0, const ew_kpcn_tensor *out, int remod) {
+    ew_device *dev = op->dev;
+    const state *s = (const state *)op->state;
     const ew_kpcn_net *net = &s->net;
     const ew_gn_planes *B = &s->band;
     const int rh = s->sh[0], C = net->ch, S = net->scales;
@@ -502,7 +590,7 @@ static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile
     const int o0 = ew_maxi(b0 - EW_KPCN_DEC_MARGIN, 0), o1 = ew_mini(b1 + EW_KPCN_DEC_MARGIN, rh);
     /* the decoder reads the encoder's output and the upsampled planes 2 rows beyond its own */
     const int u0 = ew_maxi(o0 - EW_CONV_R, 0), u1 = ew_mini(o1 + EW_CONV_R, rh);
-    const ew_result r = band_inputs(dev, s, in, t0, t1);
+    const ew_result r = band_inputs(op, tile, in, t0, t1);
     if (r != EW_OK) return r;
     band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
     /* over the inputs, which only the encoder reads (ew_kpcn_inference_planes) */
@@ -525,7 +613,13 @@ static ew_result scale0_band(ew_device *dev, const state *s, const ew_tile *tile
     fa.cw = s->sw[1];
     fa.ch = s->sh[1];
     fa.out = *out;
-    if (albedo) fa.albedo = *albedo; /* the filter remodulates: its output is the colour */
+    if (remod) { /* the filter remodulates: its output is the colour; the albedo band_inputs read, from row t0 */
+        const ew_kpcn_tensor al = {(float *)feature_rows(op, 0, tile->ry + t0, tile->ry + t1, tile->rx, tile->rx + tile->rw) +
+                                       (size_t)tile->rx * 3,
+                                   3, 3L * s->buf.width, 1};
+        fa.albedo = al;
+        fa.albedo_y0 = t0;
+    }
     (void)EW_RUN(dev, kpcn_filter, &fa);
     return EW_OK;
 }
@@ -543,16 +637,7 @@ static ew_result fused_core(ew_op *op, const ew_tile *tile) {
     ew_device *dev = op->dev;
     const ew_denoise_buffers *b = &s->buf;
     const int W = b->width, rw = tile->rw, rh = tile->rh, ox = tile->cx - tile->rx, oy = tile->cy - tile->ry;
-    const long at = (long)tile->ry * W + tile->rx;
-    if (!s->net.remod) { /* out = filtered * (albedo + eps), in place */
-        ew_denoise_buffers rb = *b;
-        rb.width = rw;
-        rb.height = rh;
-        rb.in_stride = W;
-        rb.albedo = b->albedo + at * 3;
-        rb.sliced = rb.out = s->tile_out;
-        dev->backend->denoise_finish(dev, &rb);
-    }
+    if (!s->net.remod) finish_rows(op, tile->rx, tile->ry, rw, rh, s->tile_out); /* out = filtered * (albedo + eps), in place */
     const float *color = ew_dev_view_in_place(dev, ew_op_image(op, "color"), 3, NULL);
     float *removed = ew_harm_clamp_removed(op);
     ew_result r = ew_dev_copy_rect(dev, s->fcolor, rw, 0, 0, color, W, tile->rx, tile->ry, rw, rh, 3);
@@ -573,7 +658,6 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     const int W = b->width, C = net->ch, rw = tile->rw, rh = tile->rh;
     ew_result r = layout_region(dev, s, rw, rh);
     if (r != EW_OK) return r;
-    const long at = (long)tile->ry * W + tile->rx; /* the region's first pixel in the frame */
     const float *rad = radiance + ((long)(tile->ry - row0) * W + tile->rx) * 3; /* ... in the clamped radiance */
     /* zeroed first, then member by member: the padding after depth_scale
      * would otherwise carry stale stack bytes to a device that copies the
@@ -583,16 +667,13 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     memset(&ia, 0, sizeof ia);
     ia.width = rw;
     ia.height = rh;
-    ia.radiance = rad;
-    ia.albedo = b->albedo + at * 3;
-    ia.normal = b->normal + at * 3;
-    ia.depth = b->depth + at;
+    ia.radiance = rad; /* the features: band_inputs' */
     ia.depth_scale = b->depth_scale;
     ia.noise_plane = net->noise;
     ia.noise = noise;
     ia.src_rs = W;
     /* the network (algorithms/kpcn.h's layer list): scale 0's encoder in bands, ... */
-    for (int e0 = 0; e0 < rh && r == EW_OK; e0 += EW_KPCN_BAND_ROWS) r = encode0_band(dev, s, tile, &ia, e0);
+    for (int e0 = 0; e0 < rh && r == EW_OK; e0 += EW_KPCN_BAND_ROWS) r = encode0_band(op, tile, &ia, e0);
     if (r != EW_OK) return r;
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* ... the coarser scales whole ... */
@@ -638,9 +719,8 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     /* ... and scale 0's end in bands (kpcn.h): one tile writes the frame;
      * several write their region, and keep the core */
     const ew_kpcn_tensor o = {s->tile_out ? s->tile_out : tile_target(s, net), 3, 3L * rw, 1};
-    const ew_kpcn_tensor al = {(float *)b->albedo + at * 3, 3, 3L * W, 1};
     for (int b0 = 0; b0 < rh && r == EW_OK; b0 += EW_KPCN_BAND_ROWS) {
-        r = scale0_band(dev, s, tile, &ia, b0, &rad0, &o, net->remod ? &al : NULL);
+        r = scale0_band(op, tile, &ia, b0, &rad0, &o, net->remod);
         const int done = b0 + EW_KPCN_BAND_ROWS < rh ? b0 + EW_KPCN_BAND_ROWS : rh;
         if (r == EW_OK && !ew_op_report(op, p0 + (0.3 + 0.65 * done / rh) * dp))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
@@ -699,12 +779,17 @@ static ew_result put_features(ew_op *op) {
     const int w = b->width, h = b->height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
     ew_result r = EW_OK;
-    if (b->albedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)b->albedo, s->stage);
-    if (r == EW_OK && b->normal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)b->normal, s->stage);
-    if (r == EW_OK && b->depth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)b->depth, s->stage);
-    if (r != EW_OK) return r;
-    dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, h, b->depth, s->row_out);
-    r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)h * 2 * sizeof(double));
+    /* (a feature read from halves in bands has no plane) */
+    if (b->albedo && b->albedo != av->data) r = ew_dev_put_view(dev, av, 3, (float *)b->albedo, s->stage);
+    if (r == EW_OK && b->normal && b->normal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)b->normal, s->stage);
+    if (r == EW_OK && b->depth && b->depth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)b->depth, s->stage);
+    /* each row's largest depth (row by row: in bands, the same) */
+    const int step = b->depth ? h : feature_band_rows();
+    for (int y = 0; y < h && r == EW_OK; y += step) {
+        const int n = ew_mini(step, h - y);
+        dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, n, feature_rows(op, 2, y, y + n, 0, w), s->row_out);
+        r = dev->backend->mem_download(dev, s->rows + 2 * (size_t)y, s->row_out, (size_t)n * 2 * sizeof(double));
+    }
     if (r != EW_OK) return r;
     double mx = 0.0;
     for (int y = 0; y < h; y++)
@@ -736,9 +821,9 @@ static ew_result clamp_rows(ew_op *op, const float *color, int y_begin, int y_en
         ew_denoise_buffers bb = *b;
         bb.height = e1 - e0;
         bb.color = color + (size_t)e0 * w3;
-        bb.albedo = b->albedo + (size_t)e0 * w3;
-        bb.normal = b->normal + (size_t)e0 * w3;
-        bb.depth = b->depth + (size_t)e0 * w;
+        bb.albedo = feature_rows(op, 0, e0, e1, 0, w);
+        bb.normal = feature_rows(op, 1, e0, e1, 0, w);
+        bb.depth = feature_rows(op, 2, e0, e1, 0, w);
         bb.radiance = s->band_rad;
         bb.guide = s->band_guide;
         dev->backend->denoise_prepare(dev, &bb); /* radiance = colour / (albedo + eps) */
@@ -816,7 +901,7 @@ static ew_result execute_streamed(ew_op *op) {
         have1 = r1;
     }
     /* out = filtered * (albedo + eps) (fused: each tile's) */
-    if (r == EW_OK && !net->remod && !ew_harm_fused(op)) dev->backend->denoise_finish(dev, b);
+    if (r == EW_OK && !net->remod && !ew_harm_fused(op)) finish_rows(op, 0, 0, b->width, b->height, target);
     if (r == EW_OK && target == s->target) r = ew_dev_get_view(dev, target, 3, ov, s->stage);
     /* as the frame path's: nothing here is read before it is written again */
     ew_dev_release_pages(dev, s->fcolor, (char *)s->dmem.mem + s->dmem.bytes);
@@ -928,6 +1013,9 @@ const ew_op_type ew_denoise_kpcn = {
     .describe = describe,
     .choices = (const ew_param_choices[]){{"model", ew_kpcn_model_names}, {NULL, NULL}},
     .inplace_inputs = (const char *const[]){"color", NULL},
+    /* tiled on the CPU they are read in bands of rows (feature_rows);
+     * otherwise put_features packs them as it packs float views */
+    .half_inputs = (const char *const[]){"albedo", "normal", "depth", NULL},
     .data_params = (const char *const[]){"model", "weights", NULL},
     .flags = EW_METHOD_HOST,
 };

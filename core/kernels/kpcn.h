@@ -223,6 +223,8 @@ typedef struct ew_kpcn_filter_args {
                                  whole plane, height rows */
     ew_kpcn_tensor out;       /* 3 channels */
     ew_kpcn_tensor albedo;    /* 3 channels of raw albedo at full resolution, or data NULL: no remodulation */
+    int albedo_y0;            /* the albedo's row 0 is the plane's row albedo_y0 (a band of rows around the
+                                 filtered ones, converted from halves), else 0 */
 } ew_kpcn_filter_args;
 
 /* the rows of the plane the taps clamp to */
@@ -270,7 +272,7 @@ EW_HD void ew_kpcn_remod_albedo_px(int x, int y, const ew_kpcn_filter_args *a, f
     for (int k = 0; k < EW_KPCN_TAPS; k++) {
         int tx, ty;
         ew_kpcn_tap_xy(k, x, y, a->width, ew_kpcn_filter_rows(a), &tx, &ty);
-        for (int c = 0; c < 3; c++) m[c] += v[k] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty, tx));
+        for (int c = 0; c < 3; c++) m[c] += v[k] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty - a->albedo_y0, tx));
     }
 }
 
@@ -284,7 +286,7 @@ EW_HD void ew_kpcn_remod_backward_px(int x, int y, const ew_kpcn_filter_args *a,
         int tx, ty;
         ew_kpcn_tap_xy(k, x, y, a->width, a->height, &tx, &ty);
         float s = 0.0f;
-        for (int c = 0; c < 3; c++) s += gm[c] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty, tx));
+        for (int c = 0; c < 3; c++) s += gm[c] * ew_albedo_factor(*ew_kpcn_at(&a->albedo, c, ty - a->albedo_y0, tx));
         dv[k] = s;
         dot += v[k] * s;
     }

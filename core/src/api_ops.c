@@ -104,6 +104,7 @@ ew_result ew_method_image_flags(const char *kind, const char *name, int32_t inde
     *flags = 0;
     if (!strcmp(im, "output") || listed(t->extra_outputs, im)) *flags |= EW_IMAGE_OUTPUT;
     if (listed(t->inplace_inputs, im)) *flags |= EW_IMAGE_INPLACE;
+    if (listed(t->half_inputs, im)) *flags |= EW_IMAGE_HALF_IN_PLACE;
     return EW_OK;
 }
 

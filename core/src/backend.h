@@ -211,6 +211,14 @@ ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst
  * op decides at commit and allocates only the buffers it needs. */
 const float *ew_dev_view_in_place(const ew_device *dev, const ew_image *img, int c, const ew_image *written);
 ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage);
+/* A view an op may read in bands of rows as floats (ew_dev_view_rows)
+ * instead of packing a float copy of the frame: EW_FORMAT_HALF, at least
+ * c channels, on a device that reads host memory (the CPU). */
+int ew_dev_view_half_rows(const ew_device *dev, const ew_image *img, int c);
+/* Rows y0 .. y1, columns x0 .. x1 of such a view, its first c channels,
+ * packed into buf as floats: buf's row 0 is the view's row y0, a row the
+ * view's width (the other columns untouched). */
+void ew_dev_view_rows(ew_device *dev, const ew_image *img, int c, int y0, int y1, int x0, int x1, float *buf);
 /* Do the memory spans of two views (first to last pixel) overlap? 0 when
  * either is NULL or has no data. */
 int ew_images_overlap(const ew_image *a, const ew_image *b);

@@ -265,6 +265,29 @@ const float *ew_dev_view_in_place(const ew_device *dev, const ew_image *img, int
     return (const float *)img->data;
 }
 
+int ew_dev_view_half_rows(const ew_device *dev, const ew_image *img, int c) {
+    return img && img->data && img->format == EW_FORMAT_HALF && img->channels >= c && !dev->device_memory;
+}
+
+typedef struct {
+    ew_view_desc v; /* from the band's first row */
+    int c, x0, x1;
+    float *buf;
+} rows_job;
+
+static void view_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
+    (void)tid;
+    const rows_job *j = (const rows_job *)ctx;
+    for (int64_t y = y0; y < y1; y++)
+        for (int x = j->x0; x < j->x1; x++) ew_view_pack_px(x, (int)y, &j->v, j->c, j->buf);
+}
+
+void ew_dev_view_rows(ew_device *dev, const ew_image *img, int c, int y0, int y1, int x0, int x1, float *buf) {
+    const ew_image band = ew__image_crop(img, 0, y0, img->width, y1 - y0);
+    rows_job j = {view_desc(&band), c, x0, x1, buf};
+    ew_pool_run(dev->pool, y1 - y0, 0, view_rows, &j);
+}
+
 ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_image *img, float *stage) {
     const ew_view_desc v = view_desc(img);
     if (!dev->device_memory || dev->device_images) {

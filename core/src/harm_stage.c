@@ -139,6 +139,9 @@ typedef struct ew_harm_state {
     int blend;      /* fused: the regions are blended (do_no_harm, a frame not faded out) */
     ew_harm_args region; /* fused: the blend's arguments but a region's buffers */
     float *band;    /* can_fuse: two bands of rows of 3 floats a pixel for the passes before the method */
+    int half;       /* can_fuse: albedo (2), normal (4) read from half views a band at a time (not own) */
+    float *fband[2]; /* ... into these: albedo's, normal's rows fband_y0 .. fband_y1 */
+    int fband_y0[2], fband_y1[2];
     float *fed;     /* the colour the method reads: clamped, or (pre 2) that after the firefly clamp too */
     float *removed; /* the share of each pixel the firefly clamp took, a float a pixel (the method's own
                        through ew_harm_clamp_removed, or the stage's for a filter), then what comes back */
@@ -168,16 +171,18 @@ static int slot(const ew_op *op, const char *name) {
  * filter alpha too (op_alpha.c). */
 static int clamped_channels(int cc, int pre) { return pre == 1 ? 3 : cc; }
 
-/* Floats of the two bands of a frame w wide (fused) */
-static size_t band_floats(int w) { return 2 * (size_t)(HARM_BAND_ROWS + 2 * HARM_BAND_MARGIN) * (size_t)w * 3; }
+/* Floats of a band of rows of 3 floats a pixel of a frame w wide (fused) */
+static size_t band_floats(int w) { return (size_t)(HARM_BAND_ROWS + 2 * HARM_BAND_MARGIN) * (size_t)w * 3; }
 
 /* The stage's device floats for a colour of cc channels (see the commit);
  * own: which of colour, albedo, normal it packs itself; kept: the
- * rejection's excess plane; fuse: the bands of a frame w wide. */
-static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept, int fuse, int w) {
+ * rejection's excess plane; fuse: two bands of a frame w wide, and one
+ * for each feature read from halves (half). */
+static size_t stage_floats(size_t n, int cc, int has_a, int has_n, int pre, int own, int kept, int fuse, int half,
+                           int w) {
     return n * ((own & 1 ? (size_t)cc : 0) + 3 * ((size_t)(has_a && (own & 2)) + (size_t)(has_n && (own & 4))) + 3 +
                 EW_HARM_STATS_FLOATS + (size_t)pre * (size_t)clamped_channels(cc, pre) + 1 + (size_t)kept) +
-           (fuse ? band_floats(w) : 0);
+           (fuse ? (2 + (size_t)(has_a && (half & 2)) + (size_t)(has_n && (half & 4))) * band_floats(w) : 0);
 }
 
 /* Colour, albedo and normal read from the caller's views where they are
@@ -229,6 +234,27 @@ static int pilot_possible(const ew_op *op) {
            slot(op, "depth") >= 0;
 }
 
+/* The views' sources and where the stage runs: own (views_in_place's
+ * without the halves it reads in bands), *fuse (fusable) and *half, which
+ * of albedo (2) and normal (4) it reads from half views a band of rows at
+ * a time. Only fused: around the method the passes read frames (and the
+ * pilot, which makes a fused stage run around the method, is off for such
+ * a method only). */
+static int plan_views(const ew_op *op, int cc, int pre, const float *in[3], int *kept, int *fuse, int *half) {
+    const int own = views_in_place(op, cc, pre, in, kept);
+    int h = 0;
+    if (ew_dev_view_half_rows(op->dev, ew_op_image(op, "albedo"), 3)) h |= 2;
+    if (ew_dev_view_half_rows(op->dev, ew_op_image(op, "normal"), 3)) h |= 4;
+    if (h && !pilot_possible(op) && fusable(op, cc, pre, own & ~h, *kept)) {
+        *fuse = 1;
+        *half = h;
+        return own & ~h;
+    }
+    *fuse = fusable(op, cc, pre, own, *kept);
+    *half = 0;
+    return own;
+}
+
 uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     const int pre = pre_steps(op), post = ew_op_param(op, "do_no_harm") != 0.0f;
     if (!has_stage(op->type) || op->type->stage_in_inner || (!pre && !post)) return 0;
@@ -236,14 +262,13 @@ uint64_t ew_harm_memory(const ew_op *op, int w, int h) {
     /* an RGBA colour with albedo and normal: the most the commit takes;
      * with the views of that size set, what they make it take */
     const ew_image *c = ew_op_image(op, "color");
-    int own = 7, cc = 4, kept = 0, fuse = 0;
+    int own = 7, cc = 4, kept = 0, fuse = 0, half = 0;
     if (c && c->width == w && c->height == h) {
         const float *in[3];
         cc = c->channels;
-        own = views_in_place(op, cc, pre, in, &kept);
-        fuse = fusable(op, cc, pre, own, kept);
+        own = plan_views(op, cc, pre, in, &kept, &fuse, &half);
     }
-    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own, kept, fuse, w) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    return (uint64_t)stage_floats(n, cc, 1, 1, pre, own, kept, fuse, half, w) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
            (uint64_t)(stage + (pre ? stage : 0)) * sizeof(float);
 }
 
@@ -262,13 +287,14 @@ ew_result ew_harm_commit(ew_op *op) {
     const int has_n = slot(op, "normal") >= 0 && op->images[slot(op, "normal")].channels >= 3;
     const float *in[3];
     int kept;
-    const int own = views_in_place(op, cc, pre, in, &kept), fuse = fusable(op, cc, pre, own, kept);
+    int fuse, half;
+    const int own = plan_views(op, cc, pre, in, &kept, &fuse, &half);
     ew_harm_state *s = (ew_harm_state *)op->harm;
     if (s && s->w == w && s->h == h && s->cc == cc && s->has_a == has_a && s->has_n == has_n && s->pre == pre &&
-        s->own == own && s->kept == kept && s->can_fuse == fuse) {
+        s->own == own && s->kept == kept && s->can_fuse == fuse && s->half == half) {
         if (!(own & 1)) s->col = (float *)in[0];
-        if (has_a && !(own & 2)) s->alb = (float *)in[1];
-        if (has_n && !(own & 4)) s->nrm = (float *)in[2];
+        if (has_a && !(own & 2) && !(half & 2)) s->alb = (float *)in[1];
+        if (has_n && !(own & 4) && !(half & 4)) s->nrm = (float *)in[2];
         return EW_OK;
     }
     ew_harm_release(op);
@@ -277,7 +303,7 @@ ew_result ew_harm_commit(ew_op *op) {
      * the method's output), b (a filter's rejected radiance, then the
      * residual statistics), clamped (clamped_channels; a denoiser's
      * rejected radiance first), removed (1), the rejection's excess (1, kept) */
-    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept, fuse, w);
+    const size_t floats = stage_floats(n, cc, has_a, has_n, pre, own, kept, fuse, half, w);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage = ew_dev_stage_floats(dev, n, cc);
     const size_t hclamp = pre ? ew_dev_stage_floats(dev, n, clamped_channels(cc, pre)) : 0; /* the colour the method reads */
@@ -296,14 +322,16 @@ ew_result ew_harm_commit(ew_op *op) {
     s->own = own;
     s->kept = kept;
     s->can_fuse = fuse;
+    s->half = half;
     s->rows = s->host;
     s->stage = stage ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->hclamp = hclamp ? s->stage + stage : NULL;
     s->row_out = (double *)s->dmem;
     float *m = (float *)(void *)((char *)s->dmem + row_bytes);
     s->col = own & 1 ? m : (float *)in[0]; m += own & 1 ? n * (size_t)cc : 0;
-    s->alb = !has_a ? NULL : own & 2 ? m : (float *)in[1]; m += has_a && (own & 2) ? n * 3 : 0;
-    s->nrm = !has_n ? NULL : own & 4 ? m : (float *)in[2]; m += has_n && (own & 4) ? n * 3 : 0;
+    /* (a feature read from halves in bands has no frame: NULL) */
+    s->alb = !has_a || (half & 2) ? NULL : own & 2 ? m : (float *)in[1]; m += has_a && (own & 2) ? n * 3 : 0;
+    s->nrm = !has_n || (half & 4) ? NULL : own & 4 ? m : (float *)in[2]; m += has_n && (own & 4) ? n * 3 : 0;
     s->a = m; m += n * 3;
     s->b = m; m += n * EW_HARM_STATS_FLOATS;
     s->clamped = pre ? m : NULL; m += pre ? n * (size_t)clamped_channels(cc, pre) : 0;
@@ -312,6 +340,11 @@ ew_result ew_harm_commit(ew_op *op) {
     s->excess = kept ? m : NULL; /* past b: not among the pages released while the method runs */
     m += kept ? n : 0;
     s->band = fuse ? m : NULL;
+    m += fuse ? 2 * band_floats(w) : 0;
+    for (int f = 0; f < 2; f++) {
+        s->fband[f] = (f ? has_n && (half & 4) : has_a && (half & 2)) ? m : NULL;
+        m += s->fband[f] ? band_floats(w) : 0;
+    }
     return EW_OK;
 }
 
@@ -466,13 +499,30 @@ static ew_result reject(ew_op *op, ew_harm_state *s, ew_harm_args *ha) {
 
 /* ---- fused (fusable): the passes before the method in bands of rows ---- */
 
+/* Rows [y0, y1) of the albedo (f 0) or the normal (f 1), from row y0:
+ * where the frame of it is, or from the half view, those rows converted
+ * into the feature's band (until other rows are asked for); NULL without
+ * the feature. */
+static const float *feature_rows(ew_op *op, ew_harm_state *s, int f, int y0, int y1) {
+    const float *frame = f ? s->nrm : s->alb;
+    if (frame) return frame + (size_t)y0 * (size_t)s->w * 3;
+    if (!s->fband[f]) return NULL;
+    if (s->fband_y0[f] != y0 || s->fband_y1[f] != y1) {
+        ew_dev_view_rows(op->dev, ew_op_image(op, f ? "normal" : "albedo"), 3, y0, y1, 0, s->w, s->fband[f]);
+        s->fband_y0[f] = y0;
+        s->fband_y1[f] = y1;
+    }
+    return s->fband[f];
+}
+
 /* Rows [y0, y1) of the caller's colour (packed RGB) demodulated into dst */
-static void demod_rows(ew_device *dev, const ew_harm_state *s, const ew_harm_args *ha, int y0, int y1, float *dst) {
+static void demod_rows(ew_op *op, ew_harm_state *s, const ew_harm_args *ha, int y0, int y1, float *dst) {
+    ew_device *dev = op->dev;
     ew_harm_args d = *ha;
     const size_t at = (size_t)y0 * (size_t)s->w;
     d.height = y1 - y0;
     d.color = s->col + at * 3;
-    d.albedo = s->alb ? s->alb + at * 3 : NULL;
+    d.albedo = feature_rows(op, s, 0, y0, y1);
     d.radiance = dst;
     dev->backend->harm(dev, EW_HARM_DEMOD, &d);
 }
@@ -487,7 +537,7 @@ static ew_result noise_and_mean_in_bands(ew_op *op, ew_harm_state *s, const ew_h
     ew_result r = EW_OK;
     for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
         const int y1 = ew_mini(y0 + HARM_BAND_ROWS, s->h), lo = ew_maxi(y0 - 1, 0); /* NOISE reads the row above */
-        demod_rows(dev, s, ha, lo, y1, s->band);
+        demod_rows(op, s, ha, lo, y1, s->band);
         dev->backend->reduce_rows(dev, EW_REDUCE_NOISE, s->w, y1 - lo, s->band, s->row_out);
         r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)(y1 - lo) * 2 * sizeof(double));
         for (int y = y0; r == EW_OK && y < y1; y++) {
@@ -522,11 +572,11 @@ static ew_result reject_in_bands(ew_op *op, ew_harm_state *s, ew_harm_args *ha, 
         for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
             const int y1 = ew_mini(y0 + HARM_BAND_ROWS, s->h);
             const int lo = ew_maxi(y0 - HARM_BAND_MARGIN, 0), hi = ew_mini(y1 + HARM_BAND_MARGIN, s->h);
-            demod_rows(dev, s, ha, lo, hi, rad);
+            demod_rows(op, s, ha, lo, hi, rad);
             ew_outlier_params pb = p;
             pb.height = hi - lo;
-            const ew_outlier_buffers ob = {rad, s->alb ? s->alb + (size_t)lo * w * 3 : NULL,
-                                           s->nrm ? s->nrm + (size_t)lo * w * 3 : NULL, out, 3, NULL};
+            const ew_outlier_buffers ob = {rad, feature_rows(op, s, 0, lo, hi), feature_rows(op, s, 1, lo, hi), out, 3,
+                                           NULL};
             dev->backend->outlier_guided(dev, &pb, &ob);
             r = dev->backend->mem_copy(dev, rejected + (size_t)y0 * w * 3, out + (size_t)(y0 - lo) * w * 3,
                                        (size_t)(y1 - y0) * w * 3 * sizeof(float));
@@ -542,11 +592,11 @@ static ew_result reject_in_bands(ew_op *op, ew_harm_state *s, ew_harm_args *ha, 
     for (int y0 = 0; y0 < s->h && r == EW_OK; y0 += HARM_BAND_ROWS) {
         const int y1 = ew_mini(y0 + HARM_BAND_ROWS, s->h);
         const size_t at = (size_t)y0 * w;
-        demod_rows(dev, s, ha, y0, y1, rad);
+        demod_rows(op, s, ha, y0, y1, rad);
         ew_harm_args d = *ha;
         d.height = y1 - y0;
         d.color = s->col + at * 3;
-        d.albedo = s->alb ? s->alb + at * 3 : NULL;
+        d.albedo = feature_rows(op, s, 0, y0, y1);
         d.radiance = rad;
         d.rejected = rejected + at * 3;
         d.clamped = out;
@@ -565,9 +615,9 @@ int ew_harm_may_fuse(const ew_op *op) {
     const int pre = pre_steps(op);
     if (!has_stage(op->type) || op->type->stage_in_inner || !c || !o || c->channels < 3) return 0;
     const float *in[3];
-    int kept;
-    const int own = views_in_place(op, c->channels, pre, in, &kept);
-    return fusable(op, c->channels, pre, own, kept);
+    int kept, fuse, half;
+    plan_views(op, c->channels, pre, in, &kept, &fuse, &half);
+    return fuse;
 }
 
 int ew_harm_fused(const ew_op *op) {
@@ -673,6 +723,7 @@ ew_result ew_harm_execute(ew_op *op) {
     if (r == EW_OK && s->alb && (s->own & 2)) r = ew_dev_put_view(dev, ew_op_image(op, "albedo"), 3, s->alb, s->stage);
     if (r == EW_OK && s->nrm && (s->own & 4)) r = ew_dev_put_view(dev, ew_op_image(op, "normal"), 3, s->nrm, s->stage);
     if (r != EW_OK) return r;
+    s->fband_y0[0] = s->fband_y0[1] = s->fband_y1[0] = s->fband_y1[1] = -1; /* the views' pixels may be new */
     ew_harm_args ha;
     memset(&ha, 0, sizeof ha);
     ha.width = s->w;

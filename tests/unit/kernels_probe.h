@@ -352,6 +352,7 @@ EW_HD int ew_probe_run(const float *in, float *scratch, float *out) {
     v.height = EW_PH;
     v.pixel_stride = 16;
     v.row_stride = -16 * EW_PW;
+    v.half = 0;
     for (int y = 0; y < EW_PH; y++)
         for (int x = 0; x < EW_PW; x++) ew_view_unpack_px(x, y, &v, 3, image);
     float *packed = scratch + 14000;

@@ -5,6 +5,7 @@
  * forward pass against the library's "kpcn" op. */
 #include "ew_test.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -1164,4 +1165,105 @@ TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
     }
     CHECK(blended_in_tiles >= 2);
     ew_device_destroy(dev);
+}
+
+/* ---- features held as halves ------------------------------------------------ */
+/* v as a half (round to nearest even) and the half's bits */
+static uint16_t to_half(float v, float *held) {
+    const _Float16 h = (_Float16)v;
+    uint16_t bits;
+    memcpy(&bits, &h, sizeof bits);
+    *held = (float)h;
+    return bits;
+}
+
+/* One run of net `bytes` on sc with albedo, normal and depth as float
+ * views or as the half views of the same values (sc's features hold
+ * values halves hold); the output apart or over a copy of the colour. */
+static void denoise_features_as(const scene *sc, const void *bytes, size_t size, int budget_mb, int half, int over,
+                                float *out, char *what, size_t len) {
+    ew_device *dev = make_direct_device(2);
+    ew_denoiser *d = NULL;
+    CHECK(ew_denoiser_create(dev, "kpcn", &d) == EW_OK);
+    CHECK(ew_denoiser_set_data(d, "weights", bytes, size) == EW_OK);
+    const size_t n = (size_t)sc->w * sc->h;
+    float *color = sc->color;
+    if (over) {
+        memcpy(out, sc->color, n * 3 * sizeof(float));
+        color = out;
+    }
+    set_frame(d, color, sc->albedo, sc->normal, sc->depth, out, sc->w, sc->h);
+    uint16_t *hf[3] = {NULL, NULL, NULL};
+    if (half) {
+        const char *names[3] = {"albedo", "normal", "depth"};
+        const float *src[3] = {sc->albedo, sc->normal, sc->depth};
+        const int ch[3] = {3, 3, 1};
+        for (int f = 0; f < 3; f++) {
+            hf[f] = malloc(sizeof(uint16_t) * n * (size_t)ch[f]);
+            for (size_t i = 0; i < n * (size_t)ch[f]; i++) {
+                float held;
+                hf[f][i] = to_half(src[f][i], &held);
+            }
+            const ew_image v = {hf[f], sc->w, sc->h, ch[f], EW_STRIDE_PACKED, EW_STRIDE_PACKED, EW_FORMAT_HALF};
+            CHECK(ew_denoiser_set_image(d, names[f], &v) == EW_OK);
+        }
+    }
+    CHECK(ew_denoiser_set_int(d, "max_memory_mb", budget_mb) == EW_OK);
+    CHECK(ew_denoiser_commit(d) == EW_OK);
+    CHECK(ew_denoiser_execute(d) == EW_OK);
+    snprintf(what, len, "%s", ew_denoiser_describe(d));
+    for (int f = 0; f < 3; f++) free(hf[f]);
+    ew_denoiser_destroy(d);
+    ew_device_destroy(dev);
+}
+
+/* Albedo, normal and depth held as halves (an EXR's half passes): kpcn
+ * reads them a band of rows at a time when its tiles are streamed (no
+ * float copy of the frame; the do-no-harm stage's passes before the
+ * method too, when it runs in the tiles) and packs them otherwise. The
+ * same bits as float views of the values the halves hold, whole and in
+ * streamed tiles, the output apart (the stage around the method) and over
+ * the colour (in the tiles), with and without the remodulation kernel
+ * (which reads the albedo band by band; without it the tiles' cores are
+ * multiplied by the albedo). Direct convolutions. */
+TEST(half_features_give_the_bits_of_the_floats_they_hold) {
+    static const char *const archs[2] = {"kpcn-c8-noise", "kpcn-c4-ra"};
+    scene sc;
+    scene_make(&sc, 613, 587, 17);
+    const size_t n = (size_t)sc.w * sc.h;
+    for (size_t i = 0; i < n * 3; i++) {
+        to_half(sc.albedo[i], &sc.albedo[i]);
+        to_half(sc.normal[i], &sc.normal[i]);
+    }
+    for (size_t i = 0; i < n; i++) to_half(sc.depth[i], &sc.depth[i]);
+    sc.color[(100L * sc.w + 150) * 3] = 500.0f; /* a firefly for the clamp and the stage */
+    float *a = malloc(sizeof(float) * n * 3), *b = malloc(sizeof(float) * n * 3);
+    for (int k = 0; k < 2; k++) {
+        ew_kpcn_net net;
+        char err[128];
+        CHECK(ew_kpcn_init(&net, archs[k], err, sizeof err) == 0);
+        float *params = malloc(sizeof(float) * net.nparams);
+        ew_kpcn_random(&net, 31, params);
+        void *bytes;
+        size_t size;
+        CHECK(ew_kpcn_save(&net, params, &bytes, &size) == 0);
+        for (int budget = 1024; budget >= 1; budget /= 1024)
+            for (int over = 0; over < 2; over++) {
+                char wf[128], wh[128];
+                denoise_features_as(&sc, bytes, size, budget, 0, over, a, wf, sizeof wf);
+                denoise_features_as(&sc, bytes, size, budget, 1, over, b, wh, sizeof wh);
+                size_t differ = 0;
+                for (size_t i = 0; i < n * 3; i++) differ += memcmp(&a[i], &b[i], sizeof(float)) != 0;
+                fprintf(stderr, "  %s, budget %d, output %s: %s; %zu values differ\n", archs[k], budget,
+                        over ? "over the colour" : "apart", wh, differ);
+                CHECK(strcmp(wf, wh) == 0);
+                CHECK(differ == 0);
+                if (budget == 1) CHECK_STR_CONTAINS(wh, "tiles");
+            }
+        free(bytes);
+        free(params);
+    }
+    free(a);
+    free(b);
+    scene_free(&sc);
 }

@@ -47,9 +47,10 @@ static inline void kpcn_softmax_span(const ew_kpcn_tensor *t, int first, int y, 
 }
 
 /* acc[c][i] = sum_k w[k][i] v_c(x0 + i + k % 5 - 2, rows[k / 5]), with
- * v the 5 rows of a 3-channel tensor around y (clamped), each channel's
+ * v the 5 rows of a 3-channel tensor around y (clamped to the plane's
+ * height rows; the tensor's row 0 the plane's row0), each channel's
  * values first passed through `factor` when it is set. */
-static inline void kpcn_taps_span(const ew_kpcn_tensor *t, int y, int height, int x0, int n,
+static inline void kpcn_taps_span(const ew_kpcn_tensor *t, int y, int height, int row0, int x0, int n,
                                   float w[EW_KPCN_TAPS][EW_KPCN_SPAN], int albedo_factor,
                                   float acc[3][EW_KPCN_SPAN]) {
     float r[3][5][EW_KPCN_SPAN + 2 * EW_KPCN_KR];
@@ -57,7 +58,7 @@ static inline void kpcn_taps_span(const ew_kpcn_tensor *t, int y, int height, in
         const int ty = ew_mini(ew_maxi(y + dy - EW_KPCN_KR, 0), height - 1);
         for (int c = 0; c < 3; c++)
             for (int i = 0; i < n + 2 * EW_KPCN_KR; i++) {
-                const float v = *ew_kpcn_at(t, c, ty, x0 - EW_KPCN_KR + i);
+                const float v = *ew_kpcn_at(t, c, ty - row0, x0 - EW_KPCN_KR + i);
                 r[c][dy][i] = albedo_factor ? ew_albedo_factor(v) : v;
             }
     }
@@ -76,7 +77,7 @@ static inline void kpcn_taps_span(const ew_kpcn_tensor *t, int y, int height, in
 static inline void kpcn_filter_span(const ew_kpcn_filter_args *a, int y, int x0, int n) {
     float w[EW_KPCN_TAPS][EW_KPCN_SPAN], f[3][EW_KPCN_SPAN];
     kpcn_softmax_span(&a->logits, 0, y - a->y0, x0, n, w);
-    kpcn_taps_span(&a->radiance, y, ew_kpcn_filter_rows(a), x0, n, w, 0, f);
+    kpcn_taps_span(&a->radiance, y, ew_kpcn_filter_rows(a), 0, x0, n, w, 0, f);
     if (a->coarse.data)
         for (int i = 0; i < n; i++) {
             float v[3] = {f[0][i], f[1][i], f[2][i]};
@@ -86,7 +87,7 @@ static inline void kpcn_filter_span(const ew_kpcn_filter_args *a, int y, int x0,
     if (a->albedo.data) {
         float m[3][EW_KPCN_SPAN];
         kpcn_softmax_span(&a->logits, EW_KPCN_HEAD, y - a->y0, x0, n, w);
-        kpcn_taps_span(&a->albedo, y, ew_kpcn_filter_rows(a), x0, n, w, 1, m);
+        kpcn_taps_span(&a->albedo, y, ew_kpcn_filter_rows(a), a->albedo_y0, x0, n, w, 1, m);
         for (int c = 0; c < 3; c++)
             for (int i = 0; i < n; i++) {
                 const float o = f[c][i] * m[c][i];
