@@ -455,6 +455,19 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     feature_passes fp[4];
     const int nfp = layer_features(lp, &in, fp);
     for (int k = 0; k < nfp; k++) ewio_release_pass(j->f, layer, fp[k].pass, fp[k].comps);
+    /* features stored as halves, for a method that reads halves where they
+     * are, held as those halves (half the memory, the same values); only
+     * those the file gives back at write time (their copies' floats are
+     * not written) */
+    unsigned from_source = 0;
+    if (ewio_pass_in_source(j->f, layer, lp->albedo, "RGB")) from_source |= EW_LAYER_HALF_ALBEDO;
+    if (ewio_pass_in_source(j->f, layer, lp->normal, "XYZ")) from_source |= EW_LAYER_HALF_NORMAL;
+    if (ewio_pass_in_source(j->f, layer, lp->depth, "Z")) from_source |= EW_LAYER_HALF_DEPTH;
+    if (ew_layer_data_keep_halves(&in, j->f, lp, "denoiser", lm, from_source) != 0) {
+        ew_layer_data_free(&in);
+        ew_host_free(orig);
+        return cli_fail("out of memory");
+    }
     cli_return_freed_memory();
     ew_method_spec spec;
     char chosen[200] = "";

@@ -14,6 +14,7 @@
 #include "ewio.h"
 #include "codec.h"
 #include "exr_header_scan.h"
+#include "exr_zip.h"
 
 #include <algorithm>
 #include <atomic>
@@ -1739,6 +1740,22 @@ int ewio_pass_in_source(const ewio_file *f, const char *layer, const char *pass,
         return 0;
     }
 }
+
+int ewio_pass_stored_half(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
+    if (!f || !comps || !*comps) return 0;
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "";
+        for (const char *c = comps; *c; c++) {
+            const int i = find_channel(*f, L, P, std::string(1, *c));
+            if (i < 0 || f->ch[size_t(i)].type != PixType::HALF) return 0;
+        }
+        return 1;
+    } catch (...) {
+        return 0;
+    }
+}
+
+void ewio_floats_to_half(const float *src, uint16_t *dst, size_t n) { ewio::to_half(src, dst, n); }
 
 int ewio_set_pass_from_source(ewio_file *f, const char *layer, const char *pass, const char *comps,
                               const char *from_pass, char *err, size_t errlen) {

@@ -33,6 +33,7 @@
 #define EDGEWISE_EWIO_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -161,6 +162,14 @@ int ewio_lend_pass(ewio_file *f, const char *layer, const char *pass, const char
  * (a scanline EXR), which still holds the values it was read with whatever
  * ewio_set_pass or ewio_release_pass did to them since. */
 int ewio_pass_in_source(const ewio_file *f, const char *layer, const char *pass, const char *comps);
+
+/* 1 when every channel of the pass was read as half (stored so in the
+ * file): its floats converted back with ewio_floats_to_half are the very
+ * halves stored, and a caller may hold them so (EW_FORMAT_HALF views) at
+ * no loss. */
+int ewio_pass_stored_half(const ewio_file *f, const char *layer, const char *pass, const char *comps);
+/* float -> half, rounding to nearest even (as OpenEXR's half(float)) */
+void ewio_floats_to_half(const float *src, uint16_t *dst, size_t n);
 
 /* Set pass (layer, pass, comps) to the values pass `from_pass` of the same
  * layer was read with (ewio_pass_in_source must hold for it), as

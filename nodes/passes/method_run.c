@@ -57,6 +57,33 @@ int ew_layer_data_read(ewio_file *f, const ew_layer_passes *lp, ew_layer_data *o
     return fail;
 }
 
+int ew_layer_data_keep_halves(ew_layer_data *d, const ewio_file *f, const ew_layer_passes *lp, const char *kind,
+                              const char *method, unsigned allowed) {
+    static const char *const slots[3] = {"albedo", "normal", "depth"}, *const comps[3] = {"RGB", "XYZ", "Z"};
+    float **buf[3] = {&d->albedo, &d->normal, &d->depth};
+    const char *pass[3] = {lp->albedo, lp->normal, lp->depth};
+    const size_t npix = (size_t)d->width * (size_t)d->height;
+    ew_image_info im;
+    for (int32_t i = 0; ew_method_image(kind, method, i, &im) == EW_OK; i++) {
+        uint32_t fl = 0;
+        ew_method_image_flags(kind, method, i, &fl);
+        for (int k = 0; k < 3; k++) {
+            const unsigned bit = 1u << k;
+            if (strcmp(im.name, slots[k]) != 0 || !(fl & EW_IMAGE_HALF_IN_PLACE) || !(allowed & bit) ||
+                (d->halves & bit) || !*buf[k] || !ewio_pass_stored_half(f, lp->layer, pass[k], comps[k]))
+                continue;
+            const size_t n = npix * strlen(comps[k]);
+            uint16_t *h = (uint16_t *)ew_host_alloc(n * sizeof(uint16_t));
+            if (!h) return 1;
+            ewio_floats_to_half(*buf[k], h, n);
+            ew_host_free(*buf[k]);
+            *buf[k] = (float *)(void *)h; /* halves from now on (d->halves) */
+            d->halves |= bit;
+        }
+    }
+    return 0;
+}
+
 /* As the denoisers demodulate (kernels/denoise_px.h): a damaged or negative
  * albedo counts as black, so it cannot turn a pixel into NaN. */
 static float albedo_factor(float a) { return (isfinite(a) && a > 0.0f ? a : 0.0f) + EW_ALBEDO_EPSILON; }
@@ -67,12 +94,14 @@ static double now_ms(void) {
     return 1e3 * (double)ts.tv_sec + 1e-6 * (double)ts.tv_nsec;
 }
 
-/* The layer's buffer for an image slot name, with its channel count. */
-static float *slot_buffer(const ew_layer_data *in, const char *slot, float *color, int *channels) {
+/* The layer's buffer for an image slot name, with its channel count and
+ * whether it holds halves. */
+static float *slot_buffer(const ew_layer_data *in, const char *slot, float *color, int *channels, int *half) {
+    *half = 0;
     if (!strcmp(slot, "color")) { *channels = 3; return color; }
-    if (!strcmp(slot, "albedo")) { *channels = 3; return in->albedo; }
-    if (!strcmp(slot, "normal")) { *channels = 3; return in->normal; }
-    if (!strcmp(slot, "depth")) { *channels = 1; return in->depth; }
+    if (!strcmp(slot, "albedo")) { *channels = 3; *half = (in->halves & EW_LAYER_HALF_ALBEDO) != 0; return in->albedo; }
+    if (!strcmp(slot, "normal")) { *channels = 3; *half = (in->halves & EW_LAYER_HALF_NORMAL) != 0; return in->normal; }
+    if (!strcmp(slot, "depth")) { *channels = 1; *half = (in->halves & EW_LAYER_HALF_DEPTH) != 0; return in->depth; }
     if (!strcmp(slot, "vector")) { *channels = 2; return in->vector; }
     return NULL;
 }
@@ -116,8 +145,8 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     }
     const int is_filter = !strcmp(spec->kind, "filter");
     const int demod = is_filter && spec->demodulate && in->albedo;
-    if (is_filter && spec->demodulate && !in->albedo) {
-        snprintf(err, errlen, "%s: needs an albedo pass to demodulate", spec->label);
+    if (is_filter && spec->demodulate && (!in->albedo || (in->halves & EW_LAYER_HALF_ALBEDO))) {
+        snprintf(err, errlen, "%s: needs an albedo pass (as floats) to demodulate", spec->label);
         return 1;
     }
     float *color = in->color;
@@ -143,8 +172,8 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     for (int32_t i = 0; r == EW_OK && i < num_images && i < 8; i++) {
         ew_image_info info;
         ew_method_image(spec->kind, spec->name, i, &info);
-        int ch = 0;
-        float *buf = !strcmp(info.name, "output") ? out : slot_buffer(in, info.name, color, &ch);
+        int ch = 0, half = 0;
+        float *buf = !strcmp(info.name, "output") ? out : slot_buffer(in, info.name, color, &ch, &half);
         if (!strcmp(info.name, "output")) ch = 3;
         if (!buf) {
             if (info.required) {
@@ -154,6 +183,10 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
             continue;
         }
         views[i] = ew_image_packed(buf, w, h, ch);
+        if (half) {
+            views[i].format = EW_FORMAT_HALF;
+            views[i].pixel_stride = views[i].row_stride = EW_STRIDE_PACKED;
+        }
         r = ew_op_set_image(op, info.name, &views[i]);
     }
     /* A filter on demodulated colour is a filter used as a denoiser: it

@@ -50,12 +50,24 @@ typedef struct ew_layer_data {
     float *vector;  /* 2 per pixel or NULL */
     int samples;    /* samples per pixel from the file's Cycles metadata, 0 if unknown;
                        given to methods with a "samples" parameter the spec leaves unset */
+    unsigned halves; /* EW_LAYER_HALF_* bits: that buffer holds halves (uint16_t), not floats */
 } ew_layer_data;
+
+#define EW_LAYER_HALF_ALBEDO 1u
+#define EW_LAYER_HALF_NORMAL 2u
+#define EW_LAYER_HALF_DEPTH 4u
 
 /* The layer's passes, decoded from the file in one pass over it into new
  * buffers (ew_host_alloc); the file itself keeps none of them. */
 int ew_layer_data_read(ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);
 void ew_layer_data_free(ew_layer_data *d);
+/* The features method (of kind) reads as halves where they are
+ * (EW_IMAGE_HALF_IN_PLACE) whose passes the file stores as halves
+ * (ewio_pass_stored_half), among `allowed` (EW_LAYER_HALF_* bits), held as
+ * those halves from now on: the same values in half the memory. 0, or
+ * non-zero when out of memory (d unchanged). */
+int ew_layer_data_keep_halves(ew_layer_data *d, const ewio_file *f, const ew_layer_passes *lp, const char *kind,
+                              const char *method, unsigned allowed);
 
 /* Run `spec` on the layer into out (3 per pixel; it may be in->color, the
  * result written over the colour, and then spec's warm runs are skipped:

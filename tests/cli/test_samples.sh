@@ -34,6 +34,9 @@ a=$(cli_choice "$IN"); b=$(graph_choice "$IN")
 echo "     CLI: $a; graph: $b"
 [ -n "$a" ] && [ "$a" = "$b" ] && ok "same_choice_cli_graph ($a)" || bad "same_choice_cli_graph (CLI '$a', graph '$b')"
 case "$b" in *"4 spp"*) ok graph_uses_file_samples ;; *) bad "graph_uses_file_samples ($b)" ;; esac
+# and the same pixels: the CLI holds the file's half albedo as halves for
+# auto, the graph as floats
+"$EW" compare "$T/cli.exr" "$T/graph.exr" 2>&1 | grep -q "^PSNR inf" && ok same_pixels_cli_graph || bad same_pixels_cli_graph
 
 if command -v oiiotool >/dev/null; then
   # a count the noise estimate would not give: the choice must follow it

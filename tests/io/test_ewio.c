@@ -839,6 +839,49 @@ TEST(real_cycles_exr_bundled_sample) {
     check_cycles_file(p, 0);
 }
 
+/* Blender stores the denoising albedo as half, its normal and depth as
+ * float: ewio says which, and the albedo's floats go back to the very
+ * halves stored (a caller may hold them so at no loss). */
+TEST(pass_stored_half_gives_back_its_halves) {
+    char buf[4096], err[512];
+    const char *p = sample_file(buf, sizeof buf);
+    if (!p) SKIP("$EW_SAMPLE_DIR/cornell/f0001_spp0004.exr not found");
+    for (int open = 0; open < 2; open++) {
+        ewio_file *f = NULL;
+        CHECK((open ? ewio_open(p, &f, err, sizeof err) : ewio_read(p, &f, err, sizeof err)) == 0);
+        CHECK_EQ_INT(ewio_pass_stored_half(f, "ViewLayer", "Denoising Albedo", "RGB"), 1);
+        CHECK_EQ_INT(ewio_pass_stored_half(f, "ViewLayer", "Denoising Normal", "XYZ"), 0);
+        CHECK_EQ_INT(ewio_pass_stored_half(f, "ViewLayer", "Denoising Depth", "Z"), 0);
+        CHECK_EQ_INT(ewio_pass_stored_half(f, "ViewLayer", "Denoising Albedo", "RGBA"), 0); /* no A */
+        CHECK_EQ_INT(ewio_pass_stored_half(f, "ViewLayer", "Nothing", "RGB"), 0);
+        CHECK_EQ_INT(ewio_pass_stored_half(NULL, "ViewLayer", "Denoising Albedo", "RGB"), 0);
+        const size_t n = (size_t)ewio_width(f) * (size_t)ewio_height(f) * 3;
+        float *a = malloc(n * sizeof(float));
+        uint16_t *h = malloc(n * sizeof(uint16_t));
+        CHECK(a && h);
+        CHECK(ewio_get_pass(f, "ViewLayer", "Denoising Albedo", "RGB", a, err, sizeof err) == 0);
+        ewio_floats_to_half(a, h, n);
+        size_t differ = 0;
+        for (size_t i = 0; i < n; i++) {
+            _Float16 v;
+            memcpy(&v, &h[i], sizeof v);
+            const float back = (float)v;
+            differ += memcmp(&back, &a[i], sizeof back) != 0;
+        }
+        CHECK(differ == 0);
+        /* a float the halves cannot hold rounds to the nearest, ties to even */
+        const float odd[3] = {1.0f + 2.0f / 4096.0f, 1.0f + 6.0f / 4096.0f, 70000.0f};
+        uint16_t ho[3];
+        ewio_floats_to_half(odd, ho, 3);
+        CHECK_EQ_INT(ho[0], 0x3c00); /* halfway between 1.0 and the next half: the even one */
+        CHECK_EQ_INT(ho[1], 0x3c02); /* halfway between 0x3c01 and 0x3c02: the even one */
+        CHECK_EQ_INT(ho[2], 0x7c00); /* beyond 65504: infinity */
+        free(a);
+        free(h);
+        ewio_free(f);
+    }
+}
+
 /* --------------------------------------------------------- bad inputs */
 
 TEST(bad_missing_file) {
