@@ -328,6 +328,13 @@ static const char *describe(const ew_op *op) {
     return s ? s->choice : NULL;
 }
 
+/* ew_op_image_flags: as the method it picked reads the image */
+static int reads_half(const ew_op *op, const char *image) {
+    const state *s = (const state *)op->state;
+    uint32_t fl = 0;
+    return s && s->inner && ew_op_image_flags(s->inner, image, &fl) == EW_OK && (fl & EW_IMAGE_HALF_IN_PLACE);
+}
+
 const ew_op_type ew_denoise_auto = {
     .kind = "denoiser",
     .name = "auto",
@@ -352,6 +359,7 @@ const ew_op_type ew_denoise_auto = {
     /* the noise estimate reads them as they are; the method it runs gets
      * the views (kpcn reads halves in bands, the others pack floats) */
     .half_inputs = (const char *const[]){"albedo", "normal", "depth", NULL},
+    .reads_half = reads_half,
     .choices = (const ew_param_choices[]){{"quality", quality_names}, {NULL, NULL}},
     .flags = EW_METHOD_HOST,
 };

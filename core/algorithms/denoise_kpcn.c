@@ -991,6 +991,14 @@ static const char *describe(const ew_op *op) {
     return s ? s->choice : NULL;
 }
 
+/* ew_op_image_flags: a half feature is read where it is in streamed tiles
+ * (whole frames pack it, as they pack float views they cannot read) */
+static int reads_half(const ew_op *op, const char *image) {
+    (void)image;
+    const state *s = (const state *)op->state;
+    return s && s->streamed;
+}
+
 /* device_memory: every buffer comes from ew_dev_alloc and only the views
  * cross between host and device, so it runs on a CUDA device too. */
 const ew_op_type ew_denoise_kpcn = {
@@ -1016,6 +1024,7 @@ const ew_op_type ew_denoise_kpcn = {
     /* tiled on the CPU they are read in bands of rows (feature_rows);
      * otherwise put_features packs them as it packs float views */
     .half_inputs = (const char *const[]){"albedo", "normal", "depth", NULL},
+    .reads_half = reads_half,
     .data_params = (const char *const[]){"model", "weights", NULL},
     .flags = EW_METHOD_HOST,
 };

@@ -158,3 +158,19 @@ ew_result ew_method_flags(const char *kind, const char *name, uint32_t *flags) {
     *flags = t->flags;
     return EW_OK;
 }
+
+ew_result ew_op_image_flags(const ew_op *op, const char *image, uint32_t *flags) {
+    if (!op || !flags) return op ? ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "flags pointer is NULL") : EW_ERR_INVALID_ARGUMENT;
+    ew__clear_error(op->dev);
+    const ew_op_type *t = op->type;
+    int32_t i = 0;
+    while (i < t->num_images && (!image || strcmp(t->images[i].name, image) != 0)) i++;
+    if (i == t->num_images)
+        return ew__fail(op->dev, EW_ERR_INVALID_ARGUMENT, "%s '%s' has no image '%s'", t->kind, t->name,
+                        image ? image : "(null)");
+    if (!op->committed)
+        return ew__fail(op->dev, EW_ERR_INVALID_STATE, "image flags asked before a successful commit");
+    ew_method_image_flags(t->kind, t->name, i, flags);
+    if ((*flags & EW_IMAGE_HALF_IN_PLACE) && t->reads_half && !t->reads_half(op, image)) *flags &= ~EW_IMAGE_HALF_IN_PLACE;
+    return EW_OK;
+}

@@ -73,6 +73,9 @@ typedef struct ew_op_type {
      * views itself (EW_IMAGE_HALF_IN_PLACE); other half views are packed
      * into float copies for it (op_half.c). */
     const char *const *half_inputs;
+    /* Optional: whether this commit reads a half view of the image (one of
+     * half_inputs) where it is (ew_op_image_flags); NULL: always. */
+    int (*reads_half)(const ew_op *op, const char *image);
     /* Optional, NULL-terminated: parameters that, all 0, make execute a
      * copy of the input (EW_PARAM_NOOP_AT_ZERO). */
     const char *const *noop_at_zero;

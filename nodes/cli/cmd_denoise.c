@@ -455,19 +455,6 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     feature_passes fp[4];
     const int nfp = layer_features(lp, &in, fp);
     for (int k = 0; k < nfp; k++) ewio_release_pass(j->f, layer, fp[k].pass, fp[k].comps);
-    /* features stored as halves, for a method that reads halves where they
-     * are, held as those halves (half the memory, the same values); only
-     * those the file gives back at write time (their copies' floats are
-     * not written) */
-    unsigned from_source = 0;
-    if (ewio_pass_in_source(j->f, layer, lp->albedo, "RGB")) from_source |= EW_LAYER_HALF_ALBEDO;
-    if (ewio_pass_in_source(j->f, layer, lp->normal, "XYZ")) from_source |= EW_LAYER_HALF_NORMAL;
-    if (ewio_pass_in_source(j->f, layer, lp->depth, "Z")) from_source |= EW_LAYER_HALF_DEPTH;
-    if (ew_layer_data_keep_halves(&in, j->f, lp, "denoiser", lm, from_source) != 0) {
-        ew_layer_data_free(&in);
-        ew_host_free(orig);
-        return cli_fail("out of memory");
-    }
     cli_return_freed_memory();
     ew_method_spec spec;
     char chosen[200] = "";
@@ -483,6 +470,11 @@ static int denoise_layer(job *j, const ew_layer_passes *lp) {
     double ms = 0.0, warm_ms = -1.0;
     spec.warm_runs = cli_timing.warm_runs;
     spec.warm_ms = &warm_ms;
+    /* features the file stores as halves, held as those halves when the
+     * method's run reads halves where they are (the same values, half the
+     * memory) */
+    spec.holds = &in;
+    spec.halves_allowed = ew_layer_halves_allowed(j->f, lp);
     cli_timing.read += cli_seconds() - t_read;
     /* the result goes over the colour (every denoiser takes its output
      * over its colour, and the do-no-harm stage keeps what it reads of the

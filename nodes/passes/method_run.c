@@ -57,29 +57,31 @@ int ew_layer_data_read(ewio_file *f, const ew_layer_passes *lp, ew_layer_data *o
     return fail;
 }
 
-int ew_layer_data_keep_halves(ew_layer_data *d, const ewio_file *f, const ew_layer_passes *lp, const char *kind,
-                              const char *method, unsigned allowed) {
-    static const char *const slots[3] = {"albedo", "normal", "depth"}, *const comps[3] = {"RGB", "XYZ", "Z"};
-    float **buf[3] = {&d->albedo, &d->normal, &d->depth};
+unsigned ew_layer_halves_allowed(const ewio_file *f, const ew_layer_passes *lp) {
     const char *pass[3] = {lp->albedo, lp->normal, lp->depth};
+    static const char *const comps[3] = {"RGB", "XYZ", "Z"};
+    unsigned bits = 0;
+    for (int k = 0; k < 3; k++)
+        if (pass[k] && ewio_pass_stored_half(f, lp->layer, pass[k], comps[k]) &&
+            ewio_pass_in_source(f, lp->layer, pass[k], comps[k]))
+            bits |= 1u << k;
+    return bits;
+}
+
+int ew_layer_data_to_halves(ew_layer_data *d, unsigned bits) {
+    float **buf[3] = {&d->albedo, &d->normal, &d->depth};
+    static const size_t channels[3] = {3, 3, 1};
     const size_t npix = (size_t)d->width * (size_t)d->height;
-    ew_image_info im;
-    for (int32_t i = 0; ew_method_image(kind, method, i, &im) == EW_OK; i++) {
-        uint32_t fl = 0;
-        ew_method_image_flags(kind, method, i, &fl);
-        for (int k = 0; k < 3; k++) {
-            const unsigned bit = 1u << k;
-            if (strcmp(im.name, slots[k]) != 0 || !(fl & EW_IMAGE_HALF_IN_PLACE) || !(allowed & bit) ||
-                (d->halves & bit) || !*buf[k] || !ewio_pass_stored_half(f, lp->layer, pass[k], comps[k]))
-                continue;
-            const size_t n = npix * strlen(comps[k]);
-            uint16_t *h = (uint16_t *)ew_host_alloc(n * sizeof(uint16_t));
-            if (!h) return 1;
-            ewio_floats_to_half(*buf[k], h, n);
-            ew_host_free(*buf[k]);
-            *buf[k] = (float *)(void *)h; /* halves from now on (d->halves) */
-            d->halves |= bit;
-        }
+    for (int k = 0; k < 3; k++) {
+        const unsigned bit = 1u << k;
+        if (!(bits & bit) || (d->halves & bit) || !*buf[k]) continue;
+        const size_t n = npix * channels[k];
+        uint16_t *h = (uint16_t *)ew_host_alloc(n * sizeof(uint16_t));
+        if (!h) return 1;
+        ewio_floats_to_half(*buf[k], h, n);
+        ew_host_free(*buf[k]);
+        *buf[k] = (float *)(void *)h; /* halves from now on (d->halves) */
+        d->halves |= bit;
     }
     return 0;
 }
@@ -131,6 +133,36 @@ static float denoiser_default(const char *name, float fallback) {
     for (int32_t k = 0; ew_method_param("denoiser", d, k, &p) == EW_OK; k++)
         if (!strcmp(p.name, name)) return p.default_value;
     return fallback;
+}
+
+/* The features the committed op reads as halves where they are, among
+ * those the layer may hold so (spec->halves_allowed), converted in
+ * spec->holds, set as half views and the op committed again. */
+static ew_result rebind_halves(ew_op *op, const ew_method_spec *spec, ew_image *views, int32_t num_images) {
+    static const char *const slots[3] = {"albedo", "normal", "depth"};
+    unsigned bits = 0;
+    for (int k = 0; k < 3; k++) {
+        uint32_t fl = 0;
+        if ((spec->halves_allowed & (1u << k)) && ew_op_image_flags(op, slots[k], &fl) == EW_OK &&
+            (fl & EW_IMAGE_HALF_IN_PLACE))
+            bits |= 1u << k;
+    }
+    bits &= ~spec->holds->halves;
+    if (!bits) return EW_OK;
+    if (ew_layer_data_to_halves(spec->holds, bits) != 0) return EW_ERR_OUT_OF_MEMORY;
+    ew_result r = EW_OK;
+    for (int32_t i = 0; r == EW_OK && i < num_images && i < 8; i++) {
+        ew_image_info info;
+        ew_method_image(spec->kind, spec->name, i, &info);
+        int ch = 0, half = 0;
+        float *buf = slot_buffer(spec->holds, info.name, NULL, &ch, &half);
+        if (!buf || !half) continue;
+        views[i] = ew_image_packed(buf, spec->holds->width, spec->holds->height, ch);
+        views[i].format = EW_FORMAT_HALF;
+        views[i].pixel_stride = views[i].row_stride = EW_STRIDE_PACKED;
+        r = ew_op_set_image(op, info.name, &views[i]);
+    }
+    return r == EW_OK ? ew_op_commit(op) : r;
 }
 
 int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_data *in, float *out, double *ms,
@@ -209,6 +241,7 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     if (r == EW_OK && spec->progress) r = ew_op_set_progress(op, spec->progress, spec->progress_user);
     double t0 = now_ms();
     if (r == EW_OK) r = ew_op_commit(op);
+    if (r == EW_OK && spec->holds == in && spec->halves_allowed) r = rebind_halves(op, spec, views, num_images);
     if (r == EW_OK) r = ew_op_execute(op);
     *ms = now_ms() - t0;
     if (r == EW_OK && spec->warm_ms && spec->warm_runs > 0 && color != out) {

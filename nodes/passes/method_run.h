@@ -38,6 +38,13 @@ typedef struct ew_method_spec {
      * in-process time of the same work */
     int warm_runs;
     double *warm_ms;
+    /* optional: the layer data run on, as the caller may change it, and the
+     * features (EW_LAYER_HALF_* bits, ew_layer_halves_allowed) it may hold
+     * as halves: those the committed op reads as halves where they are
+     * (ew_op_image_flags) are converted before execute, and the op
+     * committed again on them */
+    struct ew_layer_data *holds;
+    unsigned halves_allowed;
 } ew_method_spec;
 
 /* Inputs of one layer, read once, reused across methods. */
@@ -61,13 +68,15 @@ typedef struct ew_layer_data {
  * buffers (ew_host_alloc); the file itself keeps none of them. */
 int ew_layer_data_read(ewio_file *f, const ew_layer_passes *lp, ew_layer_data *out, char *err, size_t errlen);
 void ew_layer_data_free(ew_layer_data *d);
-/* The features method (of kind) reads as halves where they are
- * (EW_IMAGE_HALF_IN_PLACE) whose passes the file stores as halves
- * (ewio_pass_stored_half), among `allowed` (EW_LAYER_HALF_* bits), held as
- * those halves from now on: the same values in half the memory. 0, or
- * non-zero when out of memory (d unchanged). */
-int ew_layer_data_keep_halves(ew_layer_data *d, const ewio_file *f, const ew_layer_passes *lp, const char *kind,
-                              const char *method, unsigned allowed);
+/* The features (EW_LAYER_HALF_* bits) the layer may hold as halves at no
+ * loss: the file stores their passes as halves (ewio_pass_stored_half) and
+ * gives them back itself when written (ewio_pass_in_source: the floats of
+ * the layer's copies are not written). */
+unsigned ew_layer_halves_allowed(const ewio_file *f, const ew_layer_passes *lp);
+/* The features `bits` held as halves from now on (their floats, which
+ * halves hold exactly, converted): half the memory. 0, or non-zero when out
+ * of memory (a feature not converted keeps its floats). */
+int ew_layer_data_to_halves(ew_layer_data *d, unsigned bits);
 
 /* Run `spec` on the layer into out (3 per pixel; it may be in->color, the
  * result written over the colour, and then spec's warm runs are skipped:

@@ -156,3 +156,55 @@ TEST(a_half_output_or_misaligned_half_is_refused) {
     ew_op_destroy(op);
     ew_device_destroy(dev);
 }
+
+/* ew_op_image_flags: after commit, whether this run reads a half view of
+ * the image where it is (kpcn: in streamed tiles; auto: as its method) */
+static uint32_t flags_after_commit(ew_device *dev, const char *method, int w, int h, int budget, const char *image) {
+    ew_op *op = NULL;
+    if (ew_op_create(dev, method, &op) != EW_OK) return 0xffu;
+    const size_t n = (size_t)w * h;
+    float *c = calloc(n * 3, sizeof(float)), *a = calloc(n * 3, sizeof(float)), *nm = calloc(n * 3, sizeof(float));
+    float *z = calloc(n, sizeof(float)), *o = calloc(n * 3, sizeof(float));
+    const ew_image vc = ew_image_packed(c, w, h, 3), va = ew_image_packed(a, w, h, 3), vn = ew_image_packed(nm, w, h, 3);
+    const ew_image vz = ew_image_packed(z, w, h, 1), vo = ew_image_packed(o, w, h, 3);
+    ew_op_set_image(op, "color", &vc);
+    ew_op_set_image(op, "albedo", &va);
+    ew_op_set_image(op, "normal", &vn);
+    ew_op_set_image(op, "depth", &vz);
+    ew_op_set_image(op, "output", &vo);
+    uint32_t fl = 0xffu;
+    if (!strcmp(method, "kpcn")) ew_op_set_int(op, "max_memory_mb", budget);
+    if (ew_op_image_flags(op, image, &fl) != EW_ERR_INVALID_STATE) fl = 0xfeu; /* before commit: refused */
+    else if (ew_op_commit(op) != EW_OK || ew_op_image_flags(op, image, &fl) != EW_OK) fl = 0xffu;
+    ew_op_destroy(op);
+    free(c);
+    free(a);
+    free(nm);
+    free(z);
+    free(o);
+    return fl;
+}
+
+TEST(image_flags_say_whether_this_run_reads_halves_in_place) {
+    ew_device *dev = NULL;
+    CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
+    uint32_t fl = 0;
+    int32_t k = 0;
+    ew_image_info im;
+    while (ew_method_image(NULL, "kpcn", k, &im) == EW_OK && strcmp(im.name, "albedo") != 0) k++;
+    CHECK_EQ_INT(ew_method_image_flags(NULL, "kpcn", k, &fl), EW_OK);
+    CHECK(fl & EW_IMAGE_HALF_IN_PLACE); /* the method may */
+    CHECK_EQ_INT((int)flags_after_commit(dev, "kpcn", 96, 80, 768, "albedo"), 0); /* a whole frame packs it */
+    CHECK_EQ_INT((int)flags_after_commit(dev, "kpcn", 640, 600, 1, "normal"), (int)EW_IMAGE_HALF_IN_PLACE);
+    CHECK_EQ_INT((int)flags_after_commit(dev, "kpcn", 640, 600, 1, "output"), (int)EW_IMAGE_OUTPUT);
+    CHECK_EQ_INT((int)flags_after_commit(dev, "kpcn", 640, 600, 1, "color"), (int)EW_IMAGE_INPLACE);
+    CHECK_EQ_INT((int)flags_after_commit(dev, "nbg", 640, 600, 1, "albedo"), 0);
+    CHECK_EQ_INT((int)flags_after_commit(dev, "auto", 96, 80, 1, "albedo"), 0);
+    ew_op *op = NULL;
+    CHECK_EQ_INT(ew_op_create(dev, "kpcn", &op), EW_OK);
+    CHECK_EQ_INT(ew_op_image_flags(op, "nothing", &fl), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_op_image_flags(op, "albedo", NULL), EW_ERR_INVALID_ARGUMENT);
+    CHECK_EQ_INT(ew_op_image_flags(NULL, "albedo", &fl), EW_ERR_INVALID_ARGUMENT);
+    ew_op_destroy(op);
+    ew_device_destroy(dev);
+}

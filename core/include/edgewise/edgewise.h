@@ -258,6 +258,15 @@ EW_API const char *ew_op_describe(const ew_op *op);
  * max_memory_mb 256, plus 12 bytes a pixel), freed before execute
  * returns. */
 EW_API ew_result ew_op_memory(ew_op *op, int32_t width, int32_t height, uint64_t *bytes);
+/* A committed op's EW_IMAGE_* flags for one of its images: the method's
+ * (ew_method_image_flags), EW_IMAGE_HALF_IN_PLACE only where this commit
+ * would read a half view of the image where it is (kpcn: in its streamed
+ * tiles; auto: the method it picked does), so a caller holding floats
+ * learns whether holding halves would spare the op a float copy, before
+ * converting (set the half view, commit again). EW_ERR_INVALID_STATE
+ * before a successful commit; EW_ERR_INVALID_ARGUMENT for a name the
+ * method does not have. */
+EW_API ew_result ew_op_image_flags(const ew_op *op, const char *image, uint32_t *flags);
 /* The op's method name and kind ("denoiser" or "filter"); static strings,
  * NULL for a NULL op. */
 EW_API const char *ew_op_method(const ew_op *op);
@@ -339,8 +348,9 @@ EW_API const char *ew_method_kind(const char *name);
 /* Image direction and aliasing. */
 #define EW_IMAGE_OUTPUT 0x1u  /* written by execute; every other image is read */
 #define EW_IMAGE_INPLACE 0x2u /* an input the "output" view may be the very same view of */
-/* an input the method reads as EW_FORMAT_HALF where it is (no float copy
- * of the frame): a caller choosing how to hold a pass holds it as halves */
+/* an input the method may read as EW_FORMAT_HALF where it is (no float
+ * copy of the frame): for a committed op, ew_op_image_flags says whether
+ * this frame's run does */
 #define EW_IMAGE_HALF_IN_PLACE 0x4u
 EW_API ew_result ew_method_image_flags(const char *kind, const char *name, int32_t index, uint32_t *flags);
 
