@@ -86,10 +86,27 @@ def run(cmd, env=None):
     return wall, ru, err.decode()
 
 
-def make_inputs(d, size):
+# --features: which feature passes of the multilayer input are stored as half
+HALF_FEATURES = {"float": [], "blender": ["Denoising Albedo.R", "Denoising Albedo.G", "Denoising Albedo.B"]}
+HALF_FEATURES["half"] = HALF_FEATURES["blender"] + ["Denoising Normal.X", "Denoising Normal.Y", "Denoising Normal.Z",
+                                                   "Denoising Depth.Z"]
+
+
+def make_inputs(d, size, features="float"):
     w, h = size
     g = "%dx%d" % (w, h)
     ml, rgb = os.path.join(d, "ml_%s.exr" % g), os.path.join(d, "rgb_%s.exr" % g)
+    if features != "float":
+        # the float file's values, those feature passes stored as half (a
+        # file as Blender writes it: its denoising albedo is half)
+        flt = make_inputs(d, size)
+        ml = os.path.join(d, "ml_%s_%s.exr" % (g, features))
+        if not os.path.exists(ml):
+            cmd = [shutil.which("oiiotool"), flt["ml"], "-d", "float"]
+            for c in HALF_FEATURES[features]:
+                cmd += ["-d", "ViewLayer.%s=half" % c]
+            subprocess.check_call(cmd + ["-o", ml])
+        return {"ml": ml, "rgb": flt["rgb"]}
     if os.path.exists(ml) and os.path.exists(rgb):
         return {"ml": ml, "rgb": rgb}
     base = os.path.join(d, "base_%s.exr" % g)
@@ -158,7 +175,7 @@ def peak_rss(a, clis, sizes, methods):
     peak RSS against the float RGB frame, user and system time, minor faults."""
     rows = []
     for size in sizes:
-        inputs = make_inputs(a.out, size)
+        inputs = make_inputs(a.out, size, a.features)
         rgb_mb = size[0] * size[1] * 3 * 4 / 1e6
         for method in methods:
             kind, args, _ = METHODS[method]
@@ -196,6 +213,11 @@ def main():
     ap.add_argument("--json", help="also write the figures here")
     ap.add_argument("--peak-rss", action="store_true",
                     help="only the plain one-shot run of each case (as a user types it): peak RSS, CPU time, faults")
+    ap.add_argument("--features", choices=sorted(HALF_FEATURES), default="float",
+                    help="how the multilayer input stores its feature passes: float (every channel, as scaling "
+                         "leaves them; the default), blender (the denoising albedo half, as Blender writes it), "
+                         "half (albedo, normal and depth half); the CLI holds passes stored as half as halves for "
+                         "a run that reads them so (kpcn's streamed tiles)")
     ap.add_argument("--repeat", type=int, default=1,
                     help="runs of each one-shot case, builds alternating: the figures are their medians (a single "
                          "one-shot's compute moves +-15%% from run to run on a shared machine); with --peak-rss, "
@@ -225,7 +247,7 @@ def main():
 
     rows = []
     for size, nframes in zip(sizes, frames):
-        inputs = make_inputs(a.out, size)
+        inputs = make_inputs(a.out, size, a.features)
         rgb_mb = size[0] * size[1] * 3 * 4 / 2**20
         copies = {}
         for kind, src in inputs.items():

@@ -172,11 +172,14 @@ static size_t band_floats(int w) {
 static const char *const feature_names[3] = {"albedo", "normal", "depth"};
 static const int feature_channels[3] = {3, 3, 1};
 
-/* The rows of a band of a half feature's view read at once (feature_rows):
- * the clamp's bands, the network's (kpcn.h) and the remodulation's, each
- * with its margins */
-static int feature_band_rows(void) {
-    return ew_maxi(BAND_ROWS + 2 * band_margin(), EW_KPCN_BAND_ROWS + 2 * EW_KPCN_BAND_MARGIN);
+/* The pixels of a band of a half feature's view read at once
+ * (feature_rows), on a frame w wide in regions up to rw wide: the clamp's
+ * bands of the frame's width, the network's (kpcn.h) and the
+ * remodulation's of a region's, each with its margins */
+static size_t feature_band_px(int w, int rw) {
+    const size_t frame = (size_t)(BAND_ROWS + 2 * band_margin()) * (size_t)w;
+    const size_t region = (size_t)(EW_KPCN_BAND_ROWS + 2 * EW_KPCN_BAND_MARGIN) * (size_t)rw;
+    return frame > region ? frame : region;
 }
 
 /* Which features a streamed op reads from the caller's half views in
@@ -218,13 +221,14 @@ static size_t feature_copies_px(const ew_op *op, int streamed) {
     return px;
 }
 
-/* Streamed: the band buffers of the features read from halves */
-static size_t feature_band_floats(const ew_op *op, int w) {
+/* Streamed: the band buffers of the features read from halves (regions
+ * up to rw wide) */
+static size_t feature_band_floats(const ew_op *op, int w, int rw) {
     int half[3];
     features_half(op, half);
     size_t px = 0;
     for (int i = 0; i < 3; i++) px += half[i] ? (size_t)feature_channels[i] : 0;
-    return px * (size_t)feature_band_rows() * (size_t)w;
+    return px * feature_band_px(w, rw);
 }
 
 static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h) {
@@ -239,13 +243,13 @@ static int fused_margin(const ew_op *op) { return ew_harm_may_fuse(op) ? ew_harm
 /* Streamed (above): the parameters, the colour when it is not read in
  * place and the result when the output is not written in place (reserved;
  * their pages untouched otherwise), the features not read in place (a
- * band of those read from halves), one band and the clamped radiance of
- * `rows` rows (a row of regions), and what the tiles hold back of their
- * cores when the stage may run in them. */
-static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rows) {
+ * band of those read from halves, regions up to rw wide), one band and
+ * the clamped radiance of `rows` rows (a row of regions), and what the
+ * tiles hold back of their cores when the stage may run in them. */
+static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rows, int rw) {
     const int m = fused_margin(op);
     return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op, 1),
-                            band_floats(w) + feature_band_floats(op, w) + (size_t)w * (size_t)rows * 3 +
+                            band_floats(w) + feature_band_floats(op, w, rw) + (size_t)w * (size_t)rows * 3 +
                                 (m ? ew_tile_writer_floats(w, h, m) : 0));
 }
 
@@ -279,11 +283,11 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_til
          * planned with a frame's rows of clamped radiance, then holding
          * the rows of the regions they got */
         ew_tiling ts;
-        plan_tiles(op, net, w, h, streamed_frame_floats(op, net, w, h, h), &ts);
+        plan_tiles(op, net, w, h, streamed_frame_floats(op, net, w, h, h, w), &ts);
         if (ts.nx * ts.ny > 1) {
             *t = ts;
             *streamed = 1;
-            frame = streamed_frame_floats(op, net, w, h, ts.rh);
+            frame = streamed_frame_floats(op, net, w, h, ts.rh, ts.rw);
         }
     }
     const int tiled = t->nx * t->ny > 1;
@@ -378,7 +382,7 @@ static ew_result commit(ew_op *op) {
             *fp[i] = in[i];
         } else if (streamed && half[i]) { /* no plane: feature_rows reads bands into frows */
             *fp[i] = NULL;
-            s->frows[i] = p; p += (size_t)feature_band_rows() * (size_t)w * c;
+            s->frows[i] = p; p += feature_band_px(w, tiling.rw) * c;
         } else {
             *fp[i] = p; p += n * c;
         }
@@ -488,19 +492,28 @@ static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile
     dev->backend->conv5(dev, &a);
 }
 
-/* Rows y0 .. y1 (columns x0 .. x1) of feature i (albedo, normal, depth)
- * as floats at the frame's width, from its row y0: the op's plane or the
- * view read in place, or, streamed from a half view, those rows converted
- * into its band buffer (one band at a time: the caller reads them before
- * the next call). */
-static const float *feature_rows(ew_op *op, int i, int y0, int y1, int x0, int x1) {
+/* Rows y0 .. y1, columns x0 .. x1 of feature i (albedo, normal, depth) as
+ * floats, at its pixel (x0, y0), and *rs, the pixels a row: the op's plane
+ * or the view read in place (the frame's width), or, streamed from a half
+ * view, that rectangle converted into its band buffer (x1 - x0; one band
+ * at a time: the caller reads it before the next call). */
+static const float *feature_rows(ew_op *op, int i, int y0, int y1, int x0, int x1, long *rs) {
     const state *s = (const state *)op->state;
     const ew_denoise_buffers *b = &s->buf;
     const float *plane = i == 0 ? b->albedo : i == 1 ? b->normal : b->depth;
     const size_t c = (size_t)feature_channels[i];
-    if (plane) return plane + (size_t)y0 * (size_t)b->width * c;
+    if (plane) {
+        *rs = b->width;
+        return plane + ((size_t)y0 * (size_t)b->width + (size_t)x0) * c;
+    }
     ew_dev_view_rows(op->dev, ew_op_image(op, feature_names[i]), (int)c, y0, y1, x0, x1, s->frows[i]);
+    *rs = x1 - x0;
     return s->frows[i];
+}
+
+/* The rows of a band w wide that feature_rows converts at once */
+static int feature_band_rows(const state *s, int w) {
+    return (int)(feature_band_px(s->buf.width, s->tiling.rw) / (size_t)w);
 }
 
 /* out = filtered * (albedo + eps) on the frame's rect x0, y0, w x h, out
@@ -508,14 +521,15 @@ static const float *feature_rows(ew_op *op, int i, int y0, int y1, int x0, int x
  * rows at a time when the albedo is read from halves */
 static void finish_rows(ew_op *op, int x0, int y0, int w, int h, float *out) {
     const state *s = (const state *)op->state;
-    const int W = s->buf.width, step = s->frows[0] ? feature_band_rows() : h;
+    const int step = s->frows[0] ? feature_band_rows(s, w) : h;
     for (int y = 0; y < h; y += step) {
         const int n = ew_mini(step, h - y);
         ew_denoise_buffers rb = s->buf;
+        long rs;
         rb.width = w;
         rb.height = n;
-        rb.in_stride = W;
-        rb.albedo = feature_rows(op, 0, y0 + y, y0 + y + n, x0, x0 + w) + (size_t)x0 * 3;
+        rb.albedo = feature_rows(op, 0, y0 + y, y0 + y + n, x0, x0 + w, &rs);
+        rb.in_stride = (int)rs;
         rb.sliced = rb.out = out + (size_t)y * (size_t)w * 3;
         op->dev->backend->denoise_finish(op->dev, &rb);
     }
@@ -535,9 +549,9 @@ static ew_result band_inputs(ew_op *op, const ew_tile *tile, const ew_kpcn_input
     a.height = t1 - t0;
     a.radiance += at * 3;
     const float **f[3] = {&a.albedo, &a.normal, &a.depth};
+    long *frs[3] = {&a.albedo_rs, &a.normal_rs, &a.depth_rs};
     for (int i = 0; i < 3; i++) /* the region's rows t0 .. t1 of each, at its first column */
-        *f[i] = feature_rows(op, i, tile->ry + t0, tile->ry + t1, tile->rx, tile->rx + tile->rw) +
-                (size_t)tile->rx * (size_t)feature_channels[i];
+        *f[i] = feature_rows(op, i, tile->ry + t0, tile->ry + t1, tile->rx, tile->rx + tile->rw, frs[i]);
     a.dst = ew_gn_plane_row(B, s->net.in[0], 0);
     a.rs = B->rs;
     a.ps = B->ps;
@@ -614,10 +628,10 @@ static ew_result scale0_band(ew_op *op, const ew_tile *tile, const ew_kpcn_input
     fa.ch = s->sh[1];
     fa.out = *out;
     if (remod) { /* the filter remodulates: its output is the colour; the albedo band_inputs read, from row t0 */
-        const ew_kpcn_tensor al = {(float *)feature_rows(op, 0, tile->ry + t0, tile->ry + t1, tile->rx, tile->rx + tile->rw) +
-                                       (size_t)tile->rx * 3,
-                                   3, 3L * s->buf.width, 1};
-        fa.albedo = al;
+        long rs;
+        const float *al = feature_rows(op, 0, tile->ry + t0, tile->ry + t1, tile->rx, tile->rx + tile->rw, &rs);
+        const ew_kpcn_tensor at = {(float *)al, 3, 3L * rs, 1};
+        fa.albedo = at;
         fa.albedo_y0 = t0;
     }
     (void)EW_RUN(dev, kpcn_filter, &fa);
@@ -784,10 +798,11 @@ static ew_result put_features(ew_op *op) {
     if (r == EW_OK && b->normal && b->normal != nv->data) r = ew_dev_put_view(dev, nv, 3, (float *)b->normal, s->stage);
     if (r == EW_OK && b->depth && b->depth != dv->data) r = ew_dev_put_view(dev, dv, 1, (float *)b->depth, s->stage);
     /* each row's largest depth (row by row: in bands, the same) */
-    const int step = b->depth ? h : feature_band_rows();
+    const int step = b->depth ? h : feature_band_rows(s, w);
     for (int y = 0; y < h && r == EW_OK; y += step) {
         const int n = ew_mini(step, h - y);
-        dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, n, feature_rows(op, 2, y, y + n, 0, w), s->row_out);
+        long rs; /* the frame's width: the whole rows */
+        dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, n, feature_rows(op, 2, y, y + n, 0, w, &rs), s->row_out);
         r = dev->backend->mem_download(dev, s->rows + 2 * (size_t)y, s->row_out, (size_t)n * 2 * sizeof(double));
     }
     if (r != EW_OK) return r;
@@ -821,9 +836,10 @@ static ew_result clamp_rows(ew_op *op, const float *color, int y_begin, int y_en
         ew_denoise_buffers bb = *b;
         bb.height = e1 - e0;
         bb.color = color + (size_t)e0 * w3;
-        bb.albedo = feature_rows(op, 0, e0, e1, 0, w);
-        bb.normal = feature_rows(op, 1, e0, e1, 0, w);
-        bb.depth = feature_rows(op, 2, e0, e1, 0, w);
+        long rs; /* the frame's width: the whole rows */
+        bb.albedo = feature_rows(op, 0, e0, e1, 0, w, &rs);
+        bb.normal = feature_rows(op, 1, e0, e1, 0, w, &rs);
+        bb.depth = feature_rows(op, 2, e0, e1, 0, w, &rs);
         bb.radiance = s->band_rad;
         bb.guide = s->band_guide;
         dev->backend->denoise_prepare(dev, &bb); /* radiance = colour / (albedo + eps) */

@@ -450,7 +450,7 @@ int ew_kpcn_frame_init(ew_kpcn_frame *f, int width, int height, const float *col
         for (int x = 0; x < width; x++) ew_outlier_guided_px(x, y, &fp, &fb);
     free(raw);
     ew_kpcn_input_args ia = {width, height, f->radiance, albedo, normal, depth, b.depth_scale, f->input, width, n,
-                             1, ew_kpcn_frame_noise(width, height, f->radiance), width};
+                             1, ew_kpcn_frame_noise(width, height, f->radiance), width, 0, 0, 0};
     for (int y = 0; y < height; y++)
         for (int x = 0; x < width; x++) ew_kpcn_input_px(x, y, &ia);
     for (long j = 0; j < n; j++)

@@ -65,6 +65,9 @@ typedef struct ew_kpcn_input_args {
     int noise_plane; /* 1: write plane 10 = noise */
     float noise;
     long src_rs; /* pixels a row of the packed sources (the frame's width: a tile reads its region of them) */
+    /* pixels a row of albedo, normal, depth where not src_rs (a band of
+     * them converted from halves, the region's width), else 0 */
+    long albedo_rs, normal_rs, depth_rs;
 } ew_kpcn_input_args;
 
 /* The noise plane's value from the mean |HH| of the frame's compressed
@@ -97,14 +100,17 @@ EW_HD ew_outlier_params ew_kpcn_clamp_params(int width, int height, float k) {
 
 EW_HD void ew_kpcn_input_px(int x, int y, const ew_kpcn_input_args *a) {
     const long j = (long)y * a->src_rs + x;
+    const long ja = (long)y * (a->albedo_rs ? a->albedo_rs : a->src_rs) + x;
+    const long jn = (long)y * (a->normal_rs ? a->normal_rs : a->src_rs) + x;
+    const long jd = (long)y * (a->depth_rs ? a->depth_rs : a->src_rs) + x;
     float *d = a->dst + (long)y * a->rs + x;
     for (int k = 0; k < 3; k++) {
         float r = ew_feature_or_zero(a->radiance[j * 3 + k]);
         d[k * a->ps] = logf(1.0f + ew_maxf(r, 0.0f));
-        d[(3 + k) * a->ps] = ew_clampf(ew_feature_or_zero(a->albedo[j * 3 + k]), 0.0f, 1.0f);
-        d[(6 + k) * a->ps] = ew_clampf(0.5f * (ew_feature_or_zero(a->normal[j * 3 + k]) + 1.0f), 0.0f, 1.0f);
+        d[(3 + k) * a->ps] = ew_clampf(ew_feature_or_zero(a->albedo[ja * 3 + k]), 0.0f, 1.0f);
+        d[(6 + k) * a->ps] = ew_clampf(0.5f * (ew_feature_or_zero(a->normal[jn * 3 + k]) + 1.0f), 0.0f, 1.0f);
     }
-    d[9 * a->ps] = ew_clampf(ew_feature_or_zero(a->depth[j]) * a->depth_scale, 0.0f, 1.0f);
+    d[9 * a->ps] = ew_clampf(ew_feature_or_zero(a->depth[jd]) * a->depth_scale, 0.0f, 1.0f);
     if (a->noise_plane) d[10 * a->ps] = a->noise;
 }
 

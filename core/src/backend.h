@@ -216,8 +216,8 @@ ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_imag
  * c channels, on a device that reads host memory (the CPU). */
 int ew_dev_view_half_rows(const ew_device *dev, const ew_image *img, int c);
 /* Rows y0 .. y1, columns x0 .. x1 of such a view, its first c channels,
- * packed into buf as floats: buf's row 0 is the view's row y0, a row the
- * view's width (the other columns untouched). */
+ * packed into buf as floats: buf holds that rectangle, its (0, 0) the
+ * view's (x0, y0), rows x1 - x0 pixels apart. */
 void ew_dev_view_rows(ew_device *dev, const ew_image *img, int c, int y0, int y1, int x0, int x1, float *buf);
 /* Do the memory spans of two views (first to last pixel) overlap? 0 when
  * either is NULL or has no data. */

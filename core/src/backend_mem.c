@@ -270,21 +270,28 @@ int ew_dev_view_half_rows(const ew_device *dev, const ew_image *img, int c) {
 }
 
 typedef struct {
-    ew_view_desc v; /* from the band's first row */
-    int c, x0, x1;
+    ew_view_desc v; /* the rectangle */
+    int c;
     float *buf;
 } rows_job;
 
 static void view_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
     (void)tid;
     const rows_job *j = (const rows_job *)ctx;
-    for (int64_t y = y0; y < y1; y++)
-        for (int x = j->x0; x < j->x1; x++) ew_view_pack_px(x, (int)y, &j->v, j->c, j->buf);
+    const size_t c = (size_t)j->c;
+    for (int64_t y = y0; y < y1; y++) {
+        if (j->v.pixel_stride == (long long)(c * 2)) { /* the row's pixels back to back: one run */
+            const unsigned short *src = (const unsigned short *)(const void *)ew_view_px(&j->v, 0, (int)y);
+            ew__halves_to_floats(src, j->buf + (size_t)y * (size_t)j->v.width * c, (size_t)j->v.width * c);
+            continue;
+        }
+        for (int x = 0; x < j->v.width; x++) ew_view_pack_px(x, (int)y, &j->v, j->c, j->buf);
+    }
 }
 
 void ew_dev_view_rows(ew_device *dev, const ew_image *img, int c, int y0, int y1, int x0, int x1, float *buf) {
-    const ew_image band = ew__image_crop(img, 0, y0, img->width, y1 - y0);
-    rows_job j = {view_desc(&band), c, x0, x1, buf};
+    const ew_image rect = ew__image_crop(img, x0, y0, x1 - x0, y1 - y0);
+    rows_job j = {view_desc(&rect), c, buf};
     ew_pool_run(dev->pool, y1 - y0, 0, view_rows, &j);
 }
 

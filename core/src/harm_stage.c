@@ -132,6 +132,7 @@ typedef struct ew_harm_state {
     int own;        /* which of colour (1), albedo (2), normal (4) the stage packs itself (else the view in place) */
     int kept;       /* the rejection's excess is kept (the output overwrites the colour read in place) */
     void *dmem;
+    size_t dmem_bytes;
     float *col, *alb, *nrm, *a, *b, *clamped;
     float *excess;  /* kept: the luminance the rejection took, a float a pixel (kernels/harm.h EW_HARM_EXCESS) */
     int can_fuse;   /* the method may run the stage in its tiles (fusable) */
@@ -309,6 +310,7 @@ ew_result ew_harm_commit(ew_op *op) {
     const size_t hclamp = pre ? ew_dev_stage_floats(dev, n, clamped_channels(cc, pre)) : 0; /* the colour the method reads */
     s = (ew_harm_state *)calloc(1, sizeof *s + row_bytes + (stage + hclamp) * sizeof(float));
     if (s) s->dmem = ew_dev_alloc(dev, row_bytes + floats * sizeof(float));
+    if (s) s->dmem_bytes = row_bytes + floats * sizeof(float);
     op->harm = s;
     if (!s || !s->dmem)
         return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: the do-no-harm stage of %dx%d needs %.1f MiB", w,
@@ -786,9 +788,12 @@ ew_result ew_harm_execute(ew_op *op) {
      * their pages go before the clamp's plane is zeroed, so the two are
      * not resident together (fused: the rejected radiance, in the clamped
      * colour's place) */
-    if (fuse)
+    if (fuse) {
         ew_dev_release_pages(dev, s->clamped, s->clamped + (size_t)s->w * s->h * 3);
-    else
+        /* the passes' bands (and the features' converted from halves): the
+         * last buffers, rewritten before they are read at the next execute */
+        ew_dev_release_pages(dev, s->band, (char *)s->dmem + s->dmem_bytes);
+    } else
         ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
     if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
         r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * sizeof(float));

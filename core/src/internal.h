@@ -100,6 +100,9 @@ static inline float *ew__pixel(const ew_image *img, int x, int y) {
                      (int64_t)x * ew__pixel_stride(img));
 }
 
+/* n halves to floats, exactly (half_rows.c: in hardware where the CPU can). */
+void ew__halves_to_floats(const unsigned short *s, float *d, size_t n);
+
 /* Channel k of pixel (x, y) of a float or half view, as a float. */
 static inline float ew__channel(const ew_image *img, int x, int y, int k) {
     const void *p = ew__pixel(img, x, y);

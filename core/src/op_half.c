@@ -65,6 +65,10 @@ static void pack_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
     const int w = j->src->width, c = j->src->channels;
     for (int64_t y = y0; y < y1; y++) {
         float *d = j->dst + (size_t)y * (size_t)w * (size_t)c;
+        if (ew__pixel_stride(j->src) == 2 * (int64_t)c) { /* the row's pixels back to back: one run */
+            ew__halves_to_floats((const unsigned short *)(const void *)ew__pixel(j->src, 0, (int)y), d, (size_t)w * (size_t)c);
+            continue;
+        }
         for (int x = 0; x < w; x++) {
             const unsigned short *p = (const unsigned short *)(const void *)ew__pixel(j->src, x, (int)y);
             for (int k = 0; k < c; k++) *d++ = ew_half_to_float(p[k]);

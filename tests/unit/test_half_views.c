@@ -10,6 +10,7 @@
 
 #include "edgewise/edgewise.h"
 #include "kernels/half.h"
+#include "src/internal.h"
 
 #define W 72
 #define H 56
@@ -26,6 +27,21 @@ TEST(every_half_converts_as_the_compilers_float16) {
     CHECK_EQ_INT(bad, 0);
     CHECK(ew_half_to_float(0x3c00u) == 1.0f && ew_half_to_float(0xc000u) == -2.0f);
     CHECK(ew_half_to_float(0x7bffu) == 65504.0f && ew_half_to_float(0x0001u) == 5.9604644775390625e-8f);
+}
+
+/* the run converter (in hardware where the CPU can) against the value by
+ * value one, on every half, from an odd offset and length (its tail) */
+TEST(halves_to_floats_in_runs_as_value_by_value) {
+    static uint16_t h[65536 + 3];
+    static float f[65536 + 3];
+    for (uint32_t u = 0; u < 65536u + 3u; u++) h[u] = (uint16_t)(u * 40503u);
+    ew__halves_to_floats(h + 1, f + 1, 65536 + 1);
+    int bad = 0;
+    for (uint32_t u = 1; u < 65536u + 2u; u++) {
+        const float want = ew_half_to_float(h[u]);
+        if (isnan(want) ? !isnan(f[u]) : memcmp(&want, &f[u], sizeof want) != 0) bad++;
+    }
+    CHECK_EQ_INT(bad, 0);
 }
 
 static uint32_t rng = 12345u;
