@@ -132,11 +132,13 @@ typedef enum ew_format {
     EW_FORMAT_FLOAT = 1, /* 32-bit float per channel */
     /* 16-bit IEEE 754 half per channel (an EXR's half pass, numpy's
      * float16): for images that are only read, never an output. The
-     * methods read the values exactly (every half is a float); kpcn and
-     * auto read half albedo, normal and depth where they are, so a caller
-     * holding them as halves holds half the bytes (ew_method_image_flags:
-     * EW_IMAGE_HALF_IN_PLACE); every other method and image packs a float
-     * copy at execute. */
+     * methods read the values exactly (every half is a float): the output
+     * is the one float views of the same values give. kpcn (and auto when
+     * it runs kpcn) reads half albedo, normal and depth where they are in
+     * its streamed tiles (large frames on the CPU), so a caller holding
+     * them as halves holds half the bytes (ew_op_image_flags after commit:
+     * EW_IMAGE_HALF_IN_PLACE); otherwise the op packs a float copy of a
+     * half view at execute (ew_op_memory counts it). */
     EW_FORMAT_HALF = 2
 } ew_format;
 
