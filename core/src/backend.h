@@ -215,9 +215,10 @@ ew_result ew_dev_get_view(ew_device *dev, const float *src, int c, const ew_imag
  * instead of packing a float copy of the frame: EW_FORMAT_HALF, at least
  * c channels, on a device that reads host memory (the CPU). */
 int ew_dev_view_half_rows(const ew_device *dev, const ew_image *img, int c);
-/* Rows y0 .. y1, columns x0 .. x1 of such a view, its first c channels,
- * packed into buf as floats: buf holds that rectangle, its (0, 0) the
- * view's (x0, y0), rows x1 - x0 pixels apart. */
+/* Rows y0 .. y1, columns x0 .. x1 of a host view (half or float), its
+ * first c channels, packed into the host buffer buf as floats, in
+ * parallel: buf holds that rectangle, its (0, 0) the view's (x0, y0),
+ * rows x1 - x0 pixels apart. */
 void ew_dev_view_rows(ew_device *dev, const ew_image *img, int c, int y0, int y1, int x0, int x1, float *buf);
 /* Do the memory spans of two views (first to last pixel) overlap? 0 when
  * either is NULL or has no data. */

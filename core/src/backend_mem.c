@@ -223,6 +223,20 @@ static ew_view_desc view_desc(const ew_image *img) {
     return v;
 }
 
+/* op.h's host loops: the backends' per-pixel copies (kernels/view.h), row
+ * after row */
+void ew_view_pack(const ew_image *img, int c, float *dst) {
+    const ew_view_desc v = view_desc(img);
+    for (int y = 0; y < v.height; y++)
+        for (int x = 0; x < v.width; x++) ew_view_pack_px(x, y, &v, c, dst);
+}
+
+void ew_view_unpack(const float *src, int c, const ew_image *img) {
+    const ew_view_desc v = view_desc(img);
+    for (int y = 0; y < v.height; y++)
+        for (int x = 0; x < v.width; x++) ew_view_unpack_px(x, y, &v, c, src);
+}
+
 ew_result ew_dev_put_view(ew_device *dev, const ew_image *img, int c, float *dst, float *stage) {
     if (!dev->device_memory || dev->device_images) {
         /* the view is where the buffer is: pack in place, in parallel */

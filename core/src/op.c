@@ -1,4 +1,3 @@
-#include "kernels/half.h"
 #include "src/finite.h"
 #include "src/op.h"
 
@@ -335,22 +334,4 @@ ew_result ew_op_execute(ew_op *op) {
     }
     op_leave(op);
     return r;
-}
-
-void ew_view_pack(const ew_image *img, int c, float *dst) {
-    const int half = img->format == EW_FORMAT_HALF;
-    for (int y = 0; y < img->height; y++)
-        for (int x = 0; x < img->width; x++) {
-            const void *p = ew__pixel(img, x, y);
-            for (int k = 0; k < c; k++)
-                *dst++ = half ? ew_half_to_float(((const unsigned short *)p)[k]) : ((const float *)p)[k];
-        }
-}
-
-void ew_view_unpack(const float *src, int c, const ew_image *img) {
-    for (int y = 0; y < img->height; y++)
-        for (int x = 0; x < img->width; x++) {
-            float *p = ew__pixel(img, x, y);
-            for (int k = 0; k < c; k++) p[k] = *src++;
-        }
 }

@@ -5,20 +5,16 @@
  * (kept across commits of its size), packed before each execute. The
  * caller's view stays in op->given.
  */
+#include "src/backend.h"
 #include "src/op.h"
 
-#include <stdlib.h>
-#include <string.h>
-
-static int reads_half(const ew_op_type *t, const char *name) {
-    for (const char *const *l = t->half_inputs; l && *l; l++)
-        if (!strcmp(*l, name)) return 1;
-    return 0;
-}
-
-/* Whether image i is a half view the op packs into floats. */
+/* Whether image i is a half view the op packs into floats: one the method
+ * does not read as halves itself (EW_IMAGE_HALF_IN_PLACE, from half_inputs). */
 static int packed_here(const ew_op *op, int i) {
-    return op->has_image[i] && op->given[i].format == EW_FORMAT_HALF && !reads_half(op->type, op->type->images[i].name);
+    uint32_t fl = 0;
+    if (!op->has_image[i] || op->given[i].format != EW_FORMAT_HALF) return 0;
+    ew_method_image_flags(op->type->kind, op->type->name, i, &fl);
+    return !(fl & EW_IMAGE_HALF_IN_PLACE);
 }
 
 static void drop(ew_op *op, int i) {
@@ -54,33 +50,10 @@ ew_result ew_op_half_commit(ew_op *op) {
     return EW_OK;
 }
 
-typedef struct {
-    const ew_image *src;
-    float *dst;
-} pack_job;
-
-static void pack_rows(void *ctx, int64_t y0, int64_t y1, int tid) {
-    (void)tid;
-    const pack_job *j = (const pack_job *)ctx;
-    const int w = j->src->width, c = j->src->channels;
-    for (int64_t y = y0; y < y1; y++) {
-        float *d = j->dst + (size_t)y * (size_t)w * (size_t)c;
-        if (ew__pixel_stride(j->src) == 2 * (int64_t)c) { /* the row's pixels back to back: one run */
-            ew__halves_to_floats((const unsigned short *)(const void *)ew__pixel(j->src, 0, (int)y), d, (size_t)w * (size_t)c);
-            continue;
-        }
-        for (int x = 0; x < w; x++) {
-            const unsigned short *p = (const unsigned short *)(const void *)ew__pixel(j->src, x, (int)y);
-            for (int k = 0; k < c; k++) *d++ = ew_half_to_float(p[k]);
-        }
-    }
-}
-
 void ew_op_half_execute(ew_op *op) {
     for (int i = 0; i < op->type->num_images; i++) {
-        if (!op->half_copy[i]) continue;
-        pack_job j = {&op->given[i], op->half_copy[i]};
-        ew_pool_run(op->dev->pool, op->given[i].height, 0, pack_rows, &j);
+        const ew_image *g = &op->given[i];
+        if (op->half_copy[i]) ew_dev_view_rows(op->dev, g, g->channels, 0, g->height, 0, g->width, op->half_copy[i]);
     }
 }
 

@@ -259,6 +259,22 @@ int find_channel(const ewio_file &f, const std::string &layer, const std::string
     return -1;
 }
 
+/* 1 when every component of the pass is a channel of the file for which
+ * `ok` holds (0 for a NULL file or empty comps) */
+template <class Ok> int every_channel(const ewio_file *f, const char *layer, const char *pass, const char *comps, Ok ok) {
+    if (!f || !comps || !*comps) return 0;
+    try {
+        const std::string L = layer ? layer : "", P = pass ? pass : "";
+        for (const char *c = comps; *c; c++) {
+            const int i = find_channel(*f, L, P, std::string(1, *c));
+            if (i < 0 || !ok(f->ch[size_t(i)])) return 0;
+        }
+        return 1;
+    } catch (...) {
+        return 0;
+    }
+}
+
 bool has_layer(const ewio_file &f, const std::string &layer) {
     return std::find(f.layers.begin(), f.layers.end(), layer) != f.layers.end();
 }
@@ -1728,31 +1744,11 @@ int ewio_has_pass(const ewio_file *f, const char *layer, const char *pass, const
 
 
 int ewio_pass_in_source(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
-    if (!f || !comps || !*comps) return 0;
-    try {
-        const std::string L = layer ? layer : "", P = pass ? pass : "";
-        for (const char *c = comps; *c; c++) {
-            const int i = find_channel(*f, L, P, std::string(1, *c));
-            if (i < 0 || !f->ch[size_t(i)].in_src) return 0;
-        }
-        return 1;
-    } catch (...) {
-        return 0;
-    }
+    return every_channel(f, layer, pass, comps, [](const Channel &c) { return c.in_src; });
 }
 
 int ewio_pass_stored_half(const ewio_file *f, const char *layer, const char *pass, const char *comps) {
-    if (!f || !comps || !*comps) return 0;
-    try {
-        const std::string L = layer ? layer : "", P = pass ? pass : "";
-        for (const char *c = comps; *c; c++) {
-            const int i = find_channel(*f, L, P, std::string(1, *c));
-            if (i < 0 || f->ch[size_t(i)].type != PixType::HALF) return 0;
-        }
-        return 1;
-    } catch (...) {
-        return 0;
-    }
+    return every_channel(f, layer, pass, comps, [](const Channel &c) { return c.type == PixType::HALF; });
 }
 
 void ewio_floats_to_half(const float *src, uint16_t *dst, size_t n) { ewio::to_half(src, dst, n); }

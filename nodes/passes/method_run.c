@@ -96,16 +96,25 @@ static double now_ms(void) {
     return 1e3 * (double)ts.tv_sec + 1e-6 * (double)ts.tv_nsec;
 }
 
-/* The layer's buffer for an image slot name, with its channel count and
- * whether it holds halves. */
-static float *slot_buffer(const ew_layer_data *in, const char *slot, float *color, int *channels, int *half) {
-    *half = 0;
-    if (!strcmp(slot, "color")) { *channels = 3; return color; }
-    if (!strcmp(slot, "albedo")) { *channels = 3; *half = (in->halves & EW_LAYER_HALF_ALBEDO) != 0; return in->albedo; }
-    if (!strcmp(slot, "normal")) { *channels = 3; *half = (in->halves & EW_LAYER_HALF_NORMAL) != 0; return in->normal; }
-    if (!strcmp(slot, "depth")) { *channels = 1; *half = (in->halves & EW_LAYER_HALF_DEPTH) != 0; return in->depth; }
-    if (!strcmp(slot, "vector")) { *channels = 2; return in->vector; }
-    return NULL;
+/* The view of the layer's buffer for an image slot name (the colour:
+ * `color`), EW_FORMAT_HALF for a feature it holds as halves; 0 when the
+ * layer has none. */
+static int slot_view(const ew_layer_data *in, const char *slot, float *color, ew_image *v) {
+    float *buf = NULL;
+    int ch = 0;
+    unsigned half = 0;
+    if (!strcmp(slot, "color")) { buf = color; ch = 3; }
+    else if (!strcmp(slot, "albedo")) { buf = in->albedo; ch = 3; half = EW_LAYER_HALF_ALBEDO; }
+    else if (!strcmp(slot, "normal")) { buf = in->normal; ch = 3; half = EW_LAYER_HALF_NORMAL; }
+    else if (!strcmp(slot, "depth")) { buf = in->depth; ch = 1; half = EW_LAYER_HALF_DEPTH; }
+    else if (!strcmp(slot, "vector")) { buf = in->vector; ch = 2; }
+    if (!buf) return 0;
+    *v = ew_image_packed(buf, in->width, in->height, ch);
+    if (in->halves & half) {
+        v->format = EW_FORMAT_HALF;
+        v->pixel_stride = v->row_stride = EW_STRIDE_PACKED;
+    }
+    return 1;
 }
 
 /* The method's parameter called `name` (0 if it has none). */
@@ -154,13 +163,8 @@ static ew_result rebind_halves(ew_op *op, const ew_method_spec *spec, ew_image *
     for (int32_t i = 0; r == EW_OK && i < num_images && i < 8; i++) {
         ew_image_info info;
         ew_method_image(spec->kind, spec->name, i, &info);
-        int ch = 0, half = 0;
-        float *buf = slot_buffer(spec->holds, info.name, NULL, &ch, &half);
-        if (!buf || !half) continue;
-        views[i] = ew_image_packed(buf, spec->holds->width, spec->holds->height, ch);
-        views[i].format = EW_FORMAT_HALF;
-        views[i].pixel_stride = views[i].row_stride = EW_STRIDE_PACKED;
-        r = ew_op_set_image(op, info.name, &views[i]);
+        if (slot_view(spec->holds, info.name, NULL, &views[i]) && views[i].format == EW_FORMAT_HALF)
+            r = ew_op_set_image(op, info.name, &views[i]);
     }
     return r == EW_OK ? ew_op_commit(op) : r;
 }
@@ -204,20 +208,14 @@ int ew_method_run(ew_device *dev, const ew_method_spec *spec, const ew_layer_dat
     for (int32_t i = 0; r == EW_OK && i < num_images && i < 8; i++) {
         ew_image_info info;
         ew_method_image(spec->kind, spec->name, i, &info);
-        int ch = 0, half = 0;
-        float *buf = !strcmp(info.name, "output") ? out : slot_buffer(in, info.name, color, &ch, &half);
-        if (!strcmp(info.name, "output")) ch = 3;
-        if (!buf) {
+        if (!strcmp(info.name, "output")) {
+            views[i] = ew_image_packed(out, w, h, 3);
+        } else if (!slot_view(in, info.name, color, &views[i])) {
             if (info.required) {
                 snprintf(err, errlen, "%s: the layer has no pass for the required image '%s'", spec->label, info.name);
                 r = EW_ERR_INVALID_ARGUMENT;
             }
             continue;
-        }
-        views[i] = ew_image_packed(buf, w, h, ch);
-        if (half) {
-            views[i].format = EW_FORMAT_HALF;
-            views[i].pixel_stride = views[i].row_stride = EW_STRIDE_PACKED;
         }
         r = ew_op_set_image(op, info.name, &views[i]);
     }
