@@ -84,7 +84,7 @@ typedef struct {
     const ew_net_model *m;
     ew_kpcn_net net; /* m's network with the op's plane layout */
     ew_denoise_buffers buf;
-    float *params, *clamped;
+    float *params, *clamped; /* streamed: one region's clamped radiance, packed */
     ew_tiling tiling;
     float *scale_mem;       /* the scale buffers of one region */
     size_t scale_floats;
@@ -95,6 +95,7 @@ typedef struct {
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
     float *acc;             /* with several passes: the sum of the runs so far, 3 floats a pixel */
     int streamed;           /* tiles without the frame's radiance (execute_streamed) */
+    int held;               /* streamed: the cores go out through the tile writer (output_over_color) */
     float *fcolor;          /* streamed: the colour when its view is not read in place (else untouched) */
     float *target;          /* streamed: the result when the output view is not written in place (else untouched) */
     float *band_rad, *band_guide, *band_clamped, *band_removed; /* streamed: one band of rows and its margins */
@@ -103,7 +104,7 @@ typedef struct {
      * (ew_dev_view_half_rows), each read a band of rows at a time into
      * its buffer (feature_rows), else NULL */
     float *frows[3];
-    ew_tile_writer tw;      /* streamed, with the stage in the tiles: the cores out (fused_core) */
+    ew_tile_writer tw;      /* streamed with the output over the colour: the cores out (writer_keep) */
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
     double *row_out;
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
@@ -240,17 +241,35 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
  * do-no-harm stage's blend's, when it may run in the tiles (fused_core) */
 static int fused_margin(const ew_op *op) { return ew_harm_may_fuse(op) ? ew_harm_region_margin() : 0; }
 
+/* Streamed: are the cores written over the colour the tiles read where it
+ * lies (both views read and written in place, overlapping)? */
+static int output_over_color(const ew_op *op) {
+    const ew_image *c = ew_op_image(op, "color"), *o = ew_op_image(op, "output");
+    return c && o && ew_dev_view_in_place(op->dev, c, 3, NULL) && ew_dev_view_in_place(op->dev, o, 3, NULL) &&
+           ew_images_overlap(c, o);
+}
+
+/* Streamed, what the tile writer holds back of each core (0: no writer):
+ * with the output over the colour, all a later region clamps its radiance
+ * from (its halo and the clamp's window past it), so the colour is still
+ * there when it does; else the stage's blend margin when it may run in
+ * the tiles (with the views it runs on then, which the commit's include). */
+static int writer_keep(const ew_op *op, const ew_kpcn_net *net) {
+    const int m = fused_margin(op);
+    return output_over_color(op) ? ew_kpcn_halo_around(net, m) + band_margin() : m;
+}
+
 /* Streamed (above): the parameters, the colour when it is not read in
  * place and the result when the output is not written in place (reserved;
  * their pages untouched otherwise), the features not read in place (a
- * band of those read from halves, regions up to rw wide), one band and
- * the clamped radiance of `rows` rows (a row of regions), and what the
- * tiles hold back of their cores when the stage may run in them. */
-static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rows, int rw) {
-    const int m = fused_margin(op);
+ * band of those read from halves, regions up to rw wide), one band, the
+ * clamped radiance of a rw x rh region, and what the tile writer holds
+ * back of the cores (writer_keep). */
+static size_t streamed_frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h, int rw, int rh) {
+    const int keep = writer_keep(op, net);
     return params_and_frame(net, w, h, 3 + 3 + feature_copies_px(op, 1),
-                            band_floats(w) + feature_band_floats(op, w, rw) + (size_t)w * (size_t)rows * 3 +
-                                (m ? ew_tile_writer_floats(w, h, m) : 0));
+                            band_floats(w) + feature_band_floats(op, w, rw) + (size_t)rw * (size_t)rh * 3 +
+                                (keep ? ew_tile_writer_floats(w, h, keep) : 0));
 }
 
 /* The device floats of a tiled side x side region. */
@@ -280,14 +299,14 @@ static size_t plan(const ew_op *op, const ew_kpcn_net *net, int w, int h, ew_til
     *streamed = 0;
     if (t->nx * t->ny > 1 && can_stream(op)) {
         /* with the smaller frame buffers the tiles may get more room:
-         * planned with a frame's rows of clamped radiance, then holding
-         * the rows of the regions they got */
+         * planned with a frame's clamped radiance, then holding a region's
+         * (the tile writer needs cores at least as wide as what it keeps) */
         ew_tiling ts;
-        plan_tiles(op, net, w, h, streamed_frame_floats(op, net, w, h, h, w), &ts);
-        if (ts.nx * ts.ny > 1) {
+        plan_tiles(op, net, w, h, streamed_frame_floats(op, net, w, h, w, h), &ts);
+        if (ts.nx * ts.ny > 1 && ew_tile_writer_fits(&ts, writer_keep(op, net))) {
             *t = ts;
             *streamed = 1;
-            frame = streamed_frame_floats(op, net, w, h, ts.rh, ts.rw);
+            frame = streamed_frame_floats(op, net, w, h, ts.rw, ts.rh);
         }
     }
     const int tiled = t->nx * t->ny > 1;
@@ -388,14 +407,14 @@ static ew_result commit(ew_op *op) {
         }
     }
     if (streamed) {
-        s->clamped = p; p += (size_t)w * (size_t)tiling.rh * 3; /* a row of regions */
+        s->clamped = p; p += (size_t)tiling.rw * (size_t)tiling.rh * 3; /* a region */
         const size_t bn = (band_floats(w) - 3 * (size_t)w) / BAND_FLOATS_PX;
         s->band_rad = p; p += bn * 3;
         s->band_guide = p; p += bn;
         s->band_clamped = p; p += bn * 3;
         s->band_removed = p; p += bn;
         s->band_above = p; p += 3 * (size_t)w;
-        s->tw.keep = fused_margin(op);
+        s->tw.keep = writer_keep(op, net);
         if (s->tw.keep) {
             s->tw.strip = p; p += (size_t)h * (size_t)s->tw.keep * 3;
             s->tw.pend = p; p += 2 * (size_t)w * (size_t)s->tw.keep * 3;
@@ -662,9 +681,11 @@ static ew_result fused_core(ew_op *op, const ew_tile *tile) {
 }
 
 /* The network and the filters on one tile's region, keeping its core in
- * tile_target (the filtered radiance, or the colour); progress from p0 over the span dp. */
-static ew_result run_tile(ew_op *op, const float *radiance, int row0, float noise, const ew_tile *tile, double p0,
-                          double dp) {
+ * tile_target (the filtered radiance, or the colour), the clamped radiance
+ * `radiance` (rs pixels a row, its first pixel the frame's (x0, y0));
+ * progress from p0 over the span dp. */
+static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int y0, float noise, const ew_tile *tile,
+                          double p0, double dp) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
@@ -672,7 +693,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     const int W = b->width, C = net->ch, rw = tile->rw, rh = tile->rh;
     ew_result r = layout_region(dev, s, rw, rh);
     if (r != EW_OK) return r;
-    const float *rad = radiance + ((long)(tile->ry - row0) * W + tile->rx) * 3; /* ... in the clamped radiance */
+    const float *rad = radiance + ((long)(tile->ry - y0) * rs + (tile->rx - x0)) * 3; /* ... in the clamped radiance */
     /* zeroed first, then member by member: the padding after depth_scale
      * would otherwise carry stale stack bytes to a device that copies the
      * struct as bytes (and to the launch-grid check, which reads every word
@@ -685,7 +706,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     ia.depth_scale = b->depth_scale;
     ia.noise_plane = net->noise;
     ia.noise = noise;
-    ia.src_rs = W;
+    ia.src_rs = rs;
     /* the network (algorithms/kpcn.h's layer list): scale 0's encoder in bands, ... */
     for (int e0 = 0; e0 < rh && r == EW_OK; e0 += EW_KPCN_BAND_ROWS) r = encode0_band(op, tile, &ia, e0);
     if (r != EW_OK) return r;
@@ -707,7 +728,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
     }
     if (!ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the radiance pyramid, then the filters coarse to fine */
-    const ew_kpcn_tensor rad0 = {(float *)rad, 3, 3L * W, 1};
+    const ew_kpcn_tensor rad0 = {(float *)rad, 3, 3L * rs, 1};
     ew_kpcn_tensor prev = rad0;
     for (int sc = 1; sc < S; sc++) {
         ew_kpcn_pool_args pa = {s->sw[sc - 1], s->sh[sc - 1], s->sw[sc], s->sh[sc], 3, prev,
@@ -740,6 +761,8 @@ static ew_result run_tile(ew_op *op, const float *radiance, int row0, float nois
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
     if (r == EW_OK && s->tile_out && ew_harm_fused(op)) return fused_core(op, tile);
+    if (r == EW_OK && s->tile_out && s->held) /* over the colour: fcolor unused, the scratch */
+        return ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->fcolor);
     if (s->tile_out) {
         const size_t row = (size_t)tile->cw * 3 * sizeof(float);
         for (int y = tile->cy; y < tile->cy + tile->ch && r == EW_OK; y++)
@@ -769,16 +792,16 @@ static void mirror_inputs(ew_device *dev, const state *s, const float *radiance,
     }
 }
 
-/* The tiles of row ty (-1: every tile) of one run, the clamped radiance's
- * row 0 the frame's row row0; progress from p0 over the span dp. */
-static ew_result run_tiles(ew_op *op, const float *radiance, int row0, int ty, float noise, double p0, double dp) {
+/* The tiles of one run on the frame's clamped radiance; progress from p0
+ * over the span dp. */
+static ew_result run_tiles(ew_op *op, const float *radiance, float noise, double p0, double dp) {
     const state *s = (const state *)op->state;
     const ew_tiling *t = &s->tiling;
-    const int ntiles = t->nx * t->ny, first = ty < 0 ? 0 : ty * t->nx, end = ty < 0 ? ntiles : first + t->nx;
-    for (int i = first; i < end; i++) {
+    const int ntiles = t->nx * t->ny;
+    for (int i = 0; i < ntiles; i++) {
         ew_tile tile;
         ew_tile_at(t, i, &tile);
-        const ew_result r = run_tile(op, radiance, row0, noise, &tile, p0 + dp * i / ntiles, dp / ntiles);
+        const ew_result r = run_tile(op, radiance, t->width, 0, 0, noise, &tile, p0 + dp * i / ntiles, dp / ntiles);
         if (r != EW_OK) return r;
     }
     return EW_OK;
@@ -813,41 +836,53 @@ static ew_result put_features(ew_op *op) {
     return EW_OK;
 }
 
-/* Streamed: the demodulated radiance's firefly clamp of rows y_begin ..
- * y_end, band by band. With dst, the clamped rows into dst (its row 0 the
- * frame's row y_begin). A sweep (the whole frame): the light the clamp
- * took into the stage's plane, and the noise level's row sums of the
- * clamped radiance into s->rows (as the frame path's reduce_rows over it:
- * each row's sum reads that row and the one above, the band above's last,
- * kept in band_above). */
-static ew_result clamp_rows(ew_op *op, const float *color, int y_begin, int y_end, float *dst, int sweep) {
+/* Streamed: the demodulated radiance's firefly clamp of the frame's rows
+ * y_begin .. y_end, columns x_begin .. x_end, band by band, each band read
+ * with the clamp window's rows and columns around it (inside the frame: so
+ * the same windows as over the frame). With dst, the clamped pixels into
+ * dst (packed x_end - x_begin wide, its row 0 the frame's row y_begin). A
+ * sweep (the whole frame): the light the clamp took into the stage's
+ * plane, and the noise level's row sums of the clamped radiance into
+ * s->rows (as the frame path's reduce_rows over it: each row's sum reads
+ * that row and the one above, the band above's last, kept in band_above). */
+static ew_result clamp_rect(ew_op *op, const float *color, int x_begin, int x_end, int y_begin, int y_end, float *dst,
+                            int sweep) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     const ew_denoise_buffers *b = &s->buf;
-    const int w = b->width, h = b->height;
+    const int w = b->width, h = b->height, dw = x_end - x_begin;
     const float k = ew_op_param(op, "firefly_k");
     float *removed = sweep ? ew_harm_clamp_removed(op) : NULL;
     const size_t w3 = (size_t)w * 3, row_bytes = w3 * sizeof(float);
     const int margin = band_margin();
+    const int c0 = ew_maxi(x_begin - margin, 0), c1 = ew_mini(x_end + margin, w), cw = c1 - c0;
     ew_result r = EW_OK;
     for (int y0 = y_begin; y0 < y_end && r == EW_OK; y0 += BAND_ROWS) {
         const int y1 = y0 + BAND_ROWS < y_end ? y0 + BAND_ROWS : y_end;
         const int e0 = y0 - margin > 0 ? y0 - margin : 0, e1 = y1 + margin < h ? y1 + margin : h;
         ew_denoise_buffers bb = *b;
+        bb.width = cw;
         bb.height = e1 - e0;
-        bb.color = color + (size_t)e0 * w3;
-        long rs; /* the frame's width: the whole rows */
-        bb.albedo = feature_rows(op, 0, e0, e1, 0, w, &rs);
-        bb.normal = feature_rows(op, 1, e0, e1, 0, w, &rs);
-        bb.depth = feature_rows(op, 2, e0, e1, 0, w, &rs);
+        bb.color = color + ((size_t)e0 * w + (size_t)c0) * 3;
+        bb.in_stride = w;
+        long rs;
+        bb.albedo = feature_rows(op, 0, e0, e1, c0, c1, &rs);
+        if (rs != w) { /* albedo converted into its band, cw wide: the colour packed beside it */
+            r = ew_dev_copy_rect(dev, s->band_clamped, cw, 0, 0, color, w, c0, e0, cw, e1 - e0, 3);
+            bb.color = s->band_clamped;
+            bb.in_stride = 0;
+        }
+        bb.normal = bb.depth = NULL; /* the guide it writes goes unread: the clamp reads the radiance alone */
         bb.radiance = s->band_rad;
         bb.guide = s->band_guide;
-        dev->backend->denoise_prepare(dev, &bb); /* radiance = colour / (albedo + eps) */
-        const ew_outlier_params fp = ew_kpcn_clamp_params(w, e1 - e0, k);
+        if (r == EW_OK) dev->backend->denoise_prepare(dev, &bb); /* radiance = colour / (albedo + eps) */
+        const ew_outlier_params fp = ew_kpcn_clamp_params(cw, e1 - e0, k);
         const ew_outlier_buffers fb = {s->band_rad, NULL, NULL, s->band_clamped, 3, removed ? s->band_removed : NULL};
-        dev->backend->outlier_guided(dev, &fp, &fb);
+        if (r == EW_OK) dev->backend->outlier_guided(dev, &fp, &fb);
+        if (r == EW_OK && dst)
+            r = ew_dev_copy_rect(dev, dst, dw, 0, y0 - y_begin, s->band_clamped, cw, x_begin - c0, y0 - e0, dw, y1 - y0, 3);
+        /* a sweep's bands are the frame's whole rows */
         float *core = s->band_clamped + (size_t)(y0 - e0) * w3;
-        if (dst) r = dev->backend->mem_copy(dev, dst + (size_t)(y0 - y_begin) * w3, core, (size_t)(y1 - y0) * row_bytes);
         if (r == EW_OK && removed)
             r = dev->backend->mem_copy(dev, removed + (size_t)y0 * w, s->band_removed + (size_t)(y0 - e0) * w,
                                        (size_t)(y1 - y0) * w * sizeof(float));
@@ -886,7 +921,8 @@ static ew_result execute_streamed(ew_op *op) {
     }
     if (r == EW_OK) r = put_features(op);
     /* the sweep gives nothing when neither the noise level nor the clamp's light is wanted */
-    if (r == EW_OK && (net->noise || ew_harm_clamp_removed(op))) r = clamp_rows(op, color, 0, b->height, NULL, 1);
+    if (r == EW_OK && (net->noise || ew_harm_clamp_removed(op)))
+        r = clamp_rect(op, color, 0, b->width, 0, b->height, NULL, 1);
     if (r != EW_OK) return r;
     const float noise = net->noise ? ew_kpcn_noise_from_rows(s->rows, b->height) : 0.0f;
     float *target = (float *)ew_dev_view_in_place(dev, ov, 3, NULL);
@@ -896,25 +932,18 @@ static ew_result execute_streamed(ew_op *op) {
     s->tw.out = ov;
     s->tw.stage = s->stage;
     s->tw.held.cw = 0;
-    /* a row of regions reads the rows of the row above's cores in its top
-     * halo, where an output over the colour has been written by then: those
-     * rows are already in the buffer (the region above reached its halo
-     * below), moved up; only the rows below them are clamped from the
-     * colour, whose windows start below those cores */
+    s->held = output_over_color(op);
+    /* each region's clamped radiance from the colour where it lies: with
+     * the output over it, the tile writer holds back the cores' pixels a
+     * later region reads until it has (writer_keep) */
     const ew_tiling *t = &s->tiling;
-    const size_t w3 = (size_t)b->width * 3;
-    int have0 = 0, have1 = 0; /* the frame's rows in s->clamped, from its row 0 */
-    for (int ty = 0; ty < t->ny && r == EW_OK; ty++) {
-        ew_tile first;
-        ew_tile_at(t, ty * t->nx, &first);
-        const int r0 = first.ry, r1 = first.ry + first.rh, keep = have1 > r0 ? have1 - r0 : 0;
-        for (int i = 0; i < keep && r0 > have0 && r == EW_OK; i++) /* row by row: the rows move up, overlapping */
-            r = dev->backend->mem_copy(dev, s->clamped + (size_t)i * w3, s->clamped + (size_t)(r0 - have0 + i) * w3,
-                                       w3 * sizeof(float));
-        if (r == EW_OK) r = clamp_rows(op, color, r0 + keep, r1, s->clamped + (size_t)keep * w3, 0);
-        if (r == EW_OK) r = run_tiles(op, s->clamped, r0, ty, noise, 0.0, 1.0);
-        have0 = r0;
-        have1 = r1;
+    const int ntiles = t->nx * t->ny;
+    for (int i = 0; i < ntiles && r == EW_OK; i++) {
+        ew_tile tile;
+        ew_tile_at(t, i, &tile);
+        r = clamp_rect(op, color, tile.rx, tile.rx + tile.rw, tile.ry, tile.ry + tile.rh, s->clamped, 0);
+        if (r == EW_OK)
+            r = run_tile(op, s->clamped, tile.rw, tile.rx, tile.ry, noise, &tile, (double)i / ntiles, 1.0 / ntiles);
     }
     /* out = filtered * (albedo + eps) (fused: each tile's) */
     if (r == EW_OK && !net->remod && !ew_harm_fused(op)) finish_rows(op, 0, 0, b->width, b->height, target);
@@ -965,7 +994,7 @@ static ew_result execute(ew_op *op) {
                 mirror_inputs(dev, s, radiance, axis);
                 at[axis] = m[axis];
             }
-        r = run_tiles(op, radiance, 0, -1, noise, (double)i / passes, 1.0 / passes);
+        r = run_tiles(op, radiance, noise, (double)i / passes, 1.0 / passes);
         if (r == EW_OK && passes > 1) {
             ew_mirror_add_args a;
             memset(&a, 0, sizeof a);

@@ -167,10 +167,12 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net);
  * EW_KPCN_DEC_MARGIN rows beyond the band, the encoder on
  * EW_KPCN_ENC_MARGIN (6 rounded up to the tiles), and the inputs reach
  * EW_KPCN_BAND_MARGIN rows either side. The same bits as the planes of the
- * whole region. The encoder's second run costs about 8 % more multiply-adds
- * of kpcn-large; holding its inputs and output for the decoder would take
- * 43 planes of the region (120 MiB of a 4K frame's tile). */
-#define EW_KPCN_BAND_ROWS 64
+ * whole region. The encoder's second run and the margins cost about 21 %
+ * more multiply-adds of kpcn-large (15 % with bands of 64 rows, yet those
+ * ran no faster: 32-row bands keep their planes nearer the caches, and a
+ * 4K tile's band takes 16 MiB instead of 26); holding the encoder's inputs
+ * and output for the decoder would take 43 planes of the region. */
+#define EW_KPCN_BAND_ROWS 32
 #define EW_KPCN_DEC_MARGIN 4
 #define EW_KPCN_ENC_MARGIN 8
 #define EW_KPCN_BAND_MARGIN (EW_KPCN_ENC_MARGIN + EW_CONV_R)

@@ -510,7 +510,7 @@ TEST(op_matches_training_forward) {
      * fit (ew_kpcn_inference_planes): at c24 every scale's do, the 51
      * logits of a remodulating head0 included; at c8 only some */
     op_matches_training_forward_for("kpcn-c24-noise-s4-ra", 32, 5.0f);
-    /* three of the full-resolution scale's bands (kpcn.h: 64 rows, the
+    /* five of the full-resolution scale's bands (kpcn.h: 32 rows, the
      * last shorter), where the op encodes band by band and computes each
      * band's encoder output again to decode it: the trainer holds every
      * plane of the patch (Kaiming's weights as they are: 5x saturates the
