@@ -91,6 +91,7 @@ typedef struct {
     int lw, lh;             /* the region size sb is laid out for (0: none yet) */
     ew_gn_planes sb[EW_KPCN_MAX_SCALES]; /* the scales below full resolution (sb[0] unused) */
     ew_gn_planes band;                   /* every plane of scale 0 on a band of rows (kpcn.h) */
+    ew_gn_planes band1;                  /* scale 1's band (kpcn.h: ew_kpcn_band1_rows) */
     float *rad[EW_KPCN_MAX_SCALES], *out[EW_KPCN_MAX_SCALES]; /* scales below full resolution: 3 planes each */
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
     float *acc;             /* with several passes: the sum of the runs so far, 3 floats a pixel */
@@ -492,6 +493,8 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
         p += ew_gn_planes_floats(s->sw[k], s->sh[k], net->nplanes[k]) + 16;
     }
     ew_gn_planes_layout(&s->band, p, rw, ew_kpcn_band_rows(rh), net->nplanes[0]);
+    p += ew_gn_planes_floats(rw, ew_kpcn_band_rows(rh), net->nplanes[0]) + 16;
+    ew_gn_planes_layout(&s->band1, p, s->sw[1], ew_kpcn_band1_rows(s->sh[1]), ew_kpcn_band1_planes(net));
     s->lw = rw;
     s->lh = rh;
     return dev->backend->mem_zero(dev, s->scale_mem, s->scale_floats * sizeof(float));
@@ -581,26 +584,142 @@ static ew_result band_inputs(ew_op *op, const ew_tile *tile, const ew_kpcn_input
     return r;
 }
 
-/* Scale 0's encoder on the region's rows e0 .. e0 + EW_KPCN_BAND_ROWS, its
- * inputs 2 rows beyond them, and its pooling into scale 1's inputs
- * (kpcn.h): e0 is even, so the poolings pair the rows the whole region's
- * do. */
-static ew_result encode0_band(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in, int e0) {
+/* Layer l of scale k on `rows` rows of planes other than the region's
+ * (kpcn.h's bands): its input from plane ip of `in` at row ir, its output
+ * into plane opl of `out` at row orow, on the scale's rows y .. y + rows
+ * of the region (Winograd's tiles anchored at the frame's origin). */
+static void conv_rows(ew_device *dev, const state *s, int l, const ew_tile *tile, const ew_gn_planes *in, int ip,
+                      int ir, const ew_gn_planes *out, int opl, int orow, int rows, int y) {
+    ew_conv_args a;
+    ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
+    const int k = s->net.layers[l].scale;
+    a.width = in->width;
+    a.rows = rows;
+    a.in = ew_gn_plane_row(in, ip, ir);
+    a.in_rs = in->rs;
+    a.in_ps = in->ps;
+    a.out = ew_gn_plane_row(out, opl, orow);
+    a.out_rs = out->rs;
+    a.out_ps = out->ps;
+    a.winograd = 1;
+    a.grid_x = tile->rx >> k;
+    a.grid_y = (tile->ry >> k) + y;
+    dev->backend->conv5(dev, &a);
+}
+
+/* Zeroes rows r .. r + EW_CONV_R of planes 0 .. n of a band: past the
+ * region's last row, as its planes' padding */
+static ew_result zero_rows(ew_device *dev, const ew_gn_planes *b, int n, int r) {
+    ew_result res = EW_OK;
+    for (int pl = 0; pl < n && res == EW_OK; pl++)
+        res = dev->backend->mem_zero(dev, ew_gn_plane_row(b, pl, r), (size_t)EW_CONV_R * (size_t)b->rs * sizeof(float));
+    return res;
+}
+
+/* Moves `rows` rows of planes 0 .. n of a band from row `from` up to row 0 */
+static ew_result carry_rows(ew_device *dev, const ew_gn_planes *b, int n, int from, int rows) {
+    ew_result res = EW_OK;
+    for (int pl = 0; pl < n && res == EW_OK; pl++)
+        res = dev->backend->mem_copy(dev, ew_gn_plane_row(b, pl, 0), ew_gn_plane_row(b, pl, from),
+                                     (size_t)rows * (size_t)b->rs * sizeof(float));
+    return res;
+}
+
+/* Scale 0's encoder on the region's rows f0 .. f1 (f0 on the 4-row grid,
+ * its inputs 2 rows beyond them) and its 2x2 pooling into scale 1's inputs
+ * in plane 0 of `dst` from row dst_row (f0 is even, so the poolings pair
+ * the rows the whole region's do). */
+static ew_result encode0_rows(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in, int f0, int f1,
+                              const ew_gn_planes *dst, int dst_row) {
     ew_device *dev = op->dev;
     const state *s = (const state *)op->state;
     const ew_kpcn_net *net = &s->net;
     const ew_gn_planes *B = &s->band;
-    const int rh = s->sh[0], e1 = ew_mini(e0 + EW_KPCN_BAND_ROWS, rh);
-    const int t0 = ew_maxi(e0 - EW_CONV_R, 0), t1 = ew_mini(e1 + EW_CONV_R, rh);
+    const int rh = s->sh[0];
+    const int t0 = ew_maxi(f0 - EW_CONV_R, 0), t1 = ew_mini(f1 + EW_CONV_R, rh);
     const ew_result r = band_inputs(op, tile, in, t0, t1);
     if (r != EW_OK) return r;
-    band_conv(dev, s, net->enc[0], tile, e0 - t0, e1 - e0, e0);
-    ew_kpcn_pool_args a = {B->width, e1 - e0, s->sw[1], ew_kpcn_half(e1 - e0), net->ch, planes_t(B, net->h[0]),
-                           planes_t(&s->sb[1], net->in[1])};
-    a.src.data = ew_gn_plane_row(B, net->h[0], e0 - t0);
-    a.dst.data = ew_gn_plane_row(&s->sb[1], net->in[1], e0 / 2);
+    band_conv(dev, s, net->enc[0], tile, f0 - t0, f1 - f0, f0);
+    ew_kpcn_pool_args a = {B->width, f1 - f0, s->sw[1], ew_kpcn_half(f1 - f0), net->ch, planes_t(B, net->h[0]),
+                           planes_t(dst, 0)};
+    a.src.data = ew_gn_plane_row(B, net->h[0], f0 - t0);
+    a.dst.data = ew_gn_plane_row(dst, 0, dst_row);
     (void)EW_RUN(dev, kpcn_pool, &a);
     return EW_OK;
+}
+
+/* The encoders of scales 0 and 1 (kpcn.h): scale 1's in chunks of
+ * EW_KPCN_BAND_ROWS / 2 rows into its plane h, each once scale 0's has
+ * pooled the rows it reads into the band (its inputs: band row 0 is scale
+ * 1's row t0; the 2 rows above a chunk carried over from the chunk
+ * before). */
+static ew_result encode01(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in) {
+    ew_device *dev = op->dev;
+    const state *s = (const state *)op->state;
+    const ew_kpcn_net *net = &s->net;
+    const ew_gn_planes *I = &s->band1;
+    const int rh = s->sh[0], h1 = s->sh[1], C = net->ch, R = EW_CONV_R, A = EW_KPCN_BAND_ROWS / 2;
+    int t0 = 0, have = 0; /* scale 1's input rows t0 .. have are in the band */
+    ew_result r = EW_OK;
+    for (int a0 = 0; a0 < h1 && r == EW_OK; a0 += A) {
+        const int a1 = ew_mini(a0 + A, h1), need = ew_mini(a1 + R, h1);
+        if (need > have) r = encode0_rows(op, tile, in, 2 * have, ew_mini(2 * need, rh), I, have - t0);
+        have = need;
+        if (r == EW_OK && need == h1) r = zero_rows(dev, I, C, h1 - t0);
+        if (r != EW_OK) break;
+        conv_rows(dev, s, net->enc[1], tile, I, 0, a0 - t0, &s->sb[1], net->h[1], a0, a1 - a0, a0);
+        if (a1 < h1) {
+            r = carry_rows(dev, I, C, a1 - R - t0, have - (a1 - R));
+            t0 = a1 - R;
+        }
+    }
+    return r;
+}
+
+/* Scale 1's end (kpcn.h): the decoder band by band over its encoder's
+ * output h (the 2 rows above each band, overwritten by the band above,
+ * carried over in the band), then the head and the kernel filter band by
+ * band into the scale's output out[1]. */
+static ew_result decode1(ew_op *op, const ew_tile *tile) {
+    ew_device *dev = op->dev;
+    const state *s = (const state *)op->state;
+    const ew_kpcn_net *net = &s->net;
+    const ew_gn_planes *D = &s->band1, *P = &s->sb[1];
+    const int h1 = s->sh[1], C = net->ch, R = EW_CONV_R, S = net->scales, B = EW_KPCN_BAND_ROWS;
+    ew_result r = EW_OK;
+    for (int p0 = 0; p0 < h1 && r == EW_OK; p0 += B) {
+        const int p1 = ew_mini(p0 + B, h1), t0 = ew_maxi(p0 - R, 0), t1 = ew_mini(p1 + R, h1);
+        /* h's rows p0 .. t1 (rows t0 .. p0 are in the band already) */
+        for (int pl = 0; pl < C && r == EW_OK; pl++)
+            r = dev->backend->mem_copy(dev, ew_gn_plane_row(D, pl, p0 - t0), ew_gn_plane_row(P, net->h[1] + pl, p0),
+                                       (size_t)(t1 - p0) * (size_t)D->rs * sizeof(float));
+        if (r != EW_OK) break;
+        ew_kpcn_up_args ua = {D->width, t1 - t0, s->sw[2], s->sh[2], C,
+                              planes_t(&s->sb[2], S - 1 == 2 ? net->hb : net->d[2]), planes_t(D, C), t0};
+        (void)EW_RUN(dev, kpcn_up, &ua);
+        if (t1 == h1) r = zero_rows(dev, D, 2 * C, t1 - t0);
+        if (r != EW_OK) break;
+        conv_rows(dev, s, net->dec[1], tile, D, 0, p0 - t0, P, net->d[1], p0, p1 - p0, p0);
+        if (p1 < h1) r = carry_rows(dev, D, C, p1 - R - t0, R);
+    }
+    for (int q0 = 0; q0 < h1 && r == EW_OK; q0 += B) {
+        const int q1 = ew_mini(q0 + B, h1);
+        conv_rows(dev, s, net->lhead[1], tile, P, net->d[1], q0, D, 0, 0, q1 - q0, q0);
+        ew_kpcn_filter_args fa;
+        memset(&fa, 0, sizeof fa);
+        fa.width = s->sw[1];
+        fa.height = q1 - q0;
+        fa.y0 = q0;
+        fa.frame_h = h1;
+        fa.logits = planes_t(D, 0);
+        fa.radiance = flat_t(s->rad[1], s->sw[1], h1);
+        fa.coarse = flat_t(s->out[2], s->sw[2], s->sh[2]);
+        fa.cw = s->sw[2];
+        fa.ch = s->sh[2];
+        fa.out = flat_t(s->out[1], s->sw[1], h1);
+        (void)EW_RUN(dev, kpcn_filter, &fa);
+    }
+    return r;
 }
 
 /* Scale 0's end on the region's rows b0 .. b0 + EW_KPCN_BAND_ROWS (kpcn.h):
@@ -707,21 +826,22 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
     ia.noise_plane = net->noise;
     ia.noise = noise;
     ia.src_rs = rs;
-    /* the network (algorithms/kpcn.h's layer list): scale 0's encoder in bands, ... */
-    for (int e0 = 0; e0 < rh && r == EW_OK; e0 += EW_KPCN_BAND_ROWS) r = encode0_band(op, tile, &ia, e0);
+    /* the network (algorithms/kpcn.h's layer list): the encoders of
+     * scales 0 and 1 in bands, ... */
+    r = encode01(op, tile, &ia);
     if (r != EW_OK) return r;
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* ... the coarser scales whole ... */
     const int S = net->scales;
-    for (int k = 1; k < S - 1; k++) {
-        if (k > 1) pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
+    for (int k = 2; k < S - 1; k++) {
+        pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
         conv(dev, s, net->enc[k], tile);
     }
     pool(dev, &s->sb[S - 2], net->h[S - 2], &s->sb[S - 1], net->in[S - 1], C);
     conv(dev, s, net->enc_a, tile);
     conv(dev, s, net->enc_b, tile);
     conv(dev, s, net->lhead[S - 1], tile);
-    for (int k = S - 2; k >= 1; k--) {
+    for (int k = S - 2; k >= 2; k--) {
         up(dev, &s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->sb[k], net->u[k], C);
         conv(dev, s, net->dec[k], tile);
         conv(dev, s, net->lhead[k], tile);
@@ -736,7 +856,7 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
         (void)EW_RUN(dev, kpcn_pool, &pa);
         prev = pa.dst;
     }
-    for (int sc = S - 1; sc >= 1; sc--) {
+    for (int sc = S - 1; sc >= 2; sc--) {
         ew_kpcn_filter_args fa;
         memset(&fa, 0, sizeof fa);
         fa.width = s->sw[sc];
@@ -751,6 +871,9 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
         fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
         (void)EW_RUN(dev, kpcn_filter, &fa);
     }
+    /* ... scale 1's end in bands ... */
+    r = decode1(op, tile);
+    if (r != EW_OK) return r;
     /* ... and scale 0's end in bands (kpcn.h): one tile writes the frame;
      * several write their region, and keep the core */
     const ew_kpcn_tensor o = {s->tile_out ? s->tile_out : tile_target(s, net), 3, 3L * rw, 1};

@@ -146,11 +146,13 @@ extern const size_t ew_kpcn_builtin_sizes[EW_KPCN_NUM_MODELS];
  * head writes its logits over the planes below its input (the encoder's
  * output, the upsampled planes; the coarsest scale's pooled planes and
  * first encoder), which nothing reads once the decoder has run, where they
- * fit. kpcn-large (32 channels, a remodulation kernel) holds 96 planes at
- * full resolution and at the two finer half scales (the trainer's layout:
- * 158 and 154; with the heads alone over dead planes: 107 and 128): the
- * memory the op touches, the page faults of a first run and the tiles it
- * needs shrink with it. The arithmetic is the same. */
+ * fit. kpcn-large (32 channels, a remodulation kernel) would hold 96
+ * planes at full resolution and at the two finer half scales (the
+ * trainer's layout: 158 and 154; with the heads alone over dead planes:
+ * 107 and 128): the memory the op touches, the page faults of a first run
+ * and the tiles it needs shrink with it. The arithmetic is the same. Full
+ * resolution and scale 1 then run in bands (below): scale 1 keeps the 32
+ * planes of its encoder's output, the decoder's output written over them. */
 void ew_kpcn_inference_planes(ew_kpcn_net *net);
 
 /* The full-resolution scale in bands of rows: a region holds no plane of
@@ -178,9 +180,25 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net);
 #define EW_KPCN_BAND_MARGIN (EW_KPCN_ENC_MARGIN + EW_CONV_R)
 /* the rows of the band of a region h rows tall: its margins included */
 int ew_kpcn_band_rows(int h);
+
+/* Scale 1 in bands too, without computing anything twice: the region
+ * keeps its encoder's output h (C planes; before session 36 every plane of
+ * the scale, 3C: 75 MiB of a 4K tile's region for kpcn-large). The
+ * encoder runs on chunks of EW_KPCN_BAND_ROWS / 2 rows as soon as scale 0's
+ * encoder has pooled the rows it reads (2 beyond the chunk, kept in the
+ * band). Decoding, band by band of EW_KPCN_BAND_ROWS rows: h and the
+ * upsampled coarser output 2 rows beyond the band into the band, the
+ * decoder over h's rows of the band (the 2 rows above it, which it read
+ * and which the band above has overwritten, carried over in the band);
+ * then the head on bands of that decoder output into the band and the
+ * kernel filter. Every window starts on Winograd's 4-row grid and is whole:
+ * the same bits as the whole planes. */
+/* the rows and planes of scale 1's band, for a scale 1 h1 rows tall */
+int ew_kpcn_band1_rows(int h1);
+int ew_kpcn_band1_planes(const ew_kpcn_net *net);
 /* Floats of the scale buffers of a w x h region, in the op's order: the
- * planes of the scales below full resolution, scale 0's band (each laid out
- * by ew_gn_planes_layout, 16 floats apart). */
+ * planes of the scales below full resolution, scale 0's band, scale 1's
+ * band (each laid out by ew_gn_planes_layout, 16 floats apart). */
 size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h);
 
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
