@@ -883,7 +883,10 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
         if (r == EW_OK && !ew_op_report(op, p0 + (0.3 + 0.65 * done / rh) * dp))
             return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
-    if (r == EW_OK && s->tile_out && ew_harm_fused(op)) return fused_core(op, tile);
+    /* the stage in streamed tiles blends each region; tiles over the
+     * frame's planes (several passes: their mean is blended) leave it to
+     * the frame's end (execute) */
+    if (r == EW_OK && s->tile_out && s->streamed && ew_harm_fused(op)) return fused_core(op, tile);
     if (r == EW_OK && s->tile_out && s->held) /* over the colour: fcolor unused, the scratch */
         return ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->fcolor);
     if (s->tile_out) {
