@@ -779,11 +779,12 @@ static ew_result scale0_band(ew_op *op, const ew_tile *tile, const ew_kpcn_input
 /* A streamed tile's end with the do-no-harm stage in the tiles
  * (ew_harm_fused: the output is the colour's view, which holds the clamped
  * colour; the halo reaches ew_harm_region_margin past the core): the
- * region's output remodulated, blended on that colour (packed into fcolor,
- * unused while the colour is read in place) with the share the clamp took
- * (packed into target, unused while the output is written in place), the
- * core's share back where the stage reads it, and the core out through the
- * tile writer, which holds back what the next tiles' blends read. */
+ * region's output remodulated, blended on that colour (packed into the
+ * region's clamped radiance, read by nothing after the filters) with the
+ * share the clamp took (packed where the scales' radiance and outputs
+ * were: 1.5 floats a region pixel at least), the core's share back where
+ * the stage reads it, and the core out through the tile writer, which
+ * holds back what the next tiles read. */
 static ew_result fused_core(ew_op *op, const ew_tile *tile) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -791,12 +792,12 @@ static ew_result fused_core(ew_op *op, const ew_tile *tile) {
     const int W = b->width, rw = tile->rw, rh = tile->rh, ox = tile->cx - tile->rx, oy = tile->cy - tile->ry;
     if (!s->net.remod) finish_rows(op, tile->rx, tile->ry, rw, rh, s->tile_out); /* out = filtered * (albedo + eps), in place */
     const float *color = ew_dev_view_in_place(dev, ew_op_image(op, "color"), 3, NULL);
-    float *removed = ew_harm_clamp_removed(op);
-    ew_result r = ew_dev_copy_rect(dev, s->fcolor, rw, 0, 0, color, W, tile->rx, tile->ry, rw, rh, 3);
-    if (r == EW_OK) r = ew_dev_copy_rect(dev, s->target, rw, 0, 0, removed, W, tile->rx, tile->ry, rw, rh, 1);
-    if (r == EW_OK) r = ew_harm_region_done(op, rw, rh, s->fcolor, s->tile_out, s->target);
-    if (r == EW_OK) r = ew_dev_copy_rect(dev, removed, W, tile->cx, tile->cy, s->target, rw, ox, oy, tile->cw, tile->ch, 1);
-    return r == EW_OK ? ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->fcolor) : r;
+    float *removed = ew_harm_clamp_removed(op), *share = s->rad[1];
+    ew_result r = ew_dev_copy_rect(dev, s->clamped, rw, 0, 0, color, W, tile->rx, tile->ry, rw, rh, 3);
+    if (r == EW_OK) r = ew_dev_copy_rect(dev, share, rw, 0, 0, removed, W, tile->rx, tile->ry, rw, rh, 1);
+    if (r == EW_OK) r = ew_harm_region_done(op, rw, rh, s->clamped, s->tile_out, share);
+    if (r == EW_OK) r = ew_dev_copy_rect(dev, removed, W, tile->cx, tile->cy, share, rw, ox, oy, tile->cw, tile->ch, 1);
+    return r == EW_OK ? ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->clamped) : r;
 }
 
 /* The network and the filters on one tile's region, keeping its core in
@@ -887,8 +888,8 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
      * frame's planes (several passes: their mean is blended) leave it to
      * the frame's end (execute) */
     if (r == EW_OK && s->tile_out && s->streamed && ew_harm_fused(op)) return fused_core(op, tile);
-    if (r == EW_OK && s->tile_out && s->held) /* over the colour: fcolor unused, the scratch */
-        return ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->fcolor);
+    if (r == EW_OK && s->tile_out && s->held) /* the clamped radiance, read no more: the scratch */
+        return ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->clamped);
     if (s->tile_out) {
         const size_t row = (size_t)tile->cw * 3 * sizeof(float);
         for (int y = tile->cy; y < tile->cy + tile->ch && r == EW_OK; y++)
