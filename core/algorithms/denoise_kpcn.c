@@ -91,7 +91,7 @@ typedef struct {
     int lw, lh;             /* the region size sb is laid out for (0: none yet) */
     ew_gn_planes sb[EW_KPCN_MAX_SCALES]; /* the scales below full resolution (sb[0] unused) */
     ew_gn_planes band;                   /* every plane of scale 0 on a band of rows (kpcn.h) */
-    ew_gn_planes band1;                  /* scale 1's band (kpcn.h: ew_kpcn_band1_rows) */
+    ew_gn_planes sband[EW_KPCN_MAX_SCALES]; /* the bands of scales 1 .. S - 2 (kpcn.h: ew_kpcn_scale_band_rows) */
     float *rad[EW_KPCN_MAX_SCALES], *out[EW_KPCN_MAX_SCALES]; /* scales below full resolution: 3 planes each */
     float *tile_out;        /* scale 0's output on a region when there are several tiles */
     float *acc;             /* with several passes: the sum of the runs so far, 3 floats a pixel */
@@ -470,11 +470,6 @@ static void pool(ew_device *dev, const ew_gn_planes *f, int fp, const ew_gn_plan
     (void)EW_RUN(dev, kpcn_pool, &a);
 }
 
-static void up(ew_device *dev, const ew_gn_planes *c, int cp, const ew_gn_planes *f, int fp, int nplanes) {
-    ew_kpcn_up_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(c, cp), planes_t(f, fp), 0};
-    (void)EW_RUN(dev, kpcn_up, &a);
-}
-
 /* Where the full-resolution filter's output goes: the filtered radiance,
  * which denoise_finish multiplies by the albedo, or with a remodulation
  * kernel the output colour itself (the filter remodulates). */
@@ -494,7 +489,11 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
     }
     ew_gn_planes_layout(&s->band, p, rw, ew_kpcn_band_rows(rh), net->nplanes[0]);
     p += ew_gn_planes_floats(rw, ew_kpcn_band_rows(rh), net->nplanes[0]) + 16;
-    ew_gn_planes_layout(&s->band1, p, s->sw[1], ew_kpcn_band1_rows(s->sh[1]), ew_kpcn_band1_planes(net));
+    for (int k = 1; k < net->scales - 1; k++) {
+        const int rows = ew_kpcn_scale_band_rows(s->sh[k]), planes = ew_kpcn_scale_band_planes(net);
+        ew_gn_planes_layout(&s->sband[k], p, s->sw[k], rows, planes);
+        p += ew_gn_planes_floats(s->sw[k], rows, planes) + 16;
+    }
     s->lw = rw;
     s->lh = rh;
     return dev->backend->mem_zero(dev, s->scale_mem, s->scale_floats * sizeof(float));
@@ -648,27 +647,50 @@ static ew_result encode0_rows(ew_op *op, const ew_tile *tile, const ew_kpcn_inpu
     return EW_OK;
 }
 
-/* The encoders of scales 0 and 1 (kpcn.h): scale 1's in chunks of
- * EW_KPCN_BAND_ROWS / 2 rows into its plane h, each once scale 0's has
- * pooled the rows it reads into the band (its inputs: band row 0 is scale
- * 1's row t0; the 2 rows above a chunk carried over from the chunk
+/* The end of the chunk or band of n rows (a multiple of 4) from row y of
+ * a scale h rows tall whose first row is the frame's row g at that scale:
+ * on the frame's n-row grid there, so on Winograd's 4-row one (kpcn.h) */
+static int band_end(int y, int g, int n, int h) { return ew_mini((y + g) / n * n + n - g, h); }
+
+/* Scale k's inputs from row f0 / 2 into plane 0 of `dst` from row dst_row:
+ * scale 0's encoder on the region's rows f0 .. f1 pooled (k 1), or the
+ * finer scale's whole encoder output pooled */
+static ew_result feed_scale(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in, int k, int f0, int f1,
+                            const ew_gn_planes *dst, int dst_row) {
+    if (k == 1) return encode0_rows(op, tile, in, f0, f1, dst, dst_row);
+    const state *s = (const state *)op->state;
+    const ew_gn_planes *F = &s->sb[k - 1];
+    ew_kpcn_pool_args a = {F->width, f1 - f0, s->sw[k], ew_kpcn_half(f1 - f0), s->net.ch, planes_t(F, s->net.h[k - 1]),
+                           planes_t(dst, 0)};
+    a.src.data = ew_gn_plane_row(F, s->net.h[k - 1], f0);
+    a.dst.data = ew_gn_plane_row(dst, 0, dst_row);
+    (void)EW_RUN(op->dev, kpcn_pool, &a);
+    return EW_OK;
+}
+
+/* Scale k's encoder (0 < k < S - 1; kpcn.h) in chunks of
+ * EW_KPCN_BAND_ROWS / 2 rows into its plane h, each once the finer scale
+ * has pooled the rows it reads into the scale's band (band row 0: the
+ * scale's row t0; the 2 rows above a chunk carried over from the chunk
  * before). */
-static ew_result encode01(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in) {
+static ew_result encode_scale(ew_op *op, const ew_tile *tile, const ew_kpcn_input_args *in, int k) {
     ew_device *dev = op->dev;
     const state *s = (const state *)op->state;
     const ew_kpcn_net *net = &s->net;
-    const ew_gn_planes *I = &s->band1;
-    const int rh = s->sh[0], h1 = s->sh[1], C = net->ch, R = EW_CONV_R, A = EW_KPCN_BAND_ROWS / 2;
-    int t0 = 0, have = 0; /* scale 1's input rows t0 .. have are in the band */
+    const ew_gn_planes *I = &s->sband[k];
+    const int hk = s->sh[k], hf = s->sh[k - 1], C = net->ch, R = EW_CONV_R, A = EW_KPCN_BAND_ROWS / 2;
+    const int g = tile->ry >> k;
+    int t0 = 0, have = 0; /* the scale's input rows t0 .. have are in the band */
     ew_result r = EW_OK;
-    for (int a0 = 0; a0 < h1 && r == EW_OK; a0 += A) {
-        const int a1 = ew_mini(a0 + A, h1), need = ew_mini(a1 + R, h1);
-        if (need > have) r = encode0_rows(op, tile, in, 2 * have, ew_mini(2 * need, rh), I, have - t0);
+    for (int a0 = 0, a1; a0 < hk && r == EW_OK; a0 = a1) {
+        a1 = band_end(a0, g, A, hk);
+        const int need = ew_mini(a1 + R, hk);
+        if (need > have) r = feed_scale(op, tile, in, k, 2 * have, ew_mini(2 * need, hf), I, have - t0);
         have = need;
-        if (r == EW_OK && need == h1) r = zero_rows(dev, I, C, h1 - t0);
+        if (r == EW_OK && need == hk) r = zero_rows(dev, I, C, hk - t0);
         if (r != EW_OK) break;
-        conv_rows(dev, s, net->enc[1], tile, I, 0, a0 - t0, &s->sb[1], net->h[1], a0, a1 - a0, a0);
-        if (a1 < h1) {
+        conv_rows(dev, s, net->enc[k], tile, I, 0, a0 - t0, &s->sb[k], net->h[k], a0, a1 - a0, a0);
+        if (a1 < hk) {
             r = carry_rows(dev, I, C, a1 - R - t0, have - (a1 - R));
             t0 = a1 - R;
         }
@@ -676,47 +698,49 @@ static ew_result encode01(ew_op *op, const ew_tile *tile, const ew_kpcn_input_ar
     return r;
 }
 
-/* Scale 1's end (kpcn.h): the decoder band by band over its encoder's
- * output h (the 2 rows above each band, overwritten by the band above,
- * carried over in the band), then the head and the kernel filter band by
- * band into the scale's output out[1]. */
-static ew_result decode1(ew_op *op, const ew_tile *tile) {
+/* Scale k's end (0 < k < S - 1; kpcn.h): the decoder band by band over its
+ * encoder's output h (the 2 rows above each band, overwritten by the band
+ * above, carried over in the band), then the head and the kernel filter
+ * band by band into the scale's output out[k]. */
+static ew_result decode_scale(ew_op *op, const ew_tile *tile, int k) {
     ew_device *dev = op->dev;
     const state *s = (const state *)op->state;
     const ew_kpcn_net *net = &s->net;
-    const ew_gn_planes *D = &s->band1, *P = &s->sb[1];
-    const int h1 = s->sh[1], C = net->ch, R = EW_CONV_R, S = net->scales, B = EW_KPCN_BAND_ROWS;
+    const ew_gn_planes *D = &s->sband[k], *P = &s->sb[k];
+    const int hk = s->sh[k], C = net->ch, R = EW_CONV_R, S = net->scales, B = EW_KPCN_BAND_ROWS;
+    const int g = tile->ry >> k;
     ew_result r = EW_OK;
-    for (int p0 = 0; p0 < h1 && r == EW_OK; p0 += B) {
-        const int p1 = ew_mini(p0 + B, h1), t0 = ew_maxi(p0 - R, 0), t1 = ew_mini(p1 + R, h1);
+    for (int p0 = 0, p1; p0 < hk && r == EW_OK; p0 = p1) {
+        p1 = band_end(p0, g, B, hk);
+        const int t0 = ew_maxi(p0 - R, 0), t1 = ew_mini(p1 + R, hk);
         /* h's rows p0 .. t1 (rows t0 .. p0 are in the band already) */
         for (int pl = 0; pl < C && r == EW_OK; pl++)
-            r = dev->backend->mem_copy(dev, ew_gn_plane_row(D, pl, p0 - t0), ew_gn_plane_row(P, net->h[1] + pl, p0),
+            r = dev->backend->mem_copy(dev, ew_gn_plane_row(D, pl, p0 - t0), ew_gn_plane_row(P, net->h[k] + pl, p0),
                                        (size_t)(t1 - p0) * (size_t)D->rs * sizeof(float));
         if (r != EW_OK) break;
-        ew_kpcn_up_args ua = {D->width, t1 - t0, s->sw[2], s->sh[2], C,
-                              planes_t(&s->sb[2], S - 1 == 2 ? net->hb : net->d[2]), planes_t(D, C), t0};
+        ew_kpcn_up_args ua = {D->width, t1 - t0, s->sw[k + 1], s->sh[k + 1], C,
+                              planes_t(&s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1]), planes_t(D, C), t0};
         (void)EW_RUN(dev, kpcn_up, &ua);
-        if (t1 == h1) r = zero_rows(dev, D, 2 * C, t1 - t0);
+        if (t1 == hk) r = zero_rows(dev, D, 2 * C, t1 - t0);
         if (r != EW_OK) break;
-        conv_rows(dev, s, net->dec[1], tile, D, 0, p0 - t0, P, net->d[1], p0, p1 - p0, p0);
-        if (p1 < h1) r = carry_rows(dev, D, C, p1 - R - t0, R);
+        conv_rows(dev, s, net->dec[k], tile, D, 0, p0 - t0, P, net->d[k], p0, p1 - p0, p0);
+        if (p1 < hk) r = carry_rows(dev, D, C, p1 - R - t0, R);
     }
-    for (int q0 = 0; q0 < h1 && r == EW_OK; q0 += B) {
-        const int q1 = ew_mini(q0 + B, h1);
-        conv_rows(dev, s, net->lhead[1], tile, P, net->d[1], q0, D, 0, 0, q1 - q0, q0);
+    for (int q0 = 0, q1; q0 < hk && r == EW_OK; q0 = q1) {
+        q1 = band_end(q0, g, B, hk);
+        conv_rows(dev, s, net->lhead[k], tile, P, net->d[k], q0, D, 0, 0, q1 - q0, q0);
         ew_kpcn_filter_args fa;
         memset(&fa, 0, sizeof fa);
-        fa.width = s->sw[1];
+        fa.width = s->sw[k];
         fa.height = q1 - q0;
         fa.y0 = q0;
-        fa.frame_h = h1;
+        fa.frame_h = hk;
         fa.logits = planes_t(D, 0);
-        fa.radiance = flat_t(s->rad[1], s->sw[1], h1);
-        fa.coarse = flat_t(s->out[2], s->sw[2], s->sh[2]);
-        fa.cw = s->sw[2];
-        fa.ch = s->sh[2];
-        fa.out = flat_t(s->out[1], s->sw[1], h1);
+        fa.radiance = flat_t(s->rad[k], s->sw[k], hk);
+        fa.coarse = flat_t(s->out[k + 1], s->sw[k + 1], s->sh[k + 1]);
+        fa.cw = s->sw[k + 1];
+        fa.ch = s->sh[k + 1];
+        fa.out = flat_t(s->out[k], s->sw[k], hk);
         (void)EW_RUN(dev, kpcn_filter, &fa);
     }
     return r;
@@ -827,26 +851,17 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
     ia.noise_plane = net->noise;
     ia.noise = noise;
     ia.src_rs = rs;
-    /* the network (algorithms/kpcn.h's layer list): the encoders of
-     * scales 0 and 1 in bands, ... */
-    r = encode01(op, tile, &ia);
+    /* the network (algorithms/kpcn.h's layer list): the encoders of the
+     * scales but the coarsest in bands, ... */
+    const int S = net->scales;
+    for (int k = 1; k < S - 1 && r == EW_OK; k++) r = encode_scale(op, tile, &ia, k);
     if (r != EW_OK) return r;
     if (!ew_op_report(op, p0 + 0.05 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
-    /* ... the coarser scales whole ... */
-    const int S = net->scales;
-    for (int k = 2; k < S - 1; k++) {
-        pool(dev, &s->sb[k - 1], net->h[k - 1], &s->sb[k], net->in[k], C);
-        conv(dev, s, net->enc[k], tile);
-    }
+    /* ... the coarsest scale whole ... */
     pool(dev, &s->sb[S - 2], net->h[S - 2], &s->sb[S - 1], net->in[S - 1], C);
     conv(dev, s, net->enc_a, tile);
     conv(dev, s, net->enc_b, tile);
     conv(dev, s, net->lhead[S - 1], tile);
-    for (int k = S - 2; k >= 2; k--) {
-        up(dev, &s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1], &s->sb[k], net->u[k], C);
-        conv(dev, s, net->dec[k], tile);
-        conv(dev, s, net->lhead[k], tile);
-    }
     if (!ew_op_report(op, p0 + 0.3 * dp)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     /* the radiance pyramid, then the filters coarse to fine */
     const ew_kpcn_tensor rad0 = {(float *)rad, 3, 3L * rs, 1};
@@ -857,23 +872,16 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
         (void)EW_RUN(dev, kpcn_pool, &pa);
         prev = pa.dst;
     }
-    for (int sc = S - 1; sc >= 2; sc--) {
-        ew_kpcn_filter_args fa;
-        memset(&fa, 0, sizeof fa);
-        fa.width = s->sw[sc];
-        fa.height = s->sh[sc];
-        fa.logits = planes_t(&s->sb[sc], net->head[sc]);
-        fa.radiance = flat_t(s->rad[sc], s->sw[sc], s->sh[sc]);
-        if (sc + 1 < S) {
-            fa.coarse = flat_t(s->out[sc + 1], s->sw[sc + 1], s->sh[sc + 1]);
-            fa.cw = s->sw[sc + 1];
-            fa.ch = s->sh[sc + 1];
-        }
-        fa.out = flat_t(s->out[sc], s->sw[sc], s->sh[sc]);
-        (void)EW_RUN(dev, kpcn_filter, &fa);
-    }
-    /* ... scale 1's end in bands ... */
-    r = decode1(op, tile);
+    ew_kpcn_filter_args fa; /* the coarsest scale's filter */
+    memset(&fa, 0, sizeof fa);
+    fa.width = s->sw[S - 1];
+    fa.height = s->sh[S - 1];
+    fa.logits = planes_t(&s->sb[S - 1], net->head[S - 1]);
+    fa.radiance = flat_t(s->rad[S - 1], s->sw[S - 1], s->sh[S - 1]);
+    fa.out = flat_t(s->out[S - 1], s->sw[S - 1], s->sh[S - 1]);
+    (void)EW_RUN(dev, kpcn_filter, &fa);
+    /* ... the finer scales' ends in bands, coarse to fine ... */
+    for (int k = S - 2; k >= 1 && r == EW_OK; k--) r = decode_scale(op, tile, k);
     if (r != EW_OK) return r;
     /* ... and scale 0's end in bands (kpcn.h): one tile writes the frame;
      * several write their region, and keep the core */

@@ -228,22 +228,25 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net) {
         net->head[k] = 0;
         head->out_plane = 0;
     }
-    /* scale 1 runs in bands of rows (kpcn.h): its one whole plane group is
-     * the encoder's output, which the decoder then writes over; every
-     * other of its planes lies in the band (plane 0 there: the inputs, the
-     * decoder's [h, u], the head's logits) */
-    net->in[1] = net->h[1] = net->u[1] = net->d[1] = net->head[1] = 0;
-    net->nplanes[1] = c;
-    net->layers[net->enc[1]].in_plane = net->layers[net->enc[1]].out_plane = 0;
-    net->layers[net->dec[1]].in_plane = net->layers[net->dec[1]].out_plane = 0;
-    net->layers[net->lhead[1]].in_plane = net->layers[net->lhead[1]].out_plane = 0;
+    /* the scales between full resolution and the coarsest run in bands of
+     * rows (kpcn.h): their one whole plane group is the encoder's output,
+     * which the decoder then writes over; every other of their planes lies
+     * in the scale's band (plane 0 there: the inputs, the decoder's [h, u],
+     * the head's logits) */
+    for (int k = 1; k < S - 1; k++) {
+        net->in[k] = net->h[k] = net->u[k] = net->d[k] = net->head[k] = 0;
+        net->nplanes[k] = c;
+        net->layers[net->enc[k]].in_plane = net->layers[net->enc[k]].out_plane = 0;
+        net->layers[net->dec[k]].in_plane = net->layers[net->dec[k]].out_plane = 0;
+        net->layers[net->lhead[k]].in_plane = net->layers[net->lhead[k]].out_plane = 0;
+    }
 }
 
 int ew_kpcn_band_rows(int h) { return (h < EW_KPCN_BAND_ROWS ? h : EW_KPCN_BAND_ROWS) + 2 * EW_KPCN_BAND_MARGIN; }
 
-int ew_kpcn_band1_rows(int h1) { return (h1 < EW_KPCN_BAND_ROWS ? h1 : EW_KPCN_BAND_ROWS) + 2 * EW_CONV_R; }
+int ew_kpcn_scale_band_rows(int hk) { return (hk < EW_KPCN_BAND_ROWS ? hk : EW_KPCN_BAND_ROWS) + 2 * EW_CONV_R; }
 
-int ew_kpcn_band1_planes(const ew_kpcn_net *net) { return 2 * net->ch > EW_KPCN_HEAD ? 2 * net->ch : EW_KPCN_HEAD; }
+int ew_kpcn_scale_band_planes(const ew_kpcn_net *net) { return 2 * net->ch > EW_KPCN_HEAD ? 2 * net->ch : EW_KPCN_HEAD; }
 
 size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h) {
     int sw[EW_KPCN_MAX_SCALES], sh[EW_KPCN_MAX_SCALES];
@@ -251,7 +254,9 @@ size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h) {
     size_t f = 0;
     for (int s = 1; s < net->scales; s++) f += ew_gn_planes_floats(sw[s], sh[s], net->nplanes[s]) + 16;
     f += ew_gn_planes_floats(w, ew_kpcn_band_rows(h), net->nplanes[0]) + 16;
-    return f + ew_gn_planes_floats(sw[1], ew_kpcn_band1_rows(sh[1]), ew_kpcn_band1_planes(net)) + 16;
+    for (int s = 1; s < net->scales - 1; s++)
+        f += ew_gn_planes_floats(sw[s], ew_kpcn_scale_band_rows(sh[s]), ew_kpcn_scale_band_planes(net)) + 16;
+    return f;
 }
 
 size_t ew_kpcn_device_floats(const ew_kpcn_net *net, int w, int h) {

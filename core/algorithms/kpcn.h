@@ -181,24 +181,29 @@ void ew_kpcn_inference_planes(ew_kpcn_net *net);
 /* the rows of the band of a region h rows tall: its margins included */
 int ew_kpcn_band_rows(int h);
 
-/* Scale 1 in bands too, without computing anything twice: the region
- * keeps its encoder's output h (C planes; before session 36 every plane of
- * the scale, 3C: 75 MiB of a 4K tile's region for kpcn-large). The
- * encoder runs on chunks of EW_KPCN_BAND_ROWS / 2 rows as soon as scale 0's
- * encoder has pooled the rows it reads (2 beyond the chunk, kept in the
- * band). Decoding, band by band of EW_KPCN_BAND_ROWS rows: h and the
- * upsampled coarser output 2 rows beyond the band into the band, the
- * decoder over h's rows of the band (the 2 rows above it, which it read
- * and which the band above has overwritten, carried over in the band);
- * then the head on bands of that decoder output into the band and the
- * kernel filter. Every window starts on Winograd's 4-row grid and is whole:
+/* The scales between full resolution and the coarsest in bands too,
+ * without computing anything twice: the region keeps each one's encoder
+ * output h (C planes; before session 36 every plane of the scale, 3C: 75
+ * MiB of a 4K tile's region at kpcn-large's half scale). A scale's encoder
+ * runs on chunks of EW_KPCN_BAND_ROWS / 2 rows as soon as the finer scale
+ * has pooled the rows a chunk reads (2 beyond it, kept in the scale's
+ * band): scale 1's from scale 0's encoder band by band, the others' from
+ * the finer scale's whole h. Decoding, coarse to fine, band by band of
+ * EW_KPCN_BAND_ROWS rows: h and the upsampled coarser output 2 rows beyond
+ * the band into the band, the decoder over h's rows of the band (the 2
+ * rows above it, which it read and which the band above has overwritten,
+ * carried over in the band); then the head on bands of that decoder output
+ * into the band and the kernel filter. Chunks and bands end on rows of the
+ * frame's Winograd grid (the 4-row tiles anchored at the frame's origin,
+ * at the scale), so every window's tiles are whole and the frame's own:
  * the same bits as the whole planes. */
-/* the rows and planes of scale 1's band, for a scale 1 h1 rows tall */
-int ew_kpcn_band1_rows(int h1);
-int ew_kpcn_band1_planes(const ew_kpcn_net *net);
+/* the rows and planes of such a scale's band, for a scale hk rows tall */
+int ew_kpcn_scale_band_rows(int hk);
+int ew_kpcn_scale_band_planes(const ew_kpcn_net *net);
 /* Floats of the scale buffers of a w x h region, in the op's order: the
- * planes of the scales below full resolution, scale 0's band, scale 1's
- * band (each laid out by ew_gn_planes_layout, 16 floats apart). */
+ * planes of the scales below full resolution, scale 0's band, the bands of
+ * the scales between (each laid out by ew_gn_planes_layout, 16 floats
+ * apart). */
 size_t ew_kpcn_planes_floats(const ew_kpcn_net *net, int w, int h);
 
 /* Device floats the op needs for a w x h frame beyond its packed inputs:
