@@ -152,15 +152,15 @@ static int passes_of(const ew_op *op) { return (int)ew_op_param(op, "passes"); }
  * BAND_ROWS rows with its window's rows above and below, each band's own
  * rows kept (the same bits as over the frame: a window inside the band's
  * rows is the frame's window). One sweep over the frame gives the noise
- * level's row sums and the light the clamp took; then for each row of
- * tiles the clamped radiance of its regions' rows, which the tiles read
- * around their cores (a frame of it would be 95 MiB at 3840x2160; a row of
- * kpcn-large's regions there is a third of that). The result goes straight
- * into the output view when that is packed RGB float: the colour is not
- * read after the bands. Not with several passes (they mirror frames of
- * inputs), nor on a device with memory of its own (the views are copied
- * to it whole anyway). */
-#define BAND_ROWS 32
+ * level's row sums and the light the clamp took; then each tile clamps its
+ * region's radiance (a frame of it would be 95 MiB at 3840x2160). The
+ * result goes straight into the output view when that is packed RGB
+ * float (through the tile writer when it is the colour's). Not with several
+ * passes (they mirror frames of inputs), nor on a device with memory of
+ * its own (the views are copied to it whole anyway). Bands of 8 rows: the
+ * sweep's bands are the frame's width (3 MiB less than 32 rows at 4K;
+ * the clamp is a small part of the work, margins and all). */
+#define BAND_ROWS 8
 #define BAND_FLOATS_PX 8 /* radiance 3, guide 1, clamped 3, removed 1 */
 static int can_stream(const ew_op *op) { return !op->dev->device_memory && passes_of(op) == 1; }
 /* the clamp's window's rows above and below a band */

@@ -860,7 +860,7 @@ static void denoise_budget_views(const scene *sc, const void *bytes, size_t size
  * right and bottom, tiles of three widths and heights) gives the same bits
  * tiled as in one pass: the halo covers everything a core pixel sees, and
  * the noise level and the firefly clamp come from the whole frame (on the
- * CPU tiles are streamed: the clamp runs in bands of 32 rows, so fireflies
+ * CPU tiles are streamed: the clamp runs in bands of 8 rows, so fireflies
  * and missing samples sit on and beside band seams too), whichever views
  * the op reads and writes in place or copies (direct convolutions). With
  * direct convolutions. With Winograd's (the default on CPUs with AVX2), an
