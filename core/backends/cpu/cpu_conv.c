@@ -211,24 +211,73 @@ static const double wino_g[8][5] = {
     {0.0, 0.0, 0.0, 0.0, 1.0},
 };
 
-void ew_conv_cpu_wino_weights(int cin, int cout, const float *w, float *u) {
-    for (int co = 0; co < cout; co++)
-        for (int ci = 0; ci < cin; ci++) {
-            const float *g = w + ((long)co * cin + ci) * 25;
-            double t[8][5];
-            for (int i = 0; i < 8; i++)
+/* The transformed weights of input channels ci0 .. ci1, each element as
+ * its own sum in the same order (any split, any vector width gives the
+ * same bits): the output channels side by side, so the sums run across
+ * them (vectorised) and each transform position's are written in a row.
+ * The bands' windows transform their layer's weights once a call, a few
+ * thousand calls a 4K frame. */
+static void wino_weights_rows(int cin, int cout, const float *w, float *u, int ci0, int ci1) {
+    double *g = (double *)malloc(sizeof(double) * (size_t)cout * (25 + 40 + 1));
+    if (!g) { /* element by element */
+        for (int ci = ci0; ci < ci1; ci++)
+            for (int co = 0; co < cout; co++) {
+                const float *gp = w + ((long)co * cin + ci) * 25;
+                double t[8][5];
+                for (int i = 0; i < 8; i++)
+                    for (int kx = 0; kx < 5; kx++) {
+                        double sum = 0.0;
+                        for (int ky = 0; ky < 5; ky++) sum += wino_g[i][ky] * (double)gp[ky * 5 + kx];
+                        t[i][kx] = sum;
+                    }
+                for (int i = 0; i < 8; i++)
+                    for (int j = 0; j < 8; j++) {
+                        double sum = 0.0;
+                        for (int kx = 0; kx < 5; kx++) sum += t[i][kx] * wino_g[j][kx];
+                        u[((long)(i * 8 + j) * cin + ci) * cout + co] = (float)sum;
+                    }
+            }
+        return;
+    }
+    double *t = g + (size_t)25 * cout, *acc = t + (size_t)40 * cout;
+    for (int ci = ci0; ci < ci1; ci++) {
+        for (int co = 0; co < cout; co++)
+            for (int k = 0; k < 25; k++) g[(size_t)k * cout + co] = (double)w[((long)co * cin + ci) * 25 + k];
+        for (int i = 0; i < 8; i++)
+            for (int kx = 0; kx < 5; kx++) {
+                double *tt = t + (size_t)(i * 5 + kx) * cout;
+                for (int co = 0; co < cout; co++) tt[co] = 0.0;
+                for (int ky = 0; ky < 5; ky++) {
+                    const double c = wino_g[i][ky], *gg = g + (size_t)(ky * 5 + kx) * cout;
+                    for (int co = 0; co < cout; co++) tt[co] += c * gg[co];
+                }
+            }
+        for (int i = 0; i < 8; i++)
+            for (int j = 0; j < 8; j++) {
+                for (int co = 0; co < cout; co++) acc[co] = 0.0;
                 for (int kx = 0; kx < 5; kx++) {
-                    double s = 0.0;
-                    for (int ky = 0; ky < 5; ky++) s += wino_g[i][ky] * (double)g[ky * 5 + kx];
-                    t[i][kx] = s;
+                    const double c = wino_g[j][kx], *tt = t + (size_t)(i * 5 + kx) * cout;
+                    for (int co = 0; co < cout; co++) acc[co] += tt[co] * c;
                 }
-            for (int i = 0; i < 8; i++)
-                for (int j = 0; j < 8; j++) {
-                    double s = 0.0;
-                    for (int kx = 0; kx < 5; kx++) s += t[i][kx] * wino_g[j][kx];
-                    u[((long)(i * 8 + j) * cin + ci) * cout + co] = (float)s;
-                }
-        }
+                float *ur = u + ((long)(i * 8 + j) * cin + ci) * cout;
+                for (int co = 0; co < cout; co++) ur[co] = (float)acc[co];
+            }
+    }
+    free(g);
+}
+
+void ew_conv_cpu_wino_weights(int cin, int cout, const float *w, float *u) { wino_weights_rows(cin, cout, w, u, 0, cin); }
+
+typedef struct {
+    int cin, cout;
+    const float *w;
+    float *u;
+} wino_weights_job;
+
+static void wino_weights_items(void *ctx, int64_t begin, int64_t end, int tid) {
+    (void)tid;
+    const wino_weights_job *j = (const wino_weights_job *)ctx;
+    wino_weights_rows(j->cin, j->cout, j->w, j->u, (int)begin, (int)end);
 }
 
 #ifdef EW_HAVE_AVX2_PATH
@@ -271,7 +320,10 @@ static int conv5_wino(ew_device *dev, const ew_conv_args *a, int level) {
     const size_t per = wino_scratch_floats(level, a->cin), nu = (size_t)64 * a->cin * a->cout;
     float *mem = (float *)calloc(nu + per * (size_t)threads + 16, sizeof(float));
     if (!mem) return 0;
-    ew_conv_cpu_wino_weights(a->cin, a->cout, a->weight, mem);
+    /* on the pool's threads: the bands' windows transform their layer's
+     * weights once a call, a few thousand calls a 4K frame */
+    wino_weights_job wj = {a->cin, a->cout, a->weight, mem};
+    ew_pool_run(dev->pool, a->cin, 1, wino_weights_items, &wj);
     float *scratch = mem + (nu + 15) / 16 * 16;
     /* the tiles start at x = -px, r = -py: (grid_x, grid_y) mod 4 */
     const int px = ((a->grid_x % 4) + 4) % 4, py = ((a->grid_y % 4) + 4) % 4;
