@@ -1181,7 +1181,7 @@ TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
 TEST(passes_in_tiles_with_the_output_over_the_colour) {
     ew_device *dev = make_direct_device(2);
     scene sc;
-    scene_make(&sc, 420, 580, 21);
+    scene_make(&sc, 420, 300, 21);
     unsigned seed = 77;
     const long n3 = (long)sc.w * sc.h * 3;
     for (long i = 0; i < n3; i++) sc.color[i] = sc.ref[i] * (1.0f + 0.5f * (2.0f * urand(&seed) - 1.0f));
