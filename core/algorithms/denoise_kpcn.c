@@ -84,7 +84,7 @@ typedef struct {
     const ew_net_model *m;
     ew_kpcn_net net; /* m's network with the op's plane layout */
     ew_denoise_buffers buf;
-    float *params, *clamped; /* streamed: one region's clamped radiance, packed */
+    float *params, *clamped; /* the clamped radiance: the frame's, or streamed a region's (packed) */
     ew_tiling tiling;
     float *scale_mem;       /* the scale buffers of one region */
     size_t scale_floats;
