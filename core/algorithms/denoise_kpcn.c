@@ -450,24 +450,52 @@ static ew_kpcn_tensor flat_t(float *p, int w, int h) {
     return t;
 }
 
-/* Layer l on the region of `tile`: Winograd where the backend has it, its
+/* Layer l of scale k on `rows` rows: its input from plane ip of `in` at
+ * row ir, its output into plane opl of `out` at row orow, on the scale's
+ * rows y .. y + rows of the region. Winograd where the backend has it, its
  * tiles anchored at the frame's origin (the region's at this scale is
  * tile->rx / 2^scale, exact: regions start on multiples of 2^(S-1)), so
- * inside a region they are the whole frame's tiles; the tiled output is
- * the untiled one to rounding (docs/kpcn.md, "tiles"). */
-static void conv(ew_device *dev, const state *s, int l, const ew_tile *tile) {
+ * inside a region, and in a band whose rows start on the grid (kpcn.h),
+ * they are the whole frame's tiles; the tiled output is the untiled one to
+ * rounding (docs/kpcn.md, "tiles"). */
+static void conv_rows(ew_device *dev, const state *s, int l, const ew_tile *tile, const ew_gn_planes *in, int ip,
+                      int ir, const ew_gn_planes *out, int opl, int orow, int rows, int y) {
     ew_conv_args a;
     ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
     const int k = s->net.layers[l].scale;
+    a.width = in->width;
+    a.rows = rows;
+    a.in = ew_gn_plane_row(in, ip, ir);
+    a.in_rs = in->rs;
+    a.in_ps = in->ps;
+    a.out = ew_gn_plane_row(out, opl, orow);
+    a.out_rs = out->rs;
+    a.out_ps = out->ps;
     a.winograd = 1;
     a.grid_x = tile->rx >> k;
-    a.grid_y = tile->ry >> k;
+    a.grid_y = (tile->ry >> k) + y;
     dev->backend->conv5(dev, &a);
 }
 
-static void pool(ew_device *dev, const ew_gn_planes *f, int fp, const ew_gn_planes *c, int cp, int nplanes) {
-    ew_kpcn_pool_args a = {f->width, f->rows, c->width, c->rows, nplanes, planes_t(f, fp), planes_t(c, cp)};
+/* Layer l on its scale's whole planes of the region */
+static void conv(ew_device *dev, const state *s, int l, const ew_tile *tile) {
+    const ew_kpcn_layer *L = &s->net.layers[l];
+    const ew_gn_planes *b = &s->sb[L->scale];
+    conv_rows(dev, s, l, tile, b, L->in_plane, 0, b, L->out_plane, 0, b->rows, 0);
+}
+
+/* The 2x2 pooling of rows f0 .. f0 + rows of plane fp of f (and the n - 1
+ * after it) into plane cp of c from row c_row */
+static void pool_rows(ew_device *dev, const ew_gn_planes *f, int fp, int f0, int rows, const ew_gn_planes *c, int cp,
+                      int c_row, int n) {
+    ew_kpcn_pool_args a = {f->width, rows, c->width, ew_kpcn_half(rows), n, planes_t(f, fp), planes_t(c, cp)};
+    a.src.data = ew_gn_plane_row(f, fp, f0);
+    a.dst.data = ew_gn_plane_row(c, cp, c_row);
     (void)EW_RUN(dev, kpcn_pool, &a);
+}
+
+static void pool(ew_device *dev, const ew_gn_planes *f, int fp, const ew_gn_planes *c, int cp, int nplanes) {
+    pool_rows(dev, f, fp, 0, f->rows, c, cp, 0, nplanes);
 }
 
 /* Where the full-resolution filter's output goes: the filtered radiance,
@@ -500,17 +528,10 @@ static ew_result layout_region(ew_device *dev, state *s, int rw, int rh) {
 }
 
 /* Layer l of scale 0 on `rows` rows of its band from band row `row` (the
- * region's row y): Winograd tiles anchored at the frame's origin as conv's. */
+ * region's row y) */
 static void band_conv(ew_device *dev, const state *s, int l, const ew_tile *tile, int row, int rows, int y) {
-    ew_conv_args a;
-    ew_kpcn_layer_args(&s->net, l, s->params, &s->band, &a); /* a layer of scale 0: the band's planes */
-    a.rows = rows;
-    a.in += (long)row * a.in_rs;
-    a.out += (long)row * a.out_rs;
-    a.winograd = 1;
-    a.grid_x = tile->rx;
-    a.grid_y = tile->ry + y;
-    dev->backend->conv5(dev, &a);
+    const ew_kpcn_layer *L = &s->net.layers[l];
+    conv_rows(dev, s, l, tile, &s->band, L->in_plane, row, &s->band, L->out_plane, row, rows, y);
 }
 
 /* Rows y0 .. y1, columns x0 .. x1 of feature i (albedo, normal, depth) as
@@ -583,29 +604,6 @@ static ew_result band_inputs(ew_op *op, const ew_tile *tile, const ew_kpcn_input
     return r;
 }
 
-/* Layer l of scale k on `rows` rows of planes other than the region's
- * (kpcn.h's bands): its input from plane ip of `in` at row ir, its output
- * into plane opl of `out` at row orow, on the scale's rows y .. y + rows
- * of the region (Winograd's tiles anchored at the frame's origin). */
-static void conv_rows(ew_device *dev, const state *s, int l, const ew_tile *tile, const ew_gn_planes *in, int ip,
-                      int ir, const ew_gn_planes *out, int opl, int orow, int rows, int y) {
-    ew_conv_args a;
-    ew_kpcn_layer_args(&s->net, l, s->params, s->sb, &a);
-    const int k = s->net.layers[l].scale;
-    a.width = in->width;
-    a.rows = rows;
-    a.in = ew_gn_plane_row(in, ip, ir);
-    a.in_rs = in->rs;
-    a.in_ps = in->ps;
-    a.out = ew_gn_plane_row(out, opl, orow);
-    a.out_rs = out->rs;
-    a.out_ps = out->ps;
-    a.winograd = 1;
-    a.grid_x = tile->rx >> k;
-    a.grid_y = (tile->ry >> k) + y;
-    dev->backend->conv5(dev, &a);
-}
-
 /* Zeroes rows r .. r + EW_CONV_R of planes 0 .. n of a band: past the
  * region's last row, as its planes' padding */
 static ew_result zero_rows(ew_device *dev, const ew_gn_planes *b, int n, int r) {
@@ -615,12 +613,15 @@ static ew_result zero_rows(ew_device *dev, const ew_gn_planes *b, int n, int r) 
     return res;
 }
 
-/* Moves `rows` rows of planes 0 .. n of a band from row `from` up to row 0 */
-static ew_result carry_rows(ew_device *dev, const ew_gn_planes *b, int n, int from, int rows) {
+/* Copies `rows` rows of n planes from plane sp of src at row from to
+ * planes 0 .. n of dst at row to (the same width: the same row stride;
+ * whole rows, their zero padding with them) */
+static ew_result copy_rows(ew_device *dev, const ew_gn_planes *dst, int to, const ew_gn_planes *src, int sp, int from,
+                           int n, int rows) {
     ew_result res = EW_OK;
     for (int pl = 0; pl < n && res == EW_OK; pl++)
-        res = dev->backend->mem_copy(dev, ew_gn_plane_row(b, pl, 0), ew_gn_plane_row(b, pl, from),
-                                     (size_t)rows * (size_t)b->rs * sizeof(float));
+        res = dev->backend->mem_copy(dev, ew_gn_plane_row(dst, pl, to), ew_gn_plane_row(src, sp + pl, from),
+                                     (size_t)rows * (size_t)dst->rs * sizeof(float));
     return res;
 }
 
@@ -639,11 +640,7 @@ static ew_result encode0_rows(ew_op *op, const ew_tile *tile, const ew_kpcn_inpu
     const ew_result r = band_inputs(op, tile, in, t0, t1);
     if (r != EW_OK) return r;
     band_conv(dev, s, net->enc[0], tile, f0 - t0, f1 - f0, f0);
-    ew_kpcn_pool_args a = {B->width, f1 - f0, s->sw[1], ew_kpcn_half(f1 - f0), net->ch, planes_t(B, net->h[0]),
-                           planes_t(dst, 0)};
-    a.src.data = ew_gn_plane_row(B, net->h[0], f0 - t0);
-    a.dst.data = ew_gn_plane_row(dst, 0, dst_row);
-    (void)EW_RUN(dev, kpcn_pool, &a);
+    pool_rows(dev, B, net->h[0], f0 - t0, f1 - f0, dst, 0, dst_row, net->ch);
     return EW_OK;
 }
 
@@ -659,12 +656,7 @@ static ew_result feed_scale(ew_op *op, const ew_tile *tile, const ew_kpcn_input_
                             const ew_gn_planes *dst, int dst_row) {
     if (k == 1) return encode0_rows(op, tile, in, f0, f1, dst, dst_row);
     const state *s = (const state *)op->state;
-    const ew_gn_planes *F = &s->sb[k - 1];
-    ew_kpcn_pool_args a = {F->width, f1 - f0, s->sw[k], ew_kpcn_half(f1 - f0), s->net.ch, planes_t(F, s->net.h[k - 1]),
-                           planes_t(dst, 0)};
-    a.src.data = ew_gn_plane_row(F, s->net.h[k - 1], f0);
-    a.dst.data = ew_gn_plane_row(dst, 0, dst_row);
-    (void)EW_RUN(op->dev, kpcn_pool, &a);
+    pool_rows(op->dev, &s->sb[k - 1], s->net.h[k - 1], f0, f1 - f0, dst, 0, dst_row, s->net.ch);
     return EW_OK;
 }
 
@@ -691,7 +683,7 @@ static ew_result encode_scale(ew_op *op, const ew_tile *tile, const ew_kpcn_inpu
         if (r != EW_OK) break;
         conv_rows(dev, s, net->enc[k], tile, I, 0, a0 - t0, &s->sb[k], net->h[k], a0, a1 - a0, a0);
         if (a1 < hk) {
-            r = carry_rows(dev, I, C, a1 - R - t0, have - (a1 - R));
+            r = copy_rows(dev, I, 0, I, 0, a1 - R - t0, C, have - (a1 - R)); /* up to row 0 */
             t0 = a1 - R;
         }
     }
@@ -714,9 +706,7 @@ static ew_result decode_scale(ew_op *op, const ew_tile *tile, int k) {
         p1 = band_end(p0, g, B, hk);
         const int t0 = ew_maxi(p0 - R, 0), t1 = ew_mini(p1 + R, hk);
         /* h's rows p0 .. t1 (rows t0 .. p0 are in the band already) */
-        for (int pl = 0; pl < C && r == EW_OK; pl++)
-            r = dev->backend->mem_copy(dev, ew_gn_plane_row(D, pl, p0 - t0), ew_gn_plane_row(P, net->h[k] + pl, p0),
-                                       (size_t)(t1 - p0) * (size_t)D->rs * sizeof(float));
+        r = copy_rows(dev, D, p0 - t0, P, net->h[k], p0, C, t1 - p0);
         if (r != EW_OK) break;
         ew_kpcn_up_args ua = {D->width, t1 - t0, s->sw[k + 1], s->sh[k + 1], C,
                               planes_t(&s->sb[k + 1], k + 1 == S - 1 ? net->hb : net->d[k + 1]), planes_t(D, C), t0};
@@ -724,7 +714,7 @@ static ew_result decode_scale(ew_op *op, const ew_tile *tile, int k) {
         if (t1 == hk) r = zero_rows(dev, D, 2 * C, t1 - t0);
         if (r != EW_OK) break;
         conv_rows(dev, s, net->dec[k], tile, D, 0, p0 - t0, P, net->d[k], p0, p1 - p0, p0);
-        if (p1 < hk) r = carry_rows(dev, D, C, p1 - R - t0, R);
+        if (p1 < hk) r = copy_rows(dev, D, 0, D, 0, p1 - R - t0, C, R); /* up to row 0 */
     }
     for (int q0 = 0, q1; q0 < hk && r == EW_OK; q0 = q1) {
         q1 = band_end(q0, g, B, hk);
