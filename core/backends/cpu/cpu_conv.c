@@ -198,6 +198,7 @@ static void conv5_direct(ew_device *dev, const ew_conv_args *a) {
 }
 
 /* ---- Winograd F(4x4, 5x5) (cpu_conv_wino.h) ---------------------------- */
+#ifdef EW_HAVE_AVX2_PATH
 /* G of tools/winograd_f4x5.py: the kernel's transform, applied in double
  * once per call. */
 static const double wino_g[8][5] = {
@@ -211,34 +212,16 @@ static const double wino_g[8][5] = {
     {0.0, 0.0, 0.0, 0.0, 1.0},
 };
 
-/* The transformed weights of input channels ci0 .. ci1, each element as
- * its own sum in the same order (any split, any vector width gives the
- * same bits): the output channels side by side, so the sums run across
- * them (vectorised) and each transform position's are written in a row.
- * The bands' windows transform their layer's weights once a call, a few
- * thousand calls a 4K frame. */
-static void wino_weights_rows(int cin, int cout, const float *w, float *u, int ci0, int ci1) {
-    double *g = (double *)malloc(sizeof(double) * (size_t)cout * (25 + 40 + 1));
-    if (!g) { /* element by element */
-        for (int ci = ci0; ci < ci1; ci++)
-            for (int co = 0; co < cout; co++) {
-                const float *gp = w + ((long)co * cin + ci) * 25;
-                double t[8][5];
-                for (int i = 0; i < 8; i++)
-                    for (int kx = 0; kx < 5; kx++) {
-                        double sum = 0.0;
-                        for (int ky = 0; ky < 5; ky++) sum += wino_g[i][ky] * (double)gp[ky * 5 + kx];
-                        t[i][kx] = sum;
-                    }
-                for (int i = 0; i < 8; i++)
-                    for (int j = 0; j < 8; j++) {
-                        double sum = 0.0;
-                        for (int kx = 0; kx < 5; kx++) sum += t[i][kx] * wino_g[j][kx];
-                        u[((long)(i * 8 + j) * cin + ci) * cout + co] = (float)sum;
-                    }
-            }
-        return;
-    }
+/* Doubles of one thread's scratch for wino_weights_rows on cout outputs */
+static size_t wino_weights_scratch(int cout) { return ((size_t)cout * 66 + 7) / 8 * 8; }
+
+/* The transformed kernels U = G g G^T the Winograd products read
+ * ([64][cin][cout] floats from the [cout][cin][5][5] weights) of input
+ * channels ci0 .. ci1, each element as its own sum in the same order (any
+ * split, any vector width gives the same bits): the output channels side
+ * by side in g (wino_weights_scratch), so the sums run across them
+ * (vectorised) and each transform position's are written in a row. */
+static void wino_weights_rows(int cin, int cout, const float *w, float *u, int ci0, int ci1, double *g) {
     double *t = g + (size_t)25 * cout, *acc = t + (size_t)40 * cout;
     for (int ci = ci0; ci < ci1; ci++) {
         for (int co = 0; co < cout; co++)
@@ -263,24 +246,21 @@ static void wino_weights_rows(int cin, int cout, const float *w, float *u, int c
                 for (int co = 0; co < cout; co++) ur[co] = (float)acc[co];
             }
     }
-    free(g);
 }
-
-void ew_conv_cpu_wino_weights(int cin, int cout, const float *w, float *u) { wino_weights_rows(cin, cout, w, u, 0, cin); }
 
 typedef struct {
     int cin, cout;
     const float *w;
     float *u;
+    double *scratch; /* wino_weights_scratch(cout) doubles a thread */
 } wino_weights_job;
 
 static void wino_weights_items(void *ctx, int64_t begin, int64_t end, int tid) {
-    (void)tid;
     const wino_weights_job *j = (const wino_weights_job *)ctx;
-    wino_weights_rows(j->cin, j->cout, j->w, j->u, (int)begin, (int)end);
+    wino_weights_rows(j->cin, j->cout, j->w, j->u, (int)begin, (int)end,
+                      j->scratch + (size_t)tid * wino_weights_scratch(j->cout));
 }
 
-#ifdef EW_HAVE_AVX2_PATH
 /* tiles per item and output channels per block of the products (the
  * EW_WXB * EW_VW and EW_WCB of each instruction set in cpu_conv_wino.h) */
 static int wino_tiles(int level) { return level == 2 ? 32 : 24; }
@@ -318,13 +298,15 @@ static int conv5_wino(ew_device *dev, const ew_conv_args *a, int level) {
     if (level < 1 || a->accumulate || a->width <= 0 || a->rows <= 0) return 0;
     const int threads = ew_pool_threads(dev->pool) > 0 ? ew_pool_threads(dev->pool) : 1;
     const size_t per = wino_scratch_floats(level, a->cin), nu = (size_t)64 * a->cin * a->cout;
-    float *mem = (float *)calloc(nu + per * (size_t)threads + 16, sizeof(float));
+    const size_t tw = 2 * wino_weights_scratch(a->cout) * (size_t)threads; /* floats of the transform's doubles */
+    float *mem = (float *)calloc(nu + per * (size_t)threads + tw + 32, sizeof(float));
     if (!mem) return 0;
-    /* on the pool's threads: the bands' windows transform their layer's
-     * weights once a call, a few thousand calls a 4K frame */
-    wino_weights_job wj = {a->cin, a->cout, a->weight, mem};
-    ew_pool_run(dev->pool, a->cin, 1, wino_weights_items, &wj);
     float *scratch = mem + (nu + 15) / 16 * 16;
+    /* the layer's weights, on the pool's threads: kpcn's bands make a few
+     * thousand calls a 4K frame, each transforming its layer's */
+    wino_weights_job wj = {a->cin, a->cout, a->weight, mem,
+                           (double *)(void *)(scratch + ((per * (size_t)threads + 15) / 16 * 16))};
+    ew_pool_run(dev->pool, a->cin, 1, wino_weights_items, &wj);
     /* the tiles start at x = -px, r = -py: (grid_x, grid_y) mod 4 */
     const int px = ((a->grid_x % 4) + 4) % 4, py = ((a->grid_y % 4) + 4) % 4;
     const int nt = wino_tiles(level), tiles_x = (a->width + px + 3) / 4, tiles_y = (a->rows + py + 3) / 4;

@@ -62,8 +62,5 @@ int ew_conv_cpu_wino_pays(const ew_conv_args *a);
  * capped at level (ew_conv_cpu_simd_level's numbers); returns the path
  * that ran. ew_cpu_conv5 is (dev, a, EW_CONV_CPU_AUTO, 2). */
 int ew_cpu_conv5_path(ew_device *dev, const ew_conv_args *a, int path, int level);
-/* The transformed kernels U = G g G^T the Winograd products read:
- * [64][cin][cout] floats from the [cout][cin][5][5] weights. */
-void ew_conv_cpu_wino_weights(int cin, int cout, const float *w, float *u);
 
 #endif
