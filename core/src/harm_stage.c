@@ -652,26 +652,46 @@ float *ew_harm_clamp_removed(const ew_op *op) {
     return s ? s->removed : NULL;
 }
 
-/* The pilot's output (3 floats a pixel, host memory) on the colour the
- * method is about to read and the op's features: kpcn's default model,
- * built for this frame and freed after it, so that its tiles are not held
- * while the method runs. Its stage blends (kpcn blurs detail of a converged
- * frame too, and the pilot's distance from the input is the noise figure:
- * a pilot that kept that detail tells it from noise) but does not reject
- * (the colour is the stage's, rejected already). On the training scenes
- * the pilot's own blend took the frames of bgrid below input - 0.2 dB at
- * 64 spp from 4 to 1 against the pilot without it. NULL in *out when it
- * could not run (the stage then blends as without it). */
-static ew_result run_pilot(ew_op *op, float **out) {
+/* A share [from, from + span) of a progress callback's range */
+typedef struct {
+    ew_progress_fn fn;
+    void *user;
+    double from, span;
+} progress_span;
+
+static int span_report(void *user, double f) {
+    const progress_span *ps = (const progress_span *)user;
+    return ps->fn(ps->user, ps->from + ps->span * f);
+}
+
+/* The share of the op's progress the pilot takes (kpcn takes about as long
+ * as nbg and bgrid together at 4K) */
+#define HARM_PILOT_PROGRESS 0.5
+
+/* The pilot's output (3 floats a pixel, host memory: `into` when given,
+ * else a buffer of its own, *owned 1) on the colour the method reads and
+ * the op's features: kpcn's default model, built for this frame and freed
+ * after it, so that its tiles are not held while the method runs. Its
+ * stage blends (kpcn blurs detail of a converged frame too, and the
+ * pilot's distance from the input is the noise figure: a pilot that kept
+ * that detail tells it from noise) but does not reject (the colour is the
+ * stage's, rejected already). On the training scenes the pilot's own blend
+ * took the frames of bgrid below input - 0.2 dB at 64 spp from 4 to 1
+ * against the pilot without it. Its progress is the op's span `ps` (fn
+ * NULL: none). NULL in *out when it could not run (the stage then blends
+ * as without it). */
+static ew_result run_pilot(ew_op *op, float *into, progress_span *ps, float **out, int *owned) {
     *out = NULL;
+    *owned = 0;
     const ew_image *c = ew_op_image(op, "color");
     const size_t n = (size_t)c->width * (size_t)c->height;
-    float *buf = (float *)malloc(n * 3 * sizeof(float));
+    float *buf = into ? into : (float *)malloc(n * 3 * sizeof(float));
     ew_op *p = NULL;
     ew_result r = buf ? ew_op_create_kind(op->dev, "denoiser", HARM_PILOT_METHOD, &p) : EW_ERR_OUT_OF_MEMORY;
     if (r == EW_OK) r = ew_op_set_param(p, "do_no_harm", 1.0f, 1);
     if (r == EW_OK) r = ew_op_set_param(p, "outlier_k", 0.0f, 0);
     if (r == EW_OK) r = ew_op_set_param(p, "max_memory_mb", (float)HARM_PILOT_MEMORY_MB, 1);
+    if (r == EW_OK && ps->fn) r = ew_op_set_progress(p, span_report, ps);
     static const char *const in[] = {"color", "albedo", "normal", "depth"};
     for (int i = 0; r == EW_OK && i < 4; i++) r = ew_op_set_image(p, in[i], ew_op_image(op, in[i]));
     const ew_image o = ew_image_packed(buf, c->width, c->height, 3);
@@ -680,10 +700,11 @@ static ew_result run_pilot(ew_op *op, float **out) {
     if (r == EW_OK) r = ew_op_execute(p);
     ew_op_destroy(p);
     if (r != EW_OK) {
-        free(buf);
+        if (buf != into) free(buf);
         return r == EW_ERR_CANCELLED ? r : EW_OK;
     }
     *out = buf;
+    *owned = buf != into;
     return EW_OK;
 }
 
@@ -799,11 +820,22 @@ ew_result ew_harm_execute(ew_op *op) {
         r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * sizeof(float));
         if (r != EW_OK) return r;
     }
-    /* the pilot reads what the method reads, before the method may write
-     * its output over the colour */
+    /* the pilot reads what the method reads. Where that is the stage's
+     * clamped colour (a rejection, around the method), which the method's
+     * output cannot overwrite, it runs after the method, so that its output
+     * and the method's buffers are not held together; else before, ahead
+     * of an output written over the colour */
+    const int pilot_after = want_pilot && s->pre && !fuse;
     float *pilot = NULL;
-    if (want_pilot) {
-        r = run_pilot(op, &pilot);
+    int pilot_owned = 0;
+    /* with a pilot, the op's progress is the pilot's and the method's in turn */
+    const ew_progress_fn fn = op->progress;
+    void *const user = op->progress_user;
+    progress_span pilot_span = {fn, user, pilot_after ? 1.0 - HARM_PILOT_PROGRESS : 0.0, HARM_PILOT_PROGRESS};
+    progress_span method_span = {fn, user, want_pilot && !pilot_after ? HARM_PILOT_PROGRESS : 0.0,
+                                 want_pilot ? 1.0 - HARM_PILOT_PROGRESS : 1.0};
+    if (want_pilot && !pilot_after) {
+        r = run_pilot(op, NULL, &pilot_span, &pilot, &pilot_owned);
         if (r != EW_OK) {
             op->images[ci] = saved;
             return r;
@@ -812,11 +844,25 @@ ew_result ew_harm_execute(ew_op *op) {
     s->region = ha;
     s->blend = post;
     s->fused = fuse;
+    if (want_pilot && fn) {
+        op->progress = span_report;
+        op->progress_user = &method_span;
+    }
     r = op->type->execute(op);
+    op->progress = fn;
+    op->progress_user = user;
     s->fused = 0;
+    if (r == EW_OK && pilot_after) {
+        /* into the radiance's plane, dead now, where the output view is
+         * the result and the device's memory is the host's */
+        const ew_image va = ew_image_packed(s->a, s->w, s->h, 3);
+        const int a_free = ew_dev_view_in_place(dev, ew_op_image(op, "output"), 3, NULL) &&
+                           ew_dev_view_in_place(dev, &va, 3, NULL) == s->a;
+        r = run_pilot(op, a_free ? s->a : NULL, &pilot_span, &pilot, &pilot_owned);
+    }
     op->images[ci] = saved;
     if (r != EW_OK) {
-        free(pilot);
+        if (pilot_owned) free(pilot);
         return r;
     }
     const ew_image *out = ew_op_image(op, "output");
@@ -830,7 +876,7 @@ ew_result ew_harm_execute(ew_op *op) {
         res = s->a;
         r = ew_dev_put_view(dev, out, 3, res, s->stage);
         if (r != EW_OK) {
-            free(pilot);
+            if (pilot_owned) free(pilot);
             return r;
         }
     }
@@ -853,7 +899,10 @@ ew_result ew_harm_execute(ew_op *op) {
     }
     if (pilot) {
         r = apply_pilot(op, s, &ha, pilot, pilot_share);
-        free(pilot);
+        if (pilot_owned)
+            free(pilot);
+        else /* the radiance's plane: written again before it is read */
+            ew_dev_release_pages(dev, pilot, pilot + (size_t)s->w * s->h * 3);
         if (r != EW_OK) return r;
     }
     /* the light the clamps took (kernels/harm.h): the method's clamp's back

@@ -405,3 +405,68 @@ TEST(output_over_the_colour_gives_the_same_bits) {
     ew_op_destroy(op);
     ew_device_destroy(dev);
 }
+
+/* Progress: the reports a run makes, and from the `cancel_from`th on it
+ * asks to stop (0: never) */
+typedef struct {
+    int calls, cancel_from, after_cancel, backwards;
+    double last;
+} progress_log;
+
+static int log_progress(void *user, double f) {
+    progress_log *l = (progress_log *)user;
+    l->calls++;
+    if (l->cancel_from && l->calls > l->cancel_from) l->after_cancel++;
+    if (f < l->last) l->backwards++;
+    l->last = f;
+    return !(l->cancel_from && l->calls >= l->cancel_from);
+}
+
+static ew_result run_progress(ew_device *dev, int stage, progress_log *l) {
+    ew_denoiser *d = NULL;
+    ew_result r = ew_denoiser_create(dev, "bgrid", &d);
+    ew_image c = ew_image_packed(color, W, H, 3), o = ew_image_packed(out, W, H, 3);
+    ew_image a = ew_image_packed(albedo, W, H, 3), n = ew_image_packed(normal, W, H, 3);
+    ew_image z = ew_image_packed(depth, W, H, 1);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", &a);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", &n);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
+    if (r == EW_OK) r = ew_denoiser_set_int(d, "do_no_harm", stage);
+    if (r == EW_OK) r = ew_denoiser_set_progress(d, log_progress, l);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
+    ew_denoiser_destroy(d);
+    return r;
+}
+
+/* On a quiet frame the stage runs its pilot (kpcn) beside the method, for
+ * about as long as the method at 4K: the op's progress covers both in
+ * turn (the pilot's reports arrive, nothing goes back, it ends at 1), and a
+ * cancel while the pilot runs stops the op there. */
+TEST(the_pilot_reports_progress_and_can_be_cancelled) {
+    ew_device *dev;
+    CHECK_EQ_INT(ew_device_create(NULL, &dev), EW_OK);
+    scene(5, 0.0f);
+    unsigned s = 9;
+    for (int i = 0; i < N; i++) { /* the quiet striped frame of converged_detail_..., where the pilot runs */
+        const float stripe = (((i % W) / 12 + (i / W) / 16) % 2) ? 1.0f : 0.35f;
+        for (int c = 0; c < 3; c++) color[i * 3 + c] = ref[i * 3 + c] * stripe * (1.0f + 0.01f * (urand(&s) - 0.5f));
+    }
+    progress_log alone = {0}, both = {0};
+    CHECK_EQ_INT(run_progress(dev, 0, &alone), EW_OK);
+    CHECK_EQ_INT(run_progress(dev, 1, &both), EW_OK);
+    fprintf(stderr, "  bgrid: %d reports alone, %d with its pilot\n", alone.calls, both.calls);
+    CHECK(both.calls > alone.calls + 2); /* the pilot's own */
+    CHECK_EQ_INT(both.backwards, 0);
+    CHECK_NEAR(both.last, 1.0, 0.0);
+    /* cancelled at the first report past the method's: inside the pilot,
+     * which runs after it here (the op's second half) */
+    progress_log stop = {0};
+    stop.cancel_from = alone.calls + 1;
+    CHECK_EQ_INT(run_progress(dev, 1, &stop), EW_ERR_CANCELLED);
+    CHECK_EQ_INT(stop.after_cancel, 0);
+    CHECK(stop.last >= 0.5 && stop.last < 1.0);
+    ew_device_destroy(dev);
+}
