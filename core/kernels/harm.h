@@ -84,8 +84,10 @@ enum {
     EW_HARM_PILOT_SQ = 13, /* after BLEND: each pixel's squared distances from the pilot, over the pilot */
     EW_HARM_PILOT_H = 14,  /* ... summed along the row into spread's first two planes */
     EW_HARM_PILOT_V = 15,  /* ... and along the column: the output blended toward the input by the pilot's alpha */
-    EW_HARM_LIGHT = 16     /* fused, on a tile's region after its blend: the light the method's clamp took
+    EW_HARM_LIGHT = 16,    /* fused, on a tile's region after its blend: the light the method's clamp took
                               into give (GIVE's numerator), while the region still holds the clamped colour */
+    EW_HARM_RETURN = 17,   /* SUM_H .. SPREAD_V in bands of rows, without spread (a backend with harm_bands only) */
+    EW_HARM_PILOT_HV = 18  /* PILOT_H and PILOT_V in bands of rows, without spread (harm_bands only) */
 };
 #define EW_HARM_STATS_FLOATS 6
 
@@ -118,7 +120,8 @@ typedef struct ew_harm_args {
                                (ew_outlier_buffers.removed: of the colour it was given, clamped here);
                                GIVE rewrites it as the pixel's share of its window's light, then TAKE as
                                the luminance of what the rejection took that comes back */
-    float *spread;          /* 2 per pixel: the box sums (SUM_H, then SPREAD_H over it; S) */
+    float *spread;          /* 2 per pixel: the box sums (SUM_H, then SPREAD_H over it; S); not read by
+                               RETURN and PILOT_HV, which hold a band's sums themselves */
     int give_radius;        /* each pixel's light goes back over its (2 give_radius + 1)^2 window */
     float give_cap;         /* of what the rejection (color - clamped) took, at most give_cap x the
                                luminance it left comes back; 0: none */
@@ -126,7 +129,7 @@ typedef struct ew_harm_args {
     float give_gain;        /* SPREAD_V: no pixel is scaled by more than 1 + give_gain */
     float take_limit;       /* TAKE: of what the rejection took, a pixel gives back at most this luminance */
     float gain;             /* SCALE: every pixel of the output is scaled by 1 + gain */
-    int band_rows;          /* STATS_BLEND: rows a band; 0: the backend's choice */
+    int band_rows;          /* STATS_BLEND, RETURN, PILOT_HV: rows a band; 0: the backend's choice */
     float *excess;          /* 1 per pixel, or NULL: EXCESS writes the luminance the rejection took (color -
                                clamped, as TAKE computes it) where it is not 0 (zero it first) and TAKE
                                reads it there instead of from color, which the method's output may have
@@ -472,12 +475,18 @@ EW_HD void ew_harm_light_px(long j, const ew_harm_args *a) { a->give[j] = ew_har
 /* GIVE: g / S into give[j], g the luminance of what the method's clamp
  * took: its share of the colour it was given (the clamped colour; negative
  * channels are no light, as the methods demodulate them). The rejection's
- * share goes to the whole frame, TAKE. */
+ * share goes to the whole frame, TAKE. At pixel j with S = sum (a backend's
+ * banded RETURN has S where spread's plane would) */
+EW_HD void ew_harm_give_at(long j, const ew_harm_args *a, float sum) {
+    const float m = a->fused ? a->give[j] : ew_harm_clamp_light(j, a);
+    const float lg = ew_minf(ew_finitef(m) && m > 0.0f ? m : 0.0f, a->give_limit);
+    a->give[j] = sum > 0.0f ? lg / sum : 0.0f;
+}
+
+/* ... S from spread's second plane (SUM_V) */
 EW_HD void ew_harm_give_px(int x, int y, const ew_harm_args *a) {
     const long j = (long)y * a->width + x, n = (long)a->width * a->height;
-    const float m = a->fused ? a->give[j] : ew_harm_clamp_light(j, a);
-    const float lg = ew_minf(ew_finitef(m) && m > 0.0f ? m : 0.0f, a->give_limit), sum = a->spread[n + j];
-    a->give[j] = sum > 0.0f ? lg / sum : 0.0f;
+    ew_harm_give_at(j, a, a->spread[n + j]);
 }
 
 /* The luminance of what the rejection took from a pixel (color - clamped,
@@ -541,12 +550,18 @@ EW_HD void ew_harm_spread_h_px(int x, int y, const ew_harm_args *a) {
     a->spread[(long)y * a->width + x] = s;
 }
 
-/* SPREAD_V: ... and along the column; the output scaled by 1 + that */
-EW_HD void ew_harm_spread_v_px(int x, int y, const ew_harm_args *a) {
-    const float t = ew_minf(ew_harm_box_v(a, a->spread, x, y, a->give_radius), a->give_gain);
-    float *o = a->out + ((long)y * a->width + x) * 3;
+/* SPREAD_V: ... and along the column; the output scaled by 1 + that
+ * (at pixel j, the column's sum `sum`) */
+EW_HD void ew_harm_spread_at(long j, const ew_harm_args *a, float sum) {
+    const float t = ew_minf(sum, a->give_gain);
+    float *o = a->out + j * 3;
     if (!ew_harm_finite3(o) || !(t > 0.0f)) return;
     for (int c = 0; c < 3; c++) o[c] *= 1.0f + t;
+}
+
+/* ... the column's sum over spread's first plane (SPREAD_H) */
+EW_HD void ew_harm_spread_v_px(int x, int y, const ew_harm_args *a) {
+    ew_harm_spread_at((long)y * a->width + x, a, ew_harm_box_v(a, a->spread, x, y, a->give_radius));
 }
 
 /* The pilot: a noise estimate from a second method's output. On a

@@ -42,8 +42,10 @@ typedef struct ew_backend {
      * them on every row before the first pass and after the last. */
     int pyr_row_hooks;
     /* harm_bands 1: harm takes EW_HARM_STATS_BLEND (STATS then BLEND in
-     * bands of rows, the statistics never a frame: stats unused); 0: the
-     * op layer runs the two steps */
+     * bands of rows, the statistics never a frame: stats unused),
+     * EW_HARM_RETURN and EW_HARM_PILOT_HV (the energy return's and the
+     * pilot's box sums a band at a time: spread unused); 0: the op layer
+     * runs their steps */
     int harm_bands;
     const char *name; /* every member after this is a function pointer (ew_backend_first_missing) */
     void (*bgrid_splat)(ew_device *dev, const ew_bgrid_params *p, const float *image,

@@ -730,8 +730,12 @@ static ew_result apply_pilot(ew_op *op, ew_harm_state *s, ew_harm_args *ha, floa
     ha->pilot_share = share;
     ha->spread = s->b;
     dev->backend->harm(dev, EW_HARM_PILOT_SQ, ha);
-    dev->backend->harm(dev, EW_HARM_PILOT_H, ha);
-    dev->backend->harm(dev, EW_HARM_PILOT_V, ha);
+    if (dev->backend->harm_bands) { /* the sums along the rows a band at a time: spread is not touched */
+        dev->backend->harm(dev, EW_HARM_PILOT_HV, ha);
+    } else {
+        dev->backend->harm(dev, EW_HARM_PILOT_H, ha);
+        dev->backend->harm(dev, EW_HARM_PILOT_V, ha);
+    }
     ew_result r = dev->backend->sync(dev, 0);
     ew_dev_free(dev, mem);
     ha->pilot = NULL;
@@ -921,11 +925,15 @@ ew_result ew_harm_execute(ew_op *op) {
     ha.give_limit = (float)(HARM_GIVE_LIMIT * out_mean);
     ha.take_limit = (float)(HARM_TAKE_LIMIT * out_mean);
     ha.give_gain = HARM_GIVE_GAIN;
-    dev->backend->harm(dev, EW_HARM_SUM_H, &ha);
-    dev->backend->harm(dev, EW_HARM_SUM_V, &ha);
-    dev->backend->harm(dev, EW_HARM_GIVE, &ha);
-    dev->backend->harm(dev, EW_HARM_SPREAD_H, &ha);
-    dev->backend->harm(dev, EW_HARM_SPREAD_V, &ha);
+    if (dev->backend->harm_bands) { /* as the pilot's: spread is not touched */
+        dev->backend->harm(dev, EW_HARM_RETURN, &ha);
+    } else {
+        dev->backend->harm(dev, EW_HARM_SUM_H, &ha);
+        dev->backend->harm(dev, EW_HARM_SUM_V, &ha);
+        dev->backend->harm(dev, EW_HARM_GIVE, &ha);
+        dev->backend->harm(dev, EW_HARM_SPREAD_H, &ha);
+        dev->backend->harm(dev, EW_HARM_SPREAD_V, &ha);
+    }
     dev->backend->harm(dev, EW_HARM_TAKE, &ha);
     r = frame_mean(s, dev, res, &out_mean);
     if (r == EW_OK) r = frame_mean_of(s, dev, EW_REDUCE_SUM, s->removed, &given);

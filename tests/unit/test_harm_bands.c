@@ -1,10 +1,13 @@
-/* The do-no-harm blend's statistics on the CPU. In bands of rows (EW_HARM_STATS_BLEND):
- * the statistics of each band's rows and edges and the blend from them give,
- * bit for bit, STATS then BLEND over a frame of statistics — band sizes of
- * one row, odd sizes that leave a short last band, bands shorter than the
- * window, one band, the backend's own choice; 1 and 3 threads; an RGBA
- * input with NaN/Inf and fireflies, with and without the share given back.
- * And a lone bright sample in the residual reads as noise. */
+/* The do-no-harm stage's windowed steps on the CPU in bands of rows. The
+ * blend (EW_HARM_STATS_BLEND): the statistics of each band's rows and edges
+ * and the blend from them give, bit for bit, STATS then BLEND over a frame
+ * of statistics; the energy return (EW_HARM_RETURN) and the pilot's blend
+ * (EW_HARM_PILOT_HV), their sums along the rows a band at a time, give the
+ * bits of their steps over the frame's planes — band sizes of one row, odd
+ * sizes that leave a short last band, bands shorter than the window, one
+ * band, the backend's own choice; 1 and 3 threads; an RGBA input with
+ * NaN/Inf and fireflies, with and without the share given back. And a lone
+ * bright sample in the residual reads as noise. */
 #include "ew_test.h"
 
 #include <math.h>
@@ -152,4 +155,80 @@ TEST(a_lone_sample_reads_as_noise_anywhere_in_the_window) {
     free(out);
     free(give);
     free(stats);
+}
+
+/* EW_HARM_RETURN against SUM_H, SUM_V, GIVE, SPREAD_H, SPREAD_V, and
+ * EW_HARM_PILOT_HV against PILOT_H, PILOT_V (after PILOT_SQ), over the
+ * frame's spread planes: the output and the shares given back, bit for bit.
+ * The energy return with the clamped colour and fused (give holding the
+ * light already); windows wider than the frame and narrower than a band. */
+TEST(the_energy_return_and_the_pilots_blend_in_bands_give_the_frames_bits) {
+    const int threads[] = {1, 3};
+    const int rows[] = {1, 2, 5, 7, 29, 0};
+    float *clamped = field((size_t)N * 4, 0.0f, 2.0f, 3, 1), *out0 = field((size_t)N * 3, 0.0f, 2.0f, 7, 1);
+    float *give0 = field((size_t)N, 0.0f, 1.0f, 11, 0), *pilot0 = field((size_t)N * 3, 0.0f, 2.0f, 13, 0);
+    float *out = malloc((size_t)N * 3 * sizeof(float)), *ref = malloc((size_t)N * 3 * sizeof(float));
+    float *give = malloc((size_t)N * sizeof(float)), *gref = malloc((size_t)N * sizeof(float));
+    float *pilot = malloc((size_t)N * 3 * sizeof(float)), *spread = malloc((size_t)N * 2 * sizeof(float));
+    for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
+        ew_device_desc desc = EW_DEVICE_DESC_INIT;
+        desc.num_threads = threads[t];
+        ew_device *dev = NULL;
+        CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_OK);
+        if (!dev) continue;
+        for (int kind = 0; kind < 4; kind++) {
+            /* 0, 1: the energy return (1 fused), radius 3 then 24; 2, 3: the pilot's blend, radius 4 */
+            const int pilot_step = kind >= 2, radius = kind == 1 ? 24 : kind == 0 ? 3 : 4;
+            ew_harm_args a = frame_args(4, clamped, radius);
+            a.give_radius = radius;
+            a.fused = kind == 1;
+            a.give_limit = 3.0f;
+            a.give_gain = 0.5f;
+            a.pilot_share = kind == 3 ? 0.6f : 1.0f;
+            a.spread = spread;
+            memcpy(ref, out0, (size_t)N * 3 * sizeof(float));
+            memcpy(gref, give0, (size_t)N * sizeof(float));
+            memcpy(pilot, pilot0, (size_t)N * 3 * sizeof(float));
+            a.out = ref;
+            a.give = gref;
+            a.pilot = pilot;
+            if (pilot_step) {
+                dev->backend->harm(dev, EW_HARM_PILOT_SQ, &a);
+                dev->backend->harm(dev, EW_HARM_PILOT_H, &a);
+                dev->backend->harm(dev, EW_HARM_PILOT_V, &a);
+            } else {
+                for (int st = EW_HARM_SUM_H; st <= EW_HARM_SPREAD_V; st++) dev->backend->harm(dev, st, &a);
+            }
+            int changed = 0;
+            for (int i = 0; i < N * 3; i++) changed += memcmp(&ref[i], &out0[i], sizeof(float)) != 0;
+            CHECK(changed > N / 4); /* the step does something here */
+            for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
+                memcpy(out, out0, (size_t)N * 3 * sizeof(float));
+                memcpy(give, give0, (size_t)N * sizeof(float));
+                memcpy(pilot, pilot0, (size_t)N * 3 * sizeof(float));
+                a.out = out;
+                a.give = give;
+                a.spread = NULL; /* the bands hold their own sums */
+                a.band_rows = rows[k];
+                if (pilot_step) dev->backend->harm(dev, EW_HARM_PILOT_SQ, &a);
+                dev->backend->harm(dev, pilot_step ? EW_HARM_PILOT_HV : EW_HARM_RETURN, &a);
+                a.spread = spread;
+                a.band_rows = 0;
+                if (!same_bits(out, ref, (size_t)N * 3) || !same_bits(give, gref, (size_t)N))
+                    FAIL_AT("threads %d, %s radius %d%s, band rows %d: not the frame's bits", threads[t],
+                            pilot_step ? "pilot" : "return", radius, a.fused ? " fused" : "", rows[k]);
+            }
+        }
+        ew_device_destroy(dev);
+    }
+    free(clamped);
+    free(out0);
+    free(give0);
+    free(pilot0);
+    free(out);
+    free(ref);
+    free(give);
+    free(gref);
+    free(pilot);
+    free(spread);
 }

@@ -775,16 +775,10 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
             case EW_HARM_SPREAD_H: /* as ew_harm_spread_h_px */
                 harm_box_row(a->spread + j0, a->give + j0, w, gr, buf + w);
                 break;
-            default: { /* EW_HARM_SPREAD_V, as ew_harm_spread_v_px */
+            default: /* EW_HARM_SPREAD_V, as ew_harm_spread_v_px */
                 harm_box_col(buf, a->spread, w, H, y, gr, &ring);
-                for (int x = 0; x < w; x++) {
-                    const float t = ew_minf(buf[x], a->give_gain);
-                    float *o = a->out + (j0 + x) * 3;
-                    if (!ew_harm_finite3(o) || !(t > 0.0f)) continue;
-                    for (int c = 0; c < 3; c++) o[c] *= 1.0f + t;
-                }
+                for (int x = 0; x < w; x++) ew_harm_spread_at(j0 + x, a, buf[x]);
                 break;
-            }
             }
         }
     } else {
@@ -795,7 +789,117 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
     free(ring.held);
 }
 
+/* ---- the energy return and the pilot's blend in bands of rows -------
+ * (EW_HARM_RETURN, EW_HARM_PILOT_HV). Their box sums along the row of the
+ * rows a band's windows reach (r above and below it) go into a thread's
+ * scratch instead of a frame's plane, and the column sums read them there:
+ * the same sums in the same order (harm_box_row and harm_box_col; the
+ * pilot's through its per-pixel functions over the band as a frame of its
+ * own, whose top and bottom are the frame's wherever a window is clipped),
+ * so the same bits as the steps over the frame. Each sweep over the bands
+ * finishes before the next starts: GIVE reads the output before
+ * SPREAD_V scales it. */
+typedef struct {
+    const ew_harm_args *a;
+    int step; /* EW_HARM_SUM_H (sums, GIVE), EW_HARM_SPREAD_H (sums, SPREAD_V), EW_HARM_PILOT_H */
+    int rows, r;
+    size_t per_thread; /* floats of scratch a thread */
+    float *mem;
+} harm_sweep_job;
+
+/* a thread's scratch: 2 planes of a band's rows with their margins, a row
+ * of column sums, harm_box_row's 2 (w + 2 r), a ring of 2 r + 1 rows and
+ * its 2 r + 1 first rows (ints, a float's size) */
+static size_t harm_sweep_floats(int w, int rows, int r) {
+    return 2 * (size_t)(rows + 2 * r) * (size_t)w + (size_t)w + 2 * ((size_t)w + 2 * (size_t)r) +
+           (size_t)(2 * r + 1) * ((size_t)w + 1);
+}
+
+static void harm_sweep_bands(void *ctx, int64_t begin, int64_t end, int tid) {
+    const harm_sweep_job *j = (const harm_sweep_job *)ctx;
+    const ew_harm_args *a = j->a;
+    const int w = a->width, h = a->height, r = j->r, n = 2 * r + 1;
+    float *sums = j->mem + j->per_thread * (size_t)tid;
+    float *col = sums + 2 * (size_t)(j->rows + 2 * r) * (size_t)w, *tmp = col + w, *ringrows = tmp + 2 * ((size_t)w + 2 * r);
+    int *held = (int *)(void *)(ringrows + (size_t)n * (size_t)w);
+    for (int64_t k = begin; k < end; k++) {
+        const int y0 = (int)k * j->rows, y1 = ew_mini(y0 + j->rows, h);
+        const int lo = ew_maxi(y0 - r, 0), hi = ew_mini(y1 + r, h), bh = hi - lo;
+        if (j->step == EW_HARM_PILOT_H) {
+            /* the band with its margins as a frame: PILOT_H's and PILOT_V's
+             * own functions over it */
+            ew_harm_args b = *a;
+            const long at = (long)lo * w;
+            b.height = bh;
+            b.pilot = a->pilot + at * 3;
+            b.out = a->out + at * 3;
+            b.clamped = a->clamped + at * ew_harm_cch(a);
+            b.give = a->give ? a->give + at : NULL;
+            b.spread = sums;
+            for (int y = 0; y < bh; y++)
+                for (int x = 0; x < w; x++) ew_harm_pilot_h_px(x, y, &b);
+            for (int y = y0 - lo; y < y1 - lo; y++)
+                for (int x = 0; x < w; x++) ew_harm_pilot_v_px(x, y, &b);
+            continue;
+        }
+        for (int y = lo; y < hi; y++) {
+            const long j0 = (long)y * w;
+            float *dst = sums + (size_t)(y - lo) * (size_t)w;
+            if (j->step == EW_HARM_SUM_H) { /* as SUM_H */
+                for (int x = 0; x < w; x++) col[x] = ew_harm_lum_tap(a, j0 + x);
+                harm_box_row(dst, col, w, r, tmp);
+            } else { /* as SPREAD_H */
+                harm_box_row(dst, a->give + j0, w, r, tmp);
+            }
+        }
+        harm_col_ring ring = {ringrows, held};
+        for (int i = 0; i < n; i++) held[i] = INT_MIN;
+        for (int y = y0; y < y1; y++) {
+            const long j0 = (long)y * w;
+            harm_box_col(col, sums, w, bh, y - lo, r, &ring);
+            if (j->step == EW_HARM_SUM_H)
+                for (int x = 0; x < w; x++) ew_harm_give_at(j0 + x, a, col[x]); /* as SUM_V, GIVE */
+            else
+                for (int x = 0; x < w; x++) ew_harm_spread_at(j0 + x, a, col[x]); /* as SPREAD_V */
+        }
+    }
+}
+
+/* EW_HARM_RETURN or EW_HARM_PILOT_HV in bands; 0 when out of memory
+ * (nothing done) */
+static int harm_sweeps(ew_device *dev, int step, const ew_harm_args *a) {
+    const int threads = ew_pool_threads(dev->pool), w = a->width, h = a->height;
+    const int r = step == EW_HARM_RETURN ? a->give_radius : a->radius;
+    /* two bands a thread, of at least 4 windows' rows (the margins' sums
+     * are computed twice) */
+    int rows = a->band_rows > 0 ? a->band_rows : ew_maxi((h + 2 * threads - 1) / (2 * threads), 4 * (2 * r + 1));
+    rows = ew_maxi(ew_mini(rows, h), 1);
+    const int bands = (h + rows - 1) / rows;
+    harm_sweep_job j = {a, 0, rows, r, harm_sweep_floats(w, rows, r), NULL};
+    j.mem = (float *)malloc(j.per_thread * (size_t)threads * sizeof(float));
+    if (!j.mem) return 0;
+    if (step == EW_HARM_RETURN) {
+        j.step = EW_HARM_SUM_H;
+        ew_pool_run(dev->pool, bands, 1, harm_sweep_bands, &j);
+        j.step = EW_HARM_SPREAD_H;
+    } else {
+        j.step = EW_HARM_PILOT_H;
+    }
+    ew_pool_run(dev->pool, bands, 1, harm_sweep_bands, &j);
+    free(j.mem);
+    return 1;
+}
+
 static void cpu_harm(ew_device *dev, int step, const ew_harm_args *a) {
+    if (step == EW_HARM_RETURN || step == EW_HARM_PILOT_HV) {
+        /* out of memory for the bands: the steps over the frame's planes */
+        if (!harm_sweeps(dev, step, a)) {
+            const int first = step == EW_HARM_RETURN ? EW_HARM_SUM_H : EW_HARM_PILOT_H;
+            const int last = step == EW_HARM_RETURN ? EW_HARM_SPREAD_V : EW_HARM_PILOT_V;
+            for (int st = first; st <= last; st++) cpu_harm(dev, st, a);
+        }
+        return;
+    }
     if (step == EW_HARM_STATS_BLEND) {
         /* out of memory for the bands: the two steps over the frame's statistics */
         if (!harm_stats_blend_bands(dev, a)) {
