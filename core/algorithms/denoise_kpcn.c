@@ -240,7 +240,7 @@ static size_t frame_floats(const ew_op *op, const ew_kpcn_net *net, int w, int h
 
 /* The pixels around a core whose output must be exact too: the
  * do-no-harm stage's blend's, when it may run in the tiles (fused_core) */
-static int fused_margin(const ew_op *op) { return ew_harm_may_fuse(op) ? ew_harm_region_margin() : 0; }
+static int fused_margin(const ew_op *op) { return ew_harm_may_fuse(op) ? ew_harm_region_margin(op) : 0; }
 
 /* Streamed: are the cores written over the colour the tiles read where it
  * lies (both views read and written in place, overlapping)? */
@@ -809,7 +809,7 @@ static ew_result fused_core(ew_op *op, const ew_tile *tile) {
     float *removed = ew_harm_clamp_removed(op), *share = s->rad[1];
     ew_result r = ew_dev_copy_rect(dev, s->clamped, rw, 0, 0, color, W, tile->rx, tile->ry, rw, rh, 3);
     if (r == EW_OK) r = ew_dev_copy_rect(dev, share, rw, 0, 0, removed, W, tile->rx, tile->ry, rw, rh, 1);
-    if (r == EW_OK) r = ew_harm_region_done(op, rw, rh, s->clamped, s->tile_out, share);
+    if (r == EW_OK) r = ew_harm_region_done(op, tile->rx, tile->ry, rw, rh, s->clamped, s->tile_out, share);
     if (r == EW_OK) r = ew_dev_copy_rect(dev, removed, W, tile->cx, tile->cy, share, rw, ox, oy, tile->cw, tile->ch, 1);
     return r == EW_OK ? ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->clamped) : r;
 }
@@ -1140,7 +1140,7 @@ static ew_result execute(ew_op *op) {
         /* the stage in the tiles, here one region: the frame's blend on the
          * clamped colour its view holds (the output goes there only below) */
         const float *color = ew_dev_view_in_place(dev, ew_op_image(op, "color"), 3, NULL);
-        r = ew_harm_region_done(op, w, h, color, b->out, ew_harm_clamp_removed(op));
+        r = ew_harm_region_done(op, 0, 0, w, h, color, b->out, ew_harm_clamp_removed(op));
         if (r != EW_OK) return r;
     }
     /* the frame's buffers and the regions' are written again before they

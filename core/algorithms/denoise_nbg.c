@@ -359,7 +359,7 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
          * it, packed where the slices, the radiance and the clamped
          * radiance were (read by nothing now): the clamped colour, the
          * output and the clamp's share; then the core back */
-        const int m = ew_harm_region_margin(), ox = t->cx - t->rx, oy = t->cy - t->ry;
+        const int m = ew_harm_region_margin(op), ox = t->cx - t->rx, oy = t->cy - t->ry;
         const int x0 = ew_maxi(ox - m, 0), y0 = ew_maxi(oy - m, 0);
         const int x1 = ew_mini(ox + t->cw + m, t->rw), y1 = ew_mini(oy + t->ch + m, t->rh);
         const int sw = x1 - x0, sh = y1 - y0;
@@ -367,7 +367,7 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
         r = ew_dev_copy_rect(dev, in, sw, 0, 0, s->color, W, t->rx + x0, t->ry + y0, sw, sh, 3);
         if (r == EW_OK) r = ew_dev_copy_rect(dev, out, sw, 0, 0, b->out, t->rw, x0, y0, sw, sh, 3);
         if (r == EW_OK && share) r = ew_dev_copy_rect(dev, share, sw, 0, 0, give, t->rw, x0, y0, sw, sh, 1);
-        if (r == EW_OK) r = ew_harm_region_done(op, sw, sh, in, out, share);
+        if (r == EW_OK) r = ew_harm_region_done(op, t->rx + x0, t->ry + y0, sw, sh, in, out, share);
         if (r == EW_OK) r = ew_dev_copy_rect(dev, b->out, t->rw, ox, oy, out, sw, ox - x0, oy - y0, t->cw, t->ch, 3);
         if (r == EW_OK && share) r = ew_dev_copy_rect(dev, give, t->rw, ox, oy, share, sw, ox - x0, oy - y0, t->cw, t->ch, 1);
         if (r != EW_OK) return r;

@@ -139,6 +139,10 @@ typedef struct ew_harm_state {
     int fused;      /* ... and does, in this execute */
     int blend;      /* fused: the regions are blended (do_no_harm, a frame not faded out) */
     ew_harm_args region; /* fused: the blend's arguments but a region's buffers */
+    const float *pilot;  /* fused, in this execute: the pilot's output (host, 3 floats a pixel), or NULL */
+    float pilot_share;
+    float *pregion;      /* ... a region's copy of it (PILOT_SQ rewrites it), grown as regions ask */
+    size_t pregion_floats;
     float *band;    /* can_fuse: two bands of rows of 3 floats a pixel for the passes before the method */
     int half;       /* can_fuse: albedo (2), normal (4) read from half views a band at a time (not own) */
     float *fband[2]; /* ... into these: albedo's, normal's rows fband_y0 .. fband_y1 */
@@ -155,7 +159,10 @@ typedef struct ew_harm_state {
 
 void ew_harm_release(ew_op *op) {
     ew_harm_state *s = (ew_harm_state *)op->harm;
-    if (s) ew_dev_free(op->dev, s->dmem);
+    if (s) {
+        ew_dev_free(op->dev, s->dmem);
+        free(s->pregion);
+    }
     free(s);
     op->harm = NULL;
 }
@@ -238,15 +245,13 @@ static int pilot_possible(const ew_op *op) {
 /* The views' sources and where the stage runs: own (views_in_place's
  * without the halves it reads in bands), *fuse (fusable) and *half, which
  * of albedo (2) and normal (4) it reads from half views a band of rows at
- * a time. Only fused: around the method the passes read frames (and the
- * pilot, which makes a fused stage run around the method, is off for such
- * a method only). */
+ * a time. Only fused: around the method the passes read frames. */
 static int plan_views(const ew_op *op, int cc, int pre, const float *in[3], int *kept, int *fuse, int *half) {
     const int own = views_in_place(op, cc, pre, in, kept);
     int h = 0;
     if (ew_dev_view_half_rows(op->dev, ew_op_image(op, "albedo"), 3)) h |= 2;
     if (ew_dev_view_half_rows(op->dev, ew_op_image(op, "normal"), 3)) h |= 4;
-    if (h && !pilot_possible(op) && fusable(op, cc, pre, own & ~h, *kept)) {
+    if (h && fusable(op, cc, pre, own & ~h, *kept)) {
         *fuse = 1;
         *half = h;
         return own & ~h;
@@ -627,8 +632,9 @@ int ew_harm_fused(const ew_op *op) {
     return s && s->fused;
 }
 
-ew_result ew_harm_region_done(ew_op *op, int rw, int rh, const float *in, float *out, float *give) {
+ew_result ew_harm_region_done(ew_op *op, int x, int y, int rw, int rh, const float *in, float *out, float *give) {
     ew_harm_state *s = (ew_harm_state *)op->harm;
+    ew_device *dev = op->dev;
     ew_harm_args ha = s->region;
     ha.width = rw;
     ha.height = rh;
@@ -638,14 +644,36 @@ ew_result ew_harm_region_done(ew_op *op, int rw, int rh, const float *in, float 
     ha.out = out;
     ha.give = give;
     ha.stats = s->b; /* a frame's statistics, for a backend out of memory for its bands (not touched else) */
-    if (s->blend) op->dev->backend->harm(op->dev, EW_HARM_STATS_BLEND, &ha);
-    if (give) op->dev->backend->harm(op->dev, EW_HARM_LIGHT, &ha);
-    return op->dev->backend->sync(op->dev, 0);
+    if (s->blend) dev->backend->harm(dev, EW_HARM_STATS_BLEND, &ha);
+    if (s->blend && s->pilot) {
+        /* the pilot's estimate over the blended region, as apply_pilot's
+         * over the frame (fused: a backend that sums in bands) */
+        const size_t need = (size_t)rw * (size_t)rh * 3;
+        if (need > s->pregion_floats) {
+            free(s->pregion);
+            s->pregion = (float *)malloc(need * sizeof(float));
+            s->pregion_floats = s->pregion ? need : 0;
+            if (!s->pregion) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: the pilot's region of %dx%d", rw, rh);
+        }
+        ew_result r = ew_dev_copy_rect(dev, s->pregion, rw, 0, 0, s->pilot, s->w, x, y, rw, rh, 3);
+        if (r != EW_OK) return r;
+        ha.pilot = s->pregion;
+        ha.pilot_share = s->pilot_share;
+        dev->backend->harm(dev, EW_HARM_PILOT_SQ, &ha);
+        dev->backend->harm(dev, EW_HARM_PILOT_HV, &ha);
+    }
+    if (give) dev->backend->harm(dev, EW_HARM_LIGHT, &ha);
+    return dev->backend->sync(dev, 0);
 }
 
 /* the blend's window, and the row and column of residuals a pixel's
- * statistics read beyond it (kernels/harm.h) */
-int ew_harm_region_margin(void) { return HARM_BLEND_RADIUS + 1; }
+ * statistics read beyond it (kernels/harm.h); with a pilot in this
+ * execute, its estimate's window beyond that (it reads the blended output
+ * over its own) */
+int ew_harm_region_margin(const ew_op *op) {
+    const ew_harm_state *s = (const ew_harm_state *)op->harm;
+    return HARM_BLEND_RADIUS + 1 + (s && s->pilot ? HARM_BLEND_RADIUS : 0);
+}
 
 float *ew_harm_clamp_removed(const ew_op *op) {
     const ew_harm_state *s = (const ew_harm_state *)op->harm;
@@ -788,12 +816,6 @@ ew_result ew_harm_execute(ew_op *op) {
     const int post = ew_op_param(op, "do_no_harm") != 0.0f && ha.fade < 1.0f;
     const float pilot_share = pilot_share_of(noise);
     const int want_pilot = post && pilot_share > 0.0f && pilot_possible(op);
-    if (fuse && want_pilot) {
-        /* the pilot reads the clamped colour beside the caller's and its
-         * estimate the whole frame's: the stage runs around the method */
-        fuse = 0;
-        dev->backend->harm(dev, EW_HARM_DEMOD, &ha);
-    }
     const ew_image saved = op->images[ci];
     if (s->pre) {
         r = fuse ? reject_in_bands(op, s, &ha, mean) : reject(op, s, &ha);
@@ -828,7 +850,9 @@ ew_result ew_harm_execute(ew_op *op) {
      * clamped colour (a rejection, around the method), which the method's
      * output cannot overwrite, it runs after the method, so that its output
      * and the method's buffers are not held together; else before, ahead
-     * of an output written over the colour */
+     * of an output written over the colour (fused: the caller's colour,
+     * which holds the clamped colour now; each region then takes the
+     * pilot's estimate after its blend) */
     const int pilot_after = want_pilot && s->pre && !fuse;
     float *pilot = NULL;
     int pilot_owned = 0;
@@ -848,6 +872,8 @@ ew_result ew_harm_execute(ew_op *op) {
     s->region = ha;
     s->blend = post;
     s->fused = fuse;
+    s->pilot = fuse ? pilot : NULL;
+    s->pilot_share = pilot_share;
     if (want_pilot && fn) {
         op->progress = span_report;
         op->progress_user = &method_span;
@@ -856,6 +882,10 @@ ew_result ew_harm_execute(ew_op *op) {
     op->progress = fn;
     op->progress_user = user;
     s->fused = 0;
+    s->pilot = NULL;
+    free(s->pregion);
+    s->pregion = NULL;
+    s->pregion_floats = 0;
     if (r == EW_OK && pilot_after) {
         /* into the radiance's plane, dead now, where the output view is
          * the result and the device's memory is the host's */
@@ -901,14 +931,12 @@ ew_result ew_harm_execute(ew_op *op) {
             dev->backend->harm(dev, EW_HARM_BLEND, &ha);
         }
     }
-    if (pilot) {
-        r = apply_pilot(op, s, &ha, pilot, pilot_share);
-        if (pilot_owned)
-            free(pilot);
-        else /* the radiance's plane: written again before it is read */
-            ew_dev_release_pages(dev, pilot, pilot + (size_t)s->w * s->h * 3);
-        if (r != EW_OK) return r;
-    }
+    if (pilot && !fuse) r = apply_pilot(op, s, &ha, pilot, pilot_share); /* fused: the regions took it */
+    if (pilot_owned)
+        free(pilot);
+    else if (pilot) /* the radiance's plane: written again before it is read */
+        ew_dev_release_pages(dev, pilot, pilot + (size_t)s->w * s->h * 3);
+    if (r != EW_OK) return r;
     /* the light the clamps took (kernels/harm.h): the method's clamp's back
      * where it was taken, the rejection's to the whole frame as one gain.
      * Its limit a pixel, 50x the output's mean (30x, with the method's

@@ -202,17 +202,20 @@ int ew_harm_fused(const ew_op *op);
  * parameters as they are (a method's commit plans for it: the blend's
  * margin, what its tiles hold back). */
 int ew_harm_may_fuse(const ew_op *op);
-/* The stage's blend on a tile's region (rw x rh, packed): in is the clamped
- * colour there (RGB), out the method's output (blended in place), give the
- * share of each pixel the method's clamp took (ew_harm_clamp_removed's
- * values for the region; rewritten as that light), or NULL when the clamp
- * took nothing. The pixels ew_harm_region_margin or more from a region
- * edge that is not the frame's come out as the whole-frame stage would
- * give them. */
-ew_result ew_harm_region_done(ew_op *op, int rw, int rh, const float *in, float *out, float *give);
-/* The pixels a core's blend reads beyond it: a region that is the core and
- * this margin (clipped to the frame) gives the core's pixels exactly. */
-int ew_harm_region_margin(void);
+/* The stage's blend on a tile's region (rw x rh, packed, its top left at
+ * (x, y) in the frame): in is the clamped colour there (RGB), out the
+ * method's output (blended in place, and with the pilot's estimate where a
+ * pilot runs), give the share of each pixel the method's clamp took
+ * (ew_harm_clamp_removed's values for the region; rewritten as that
+ * light), or NULL when the clamp took nothing. The pixels
+ * ew_harm_region_margin or more from a region edge that is not the frame's
+ * come out as the whole-frame stage would give them. */
+ew_result ew_harm_region_done(ew_op *op, int x, int y, int rw, int rh, const float *in, float *out, float *give);
+/* The pixels a core's blend reads beyond it in this execute (more where
+ * the pilot's estimate follows the blend; a commit's plan without one):
+ * a region that is the core and this margin (clipped to the frame) gives
+ * the core's pixels exactly. */
+int ew_harm_region_margin(const ew_op *op);
 /* The stage's allocations for images of w x h (ew_op_memory adds them). */
 uint64_t ew_harm_memory(const ew_op *op, int w, int h);
 /* Copy the stage's parameters of one op to another (auto -> its method). */

@@ -557,10 +557,12 @@ static ew_result run_opts(ew_device *dev, images *im, float *out, int budget_mb,
  * out after them) and blends each core before it goes out. The same bits
  * as with the output apart (the stage around the method), tiled and whole,
  * on frames noisy enough that the blend fades out, quiet enough that the
- * pilot runs (the stage then stays around the method), and between, where
- * it blends in the tiles. That it ran in the tiles shows in a run cancelled
- * half way: the colour the tiles had not reached holds the clamped colour
- * (around the method, the caller's colour is read only). */
+ * pilot runs (before the method, on the clamped colour; each region takes
+ * its estimate after the blend, over a margin grown by the estimate's
+ * window: without that, 38822 values differ at the seams), and between.
+ * That it ran in the tiles shows in a run cancelled half way: the colour
+ * the tiles had not reached holds the clamped colour (around the method,
+ * the caller's colour is read only). */
 TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
     enum { W = 600, H = 640 };
     const long n3 = (long)W * H * 3;
@@ -597,7 +599,7 @@ TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
         }
         images_free(&im);
     }
-    CHECK(blended_in_tiles >= 2); /* the blend in the tiles, whole and tiled */
+    CHECK(blended_in_tiles >= 4); /* the blend in the tiles, whole and tiled, with the pilot and without */
     free(apart);
     free(off);
     free(keep);
