@@ -450,6 +450,30 @@ static ew_kpcn_tensor flat_t(float *p, int w, int h) {
     return t;
 }
 
+/* Scale k's kernel filter on `rows` of its rows from y0, with the logits
+ * `logits` (their row 0 the row y0): the scale's radiance and output (scale
+ * 0's are the caller's to set), toward the next scale's output (none at the
+ * coarsest) */
+static ew_kpcn_filter_args filter_args(const state *s, int k, int y0, int rows, ew_kpcn_tensor logits) {
+    ew_kpcn_filter_args fa;
+    memset(&fa, 0, sizeof fa);
+    fa.width = s->sw[k];
+    fa.height = rows;
+    fa.y0 = y0;
+    fa.frame_h = s->sh[k];
+    fa.logits = logits;
+    if (k > 0) {
+        fa.radiance = flat_t(s->rad[k], s->sw[k], s->sh[k]);
+        fa.out = flat_t(s->out[k], s->sw[k], s->sh[k]);
+    }
+    if (k + 1 < s->net.scales) {
+        fa.coarse = flat_t(s->out[k + 1], s->sw[k + 1], s->sh[k + 1]);
+        fa.cw = s->sw[k + 1];
+        fa.ch = s->sh[k + 1];
+    }
+    return fa;
+}
+
 /* Layer l of scale k on `rows` rows: its input from plane ip of `in` at
  * row ir, its output into plane opl of `out` at row orow, on the scale's
  * rows y .. y + rows of the region. Winograd where the backend has it, its
@@ -719,18 +743,7 @@ static ew_result decode_scale(ew_op *op, const ew_tile *tile, int k) {
     for (int q0 = 0, q1; q0 < hk && r == EW_OK; q0 = q1) {
         q1 = band_end(q0, g, B, hk);
         conv_rows(dev, s, net->lhead[k], tile, P, net->d[k], q0, D, 0, 0, q1 - q0, q0);
-        ew_kpcn_filter_args fa;
-        memset(&fa, 0, sizeof fa);
-        fa.width = s->sw[k];
-        fa.height = q1 - q0;
-        fa.y0 = q0;
-        fa.frame_h = hk;
-        fa.logits = planes_t(D, 0);
-        fa.radiance = flat_t(s->rad[k], s->sw[k], hk);
-        fa.coarse = flat_t(s->out[k + 1], s->sw[k + 1], s->sh[k + 1]);
-        fa.cw = s->sw[k + 1];
-        fa.ch = s->sh[k + 1];
-        fa.out = flat_t(s->out[k], s->sw[k], hk);
+        ew_kpcn_filter_args fa = filter_args(s, k, q0, q1 - q0, planes_t(D, 0));
         (void)EW_RUN(dev, kpcn_filter, &fa);
     }
     return r;
@@ -766,18 +779,10 @@ static ew_result scale0_band(ew_op *op, const ew_tile *tile, const ew_kpcn_input
     (void)EW_RUN(dev, kpcn_up, &ua);
     band_conv(dev, s, net->dec[0], tile, o0 - t0, o1 - o0, o0);
     band_conv(dev, s, net->lhead[0], tile, b0 - t0, b1 - b0, b0);
-    ew_kpcn_filter_args fa;
-    memset(&fa, 0, sizeof fa);
-    fa.width = B->width;
-    fa.height = b1 - b0;
-    fa.y0 = b0;
-    fa.frame_h = rh;
-    fa.logits = planes_t(B, net->head[0]);
-    fa.logits.data = ew_gn_plane_row(B, net->head[0], b0 - t0);
+    ew_kpcn_tensor logits = planes_t(B, net->head[0]);
+    logits.data = ew_gn_plane_row(B, net->head[0], b0 - t0);
+    ew_kpcn_filter_args fa = filter_args(s, 0, b0, b1 - b0, logits);
     fa.radiance = *rad0;
-    fa.coarse = flat_t(s->out[1], s->sw[1], s->sh[1]);
-    fa.cw = s->sw[1];
-    fa.ch = s->sh[1];
     fa.out = *out;
     if (remod) { /* the filter remodulates: its output is the colour; the albedo band_inputs read, from row t0 */
         long rs;
@@ -862,13 +867,8 @@ static ew_result run_tile(ew_op *op, const float *radiance, long rs, int x0, int
         (void)EW_RUN(dev, kpcn_pool, &pa);
         prev = pa.dst;
     }
-    ew_kpcn_filter_args fa; /* the coarsest scale's filter */
-    memset(&fa, 0, sizeof fa);
-    fa.width = s->sw[S - 1];
-    fa.height = s->sh[S - 1];
-    fa.logits = planes_t(&s->sb[S - 1], net->head[S - 1]);
-    fa.radiance = flat_t(s->rad[S - 1], s->sw[S - 1], s->sh[S - 1]);
-    fa.out = flat_t(s->out[S - 1], s->sw[S - 1], s->sh[S - 1]);
+    /* the coarsest scale's filter */
+    ew_kpcn_filter_args fa = filter_args(s, S - 1, 0, s->sh[S - 1], planes_t(&s->sb[S - 1], net->head[S - 1]));
     (void)EW_RUN(dev, kpcn_filter, &fa);
     /* ... the finer scales' ends in bands, coarse to fine ... */
     for (int k = S - 2; k >= 1 && r == EW_OK; k--) r = decode_scale(op, tile, k);
