@@ -20,11 +20,13 @@ static float lum(const float *p) { return 0.2126f * p[0] + 0.7152f * p[1] + 0.07
 
 /* Denoiser `name` on the frame; stage: -1 the defaults, 0 off, 1 on;
  * strided: the colour and output as views of 4 floats a pixel (copied in
- * and out here) instead of packed RGB. */
-static int run_views(ew_device *dev, const char *name, int stage, int strided, float *dst) {
+ * and out here) instead of packed RGB; progress to fn (NULL: none). */
+static ew_result run_with(ew_device *dev, const char *name, int stage, int strided, float *dst, ew_progress_fn fn,
+                          void *user) {
     static float c4[N * 4], o4[N * 4];
     ew_denoiser *d = NULL;
-    if (ew_denoiser_create(dev, name, &d) != EW_OK) return 0;
+    ew_result r = ew_denoiser_create(dev, name, &d);
+    if (r != EW_OK) return r;
     ew_image c = ew_image_packed(color, W, H, 3), o = ew_image_packed(dst, W, H, 3);
     if (strided) {
         for (int i = 0; i < N; i++)
@@ -36,18 +38,25 @@ static int run_views(ew_device *dev, const char *name, int stage, int strided, f
     }
     ew_image a = ew_image_packed(albedo, W, H, 3), n = ew_image_packed(normal, W, H, 3);
     ew_image z = ew_image_packed(depth, W, H, 1);
-    int ok = ew_denoiser_set_image(d, "color", &c) == EW_OK && ew_denoiser_set_image(d, "output", &o) == EW_OK &&
-             ew_denoiser_set_image(d, "albedo", &a) == EW_OK && ew_denoiser_set_image(d, "normal", &n) == EW_OK &&
-             ew_denoiser_set_image(d, "depth", &z) == EW_OK;
-    if (ok && stage >= 0)
-        ok = ew_denoiser_set_int(d, "do_no_harm", stage) == EW_OK &&
-             ew_denoiser_set_float(d, "outlier_k", stage ? 8.0f : 0.0f) == EW_OK;
-    ok = ok && ew_denoiser_commit(d) == EW_OK && ew_denoiser_execute(d) == EW_OK;
+    r = ew_denoiser_set_image(d, "color", &c);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", &a);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", &n);
+    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
+    if (r == EW_OK && stage >= 0) r = ew_denoiser_set_int(d, "do_no_harm", stage);
+    if (r == EW_OK && stage >= 0) r = ew_denoiser_set_float(d, "outlier_k", stage ? 8.0f : 0.0f);
+    if (r == EW_OK && fn) r = ew_denoiser_set_progress(d, fn, user);
+    if (r == EW_OK) r = ew_denoiser_commit(d);
+    if (r == EW_OK) r = ew_denoiser_execute(d);
     ew_denoiser_destroy(d);
-    if (ok && strided)
+    if (r == EW_OK && strided)
         for (int i = 0; i < N; i++)
             for (int k = 0; k < 3; k++) dst[i * 3 + k] = o4[i * 4 + k];
-    return ok;
+    return r;
+}
+
+static int run_views(ew_device *dev, const char *name, int stage, int strided, float *dst) {
+    return run_with(dev, name, stage, strided, dst, NULL, NULL) == EW_OK;
 }
 
 static int run(ew_device *dev, const char *name, int stage, float *dst) {
@@ -423,22 +432,7 @@ static int log_progress(void *user, double f) {
 }
 
 static ew_result run_progress(ew_device *dev, int stage, progress_log *l) {
-    ew_denoiser *d = NULL;
-    ew_result r = ew_denoiser_create(dev, "bgrid", &d);
-    ew_image c = ew_image_packed(color, W, H, 3), o = ew_image_packed(out, W, H, 3);
-    ew_image a = ew_image_packed(albedo, W, H, 3), n = ew_image_packed(normal, W, H, 3);
-    ew_image z = ew_image_packed(depth, W, H, 1);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "color", &c);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "output", &o);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "albedo", &a);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "normal", &n);
-    if (r == EW_OK) r = ew_denoiser_set_image(d, "depth", &z);
-    if (r == EW_OK) r = ew_denoiser_set_int(d, "do_no_harm", stage);
-    if (r == EW_OK) r = ew_denoiser_set_progress(d, log_progress, l);
-    if (r == EW_OK) r = ew_denoiser_commit(d);
-    if (r == EW_OK) r = ew_denoiser_execute(d);
-    ew_denoiser_destroy(d);
-    return r;
+    return run_with(dev, "bgrid", stage, 0, out, log_progress, l);
 }
 
 /* On a quiet frame the stage runs its pilot (kpcn) beside the method, for

@@ -36,6 +36,14 @@ static float *field(size_t n, float lo, float hi, unsigned seed, int holes) {
     return p;
 }
 
+/* a CPU device of `threads` threads (the caller counted), or NULL */
+static ew_device *device_of(int threads) {
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = threads;
+    ew_device *dev = NULL;
+    return ew_device_create(&desc, &dev) == EW_OK ? dev : NULL;
+}
+
 static int same_bits(const float *a, const float *b, size_t n) {
     return memcmp(a, b, n * sizeof(float)) == 0;
 }
@@ -62,11 +70,8 @@ TEST(bands_give_the_frames_bits) {
     float *give = malloc((size_t)N * sizeof(float)), *gref = malloc((size_t)N * sizeof(float));
     float *stats = malloc((size_t)N * EW_HARM_STATS_FLOATS * sizeof(float));
     for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
-        ew_device_desc desc = EW_DEVICE_DESC_INIT;
-        desc.num_threads = threads[t];
-        ew_device *dev = NULL;
-        CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_OK);
-        if (!dev) continue;
+        ew_device *dev = device_of(threads[t]);
+        CHECK(dev != NULL);
         CHECK(dev->backend->harm_bands);
         for (int radius = 3; radius <= 4; radius++)
             for (int with_give = 0; with_give < 2; with_give++) {
@@ -171,11 +176,8 @@ TEST(the_energy_return_and_the_pilots_blend_in_bands_give_the_frames_bits) {
     float *give = malloc((size_t)N * sizeof(float)), *gref = malloc((size_t)N * sizeof(float));
     float *pilot = malloc((size_t)N * 3 * sizeof(float)), *spread = malloc((size_t)N * 2 * sizeof(float));
     for (size_t t = 0; t < sizeof threads / sizeof threads[0]; t++) {
-        ew_device_desc desc = EW_DEVICE_DESC_INIT;
-        desc.num_threads = threads[t];
-        ew_device *dev = NULL;
-        CHECK_EQ_INT(ew_device_create(&desc, &dev), EW_OK);
-        if (!dev) continue;
+        ew_device *dev = device_of(threads[t]);
+        CHECK(dev != NULL);
         for (int kind = 0; kind < 4; kind++) {
             /* 0, 1: the energy return (1 fused), radius 3 then 24; 2, 3: the pilot's blend, radius 4 */
             const int pilot_step = kind >= 2, radius = kind == 1 ? 24 : kind == 0 ? 3 : 4;

@@ -326,6 +326,13 @@ static void harm_box_row(float *acc, const float *v, int w, int r, float *tmp) {
     for (int k = 0; k < n / b; k++) harm_add_shifted(acc, blk, 0, w, (long)k * b);
 }
 
+/* SUM_H's row from pixel j0 into dst: the output's luminance taps (into
+ * row, w floats) summed along it over radius r (tmp: harm_box_row's) */
+static void harm_sum_row(const ew_harm_args *a, long j0, int r, float *dst, float *row, float *tmp) {
+    for (int x = 0; x < a->width; x++) row[x] = ew_harm_lum_tap(a, j0 + x);
+    harm_box_row(dst, row, a->width, r, tmp);
+}
+
 /* A thread's column sums of blocks of rows (ew_harm_box_v's blocks), each
  * computed once for the run of rows the thread takes: the block starting
  * at row k0 sits in slot k0 mod (2 r + 1), which no other block a window
@@ -764,11 +771,9 @@ static void harm_rows(void *ctx, int64_t begin, int64_t end, int tid) {
                 for (int x = 0; x < w; x++) ew_harm_blend_apply(j0 + x, a, buf + (size_t)x * k);
                 break;
             }
-            case EW_HARM_SUM_H: { /* as ew_harm_sum_h_px */
-                for (int x = 0; x < w; x++) buf[x] = ew_harm_lum_tap(a, j0 + x);
-                harm_box_row(a->spread + j0, buf, w, gr, buf + w);
+            case EW_HARM_SUM_H: /* as ew_harm_sum_h_px */
+                harm_sum_row(a, j0, gr, a->spread + j0, buf, buf + w);
                 break;
-            }
             case EW_HARM_SUM_V: /* as ew_harm_sum_v_px */
                 harm_box_col(a->spread + n + j0, a->spread, w, H, y, gr, &ring);
                 break;
@@ -810,6 +815,7 @@ typedef struct {
 /* a thread's scratch: 2 planes of a band's rows with their margins, a row
  * of column sums, harm_box_row's 2 (w + 2 r), a ring of 2 r + 1 rows and
  * its 2 r + 1 first rows (ints, a float's size) */
+_Static_assert(sizeof(int) == sizeof(float), "the ring's first rows take a float's place each");
 static size_t harm_sweep_floats(int w, int rows, int r) {
     return 2 * (size_t)(rows + 2 * r) * (size_t)w + (size_t)w + 2 * ((size_t)w + 2 * (size_t)r) +
            (size_t)(2 * r + 1) * ((size_t)w + 1);
@@ -845,12 +851,10 @@ static void harm_sweep_bands(void *ctx, int64_t begin, int64_t end, int tid) {
         for (int y = lo; y < hi; y++) {
             const long j0 = (long)y * w;
             float *dst = sums + (size_t)(y - lo) * (size_t)w;
-            if (j->step == EW_HARM_SUM_H) { /* as SUM_H */
-                for (int x = 0; x < w; x++) col[x] = ew_harm_lum_tap(a, j0 + x);
-                harm_box_row(dst, col, w, r, tmp);
-            } else { /* as SPREAD_H */
+            if (j->step == EW_HARM_SUM_H)
+                harm_sum_row(a, j0, r, dst, col, tmp);
+            else /* as SPREAD_H */
                 harm_box_row(dst, a->give + j0, w, r, tmp);
-            }
         }
         harm_col_ring ring = {ringrows, held};
         for (int i = 0; i < n; i++) held[i] = INT_MIN;
