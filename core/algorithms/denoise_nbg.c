@@ -68,7 +68,10 @@ typedef struct {
     const ew_net_model *m;          /* the model in use */
     const float *fcolor, *falbedo, *fnormal, *fdepth; /* device: the frame's packed inputs */
     const float *color;             /* the colour an execute reads: the view in place, else fcolor */
-    ew_tiling tiling;
+    ew_tiling planned;              /* the commit's tiles, for need floats past the row sums */
+    size_t need;
+    ew_tiling tiling;               /* this execute's: planned, or smaller (plan_execute) */
+    float *regions;                 /* device: where the region's buffers start */
     ew_denoise_buffers buf;  /* device: one region's buffers (the frame's inputs when untiled) */
     float *params, *clamped, *outputs, *removed, *band, *grid;
     /* a colour the output overlaps, read where it is by tiles (inplace):
@@ -80,7 +83,8 @@ typedef struct {
     ew_dev_kept dmem; /* the one device allocation, kept across commits of its size */
     double *rows;            /* host: row_out read back */
     float *stage;            /* host staging, or NULL when views need none */
-    char choice[96];         /* ew_denoiser_describe: the model in use */
+    char choice[96];         /* ew_denoiser_describe: the model in use, then the tiles */
+    size_t choice_len;       /* ... the model's part */
     double host[];
 } state;
 
@@ -126,12 +130,14 @@ static size_t region_cost(const void *net, int rw, int rh) {
     return ew_nbg_region_floats((const ew_guidenet *)net, rw, rh, 1);
 }
 
-/* The tiles of a w x h frame under max_memory_mb, and the device floats of
- * the commit: parameters, the frame's packed colour, albedo, normal and
- * depth, then one region's buffers (nbg.h), and strip and pend for a colour
- * the output overlaps. A model without an exact tiling runs whole. */
-static size_t plan(const ew_op *op, const ew_guidenet *net, int w, int h, ew_tiling *t) {
-    const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
+/* The tiles of a w x h frame under max_memory_mb less `held` floats (the
+ * do-no-harm stage's, plan_execute), and the device floats of the commit:
+ * parameters, the frame's packed colour, albedo, normal and depth, then
+ * one region's buffers (nbg.h), and strip and pend for a colour the output
+ * overlaps. A model without an exact tiling runs whole. */
+static size_t plan(const ew_op *op, const ew_guidenet *net, int w, int h, size_t held, ew_tiling *t) {
+    const size_t max = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
+    const size_t budget = max > held ? max - held : 0;
     size_t frame = net->nparams + (size_t)w * (size_t)h * frame_floats_px(op);
     const int align = ew_nbg_align(net);
     const size_t whole = frame + ew_nbg_region_floats(net, w, h, 0);
@@ -159,11 +165,13 @@ static uint64_t memory(const ew_op *op, int w, int h) {
     const ew_net_model *m = NULL;
     if (ew_net_model_of(op, &kind, &m, &builtin) != EW_OK) return 0;
     ew_tiling t;
-    const uint64_t bytes = (uint64_t)plan(op, net_of(m), w, h, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
+    const uint64_t bytes = (uint64_t)plan(op, net_of(m), w, h, 0, &t) * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
                            (uint64_t)ew_dev_stage_floats(op->dev, (size_t)w * (size_t)h, 3) * sizeof(float);
     ew_net_model_free(builtin);
     return bytes;
 }
+
+static void lay_out(ew_op *op, const ew_tiling *t);
 
 static ew_result commit(ew_op *op) {
     ew_device *dev = op->dev;
@@ -184,8 +192,7 @@ static ew_result commit(ew_op *op) {
     }
     const size_t n = (size_t)w * (size_t)h;
     ew_tiling tiling;
-    const size_t need = plan(op, net, w, h, &tiling);
-    const int tiled = tiling.nx * tiling.ny > 1;
+    const size_t need = plan(op, net, w, h, 0, &tiling);
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
     const size_t stage_floats = ew_dev_stage_floats(dev, n, 3);
     const ew_dev_kept old = ew_dev_kept_take(op->state ? &((state *)op->state)->dmem : NULL);
@@ -200,25 +207,19 @@ static ew_result commit(ew_op *op) {
     }
     s->builtin = builtin;
     s->m = m;
-    s->tiling = tiling;
+    s->planned = tiling;
+    s->need = need;
     if (builtin)
         snprintf(s->choice, sizeof s->choice, "nbg %s", ew_nbg_model_name((int)ew_op_param(op, "model")));
     else
         snprintf(s->choice, sizeof s->choice, "nbg weights %s", net_of(m)->arch);
-    if (tiled) {
-        const size_t len = strlen(s->choice);
-        snprintf(s->choice + len, sizeof s->choice - len, ", %dx%d tiles", tiling.nx, tiling.ny);
-    }
+    s->choice_len = strlen(s->choice);
     s->rows = s->host;
     s->stage = stage_floats ? (float *)(void *)(s->host + (size_t)h * 2) : NULL;
     s->row_out = (double *)s->dmem.mem;
     /* device: row sums (doubles first, for alignment), then the
      * parameters, the frame's packed colour/albedo/normal (3 each) and
-     * depth, then the region's (nbg.h): radiance,
-     * clamped radiance, blend sum (sliced), one grid's slice (out, then the
-     * result), the clamp's removed light when tiled, GuideNet outputs (the
-     * hand-made guide that denoise_prepare also writes lands in the first
-     * output plane, overwritten by GuideNet), the band, the grid. */
+     * depth, then the region's (lay_out) */
     float *p = (float *)(void *)((char *)s->dmem.mem + row_bytes);
     s->params = p; p += net->nparams;
     const float *in[3];
@@ -231,19 +232,41 @@ static ew_result commit(ew_op *op) {
     s->falbedo = fa;
     s->fnormal = fn;
     s->fdepth = fd;
+    s->regions = p;
+    lay_out(op, &tiling);
+    return dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
+}
+
+/* The region's buffers (nbg.h) for tiles t, from s->regions: radiance,
+ * clamped radiance, blend sum (sliced), one grid's slice (out, then the
+ * result), the clamp's removed light when tiled, GuideNet outputs (the
+ * hand-made guide that denoise_prepare also writes lands in the first
+ * output plane, overwritten by GuideNet), the band, strip and pend for a
+ * colour the output overlaps, the grid. Smaller tiles take less of the
+ * commit's memory, from its start: the pages past that are not touched. */
+static void lay_out(ew_op *op, const ew_tiling *t) {
+    state *s = (state *)op->state;
+    const ew_guidenet *net = net_of(s->m);
+    const ew_tiling tiling = *t;
+    const int w = tiling.width, h = tiling.height, tiled = tiling.nx * tiling.ny > 1;
+    s->tiling = tiling;
+    s->choice[s->choice_len] = '\0';
+    if (tiled) snprintf(s->choice + s->choice_len, sizeof s->choice - s->choice_len, ", %dx%d tiles", tiling.nx, tiling.ny);
+    float *p = s->regions;
     const size_t rn = (size_t)tiling.rw * (size_t)tiling.rh;
     ew_denoise_buffers *b = &s->buf;
     memset(b, 0, sizeof *b);
     b->width = w;
     b->height = h;
-    b->color = fc; /* a tile reads its region of the frame's inputs where it lies (run_tile) */
-    b->albedo = fa;
-    b->normal = fn;
-    b->depth = fd;
+    b->color = s->fcolor; /* a tile reads its region of the frame's inputs where it lies (run_tile) */
+    b->albedo = s->falbedo;
+    b->normal = s->fnormal;
+    b->depth = s->fdepth;
     b->radiance = p; p += rn * 3;
     s->clamped = p; p += rn * 3;
     b->sliced = p; p += rn * 3;
     b->out = p; p += rn * 3;
+    s->removed = NULL;
     if (tiled) {
         s->removed = p;
         p += rn;
@@ -251,14 +274,29 @@ static ew_result commit(ew_op *op) {
     s->outputs = p; p += rn * (size_t)net->nout;
     b->guide = s->outputs;
     s->band = p; p += ew_nbg_band_floats(net, tiling.rw, ew_nbg_band_rows(net, tiling.rh));
+    s->tw.strip = s->tw.pend = NULL;
     if (tiled && colour_in_place_possible(op) && ew_tile_writer_fits(&tiling, tiling.halo)) {
         s->tw.keep = tiling.halo; /* what a region reads of its neighbours' cores */
         s->tw.strip = p; p += (size_t)h * tiling.halo * 3;
         s->tw.pend = p; p += 2 * (size_t)w * tiling.halo * 3;
     }
     s->grid = p;
-    ew_result r = dev->backend->mem_upload(dev, s->params, m->params, net->nparams * sizeof(float));
-    return r;
+}
+
+/* This execute's tiles: the commit's, or smaller ones while the do-no-harm
+ * stage holds a frame of its own through the method (the pilot's estimate,
+ * on the host), so that the two stay within max_memory_mb together where
+ * the commit's memory has room for that plan. The same bits in any tiles
+ * (tiling.h). */
+static void plan_execute(ew_op *op) {
+    state *s = (state *)op->state;
+    const size_t held = op->dev->device_memory ? 0 : ew_harm_held_bytes(op) / sizeof(float);
+    ew_tiling t = s->planned;
+    if (held) {
+        ew_tiling u;
+        if (plan(op, net_of(s->m), t.width, t.height, held, &u) <= s->need) t = u;
+    }
+    if (memcmp(&t, &s->tiling, sizeof t) != 0) lay_out(op, &t);
 }
 
 typedef struct {
@@ -387,6 +425,7 @@ static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
+    plan_execute(op);
     const int W = s->tiling.width, H = s->tiling.height;
     const ew_image *av = ew_op_image(op, "albedo"), *nv = ew_op_image(op, "normal"), *dv = ew_op_image(op, "depth");
     /* the colour is read where it is when that is packed RGB (on the CPU;

@@ -134,8 +134,8 @@ typedef struct ew_harm_args {
                                clamped, as TAKE computes it) where it is not 0 (zero it first) and TAKE
                                reads it there instead of from color, which the method's output may have
                                overwritten by then */
-    float *pilot;           /* PILOT_*: 3 per pixel, another method's output on the same input (src/harm_stage.c);
-                               PILOT_SQ overwrites its first two floats a pixel */
+    float *pilot;           /* PILOT_*: 3 per pixel, another method's output on the same input in T (ew_harm_tone;
+                               src/harm_stage.c); PILOT_SQ overwrites its first two floats a pixel */
     float pilot_share;      /* PILOT_V: the pilot's alpha taken this share (0: none, 1: all) */
     int fused;              /* 1: the stage ran inside the method's tiles (src/harm_stage.c), whose output
                                has overwritten the clamped colour by GIVE and TAKE: give holds what LIGHT
@@ -577,7 +577,7 @@ EW_HD void ew_harm_spread_v_px(int x, int y, const ew_harm_args *a) {
  * output: 1 where the method agrees with p, toward the input where it
  * removed what p kept. p itself is never mixed in: the output stays the
  * method's own, moved toward the input. Sums over the blend's window
- * (radius), RGB averaged, in T. Where the method is better than p the
+ * (radius), RGB averaged, in T (the stage hands p in T already). Where the method is better than p the
  * weight takes p's error for the method's and gives back some noise; a
  * threshold on D's share (no blend below 0.1 of N + D) won that back on
  * average (+0.05 to +0.07 dB on 50 training scenes at 16-64 spp) but left the
@@ -588,7 +588,7 @@ EW_HD void ew_harm_pilot_sq_px(long j, const ew_harm_args *a) {
     float *p = a->pilot + j * 3;
     float n = 0.0f, d = 0.0f;
     for (int c = 0; c < 3; c++) {
-        const float tp = ew_harm_tone(p[c]), ti = ew_harm_tone(in[c]) - tp, to = ew_harm_tone(o[c]) - tp;
+        const float tp = p[c], ti = ew_harm_tone(in[c]) - tp, to = ew_harm_tone(o[c]) - tp;
         n += ti * ti;
         d += to * to;
     }

@@ -158,6 +158,25 @@ void *ew_host_alloc(size_t bytes) {
 
 void ew_host_free(void *ptr) { free(ptr); }
 
+void *ew__scratch_alloc(size_t bytes) {
+#if defined(__linux__)
+    void *p = mmap(NULL, bytes ? bytes : 1, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    return p == MAP_FAILED ? NULL : p;
+#else
+    return malloc(bytes);
+#endif
+}
+
+void ew__scratch_free(void *p, size_t bytes) {
+    if (!p) return;
+#if defined(__linux__)
+    munmap(p, bytes ? bytes : 1);
+#else
+    (void)bytes;
+    free(p);
+#endif
+}
+
 ew_result ew_dev_copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx, int sy,
                            int w, int h, int c) {
     ew_result r = EW_OK;

@@ -47,6 +47,7 @@
  */
 #include <string.h>
 
+#include "kernels/half.h"
 #include "kernels/harm.h"
 #include "kernels/outlier.h"
 #include "kernels/reduce.h"
@@ -139,9 +140,10 @@ typedef struct ew_harm_state {
     int fused;      /* ... and does, in this execute */
     int blend;      /* fused: the regions are blended (do_no_harm, a frame not faded out) */
     ew_harm_args region; /* fused: the blend's arguments but a region's buffers */
-    const float *pilot;  /* fused, in this execute: the pilot's output (host, 3 floats a pixel), or NULL */
+    const unsigned short *pilot; /* fused, in this execute: the pilot's output in T as halves (host, 3 a
+                                    pixel; pilot_tone), or NULL */
     float pilot_share;
-    float *pregion;      /* ... a region's copy of it (PILOT_SQ rewrites it), grown as regions ask */
+    float *pregion;      /* ... a region's copy of it as floats (PILOT_SQ rewrites it), grown as regions ask */
     size_t pregion_floats;
     float *band;    /* can_fuse: two bands of rows of 3 floats a pixel for the passes before the method */
     int half;       /* can_fuse: albedo (2), normal (4) read from half views a band at a time (not own) */
@@ -655,8 +657,9 @@ ew_result ew_harm_region_done(ew_op *op, int x, int y, int rw, int rh, const flo
             s->pregion_floats = s->pregion ? need : 0;
             if (!s->pregion) return ew__fail(dev, EW_ERR_OUT_OF_MEMORY, "out of memory: the pilot's region of %dx%d", rw, rh);
         }
-        ew_result r = ew_dev_copy_rect(dev, s->pregion, rw, 0, 0, s->pilot, s->w, x, y, rw, rh, 3);
-        if (r != EW_OK) return r;
+        for (int row = 0; row < rh; row++)
+            ew__halves_to_floats(s->pilot + ((size_t)(y + row) * s->w + x) * 3, s->pregion + (size_t)row * rw * 3,
+                                 (size_t)rw * 3);
         ha.pilot = s->pregion;
         ha.pilot_share = s->pilot_share;
         dev->backend->harm(dev, EW_HARM_PILOT_SQ, &ha);
@@ -673,6 +676,11 @@ ew_result ew_harm_region_done(ew_op *op, int x, int y, int rw, int rh, const flo
 int ew_harm_region_margin(const ew_op *op) {
     const ew_harm_state *s = (const ew_harm_state *)op->harm;
     return HARM_BLEND_RADIUS + 1 + (s && s->pilot ? HARM_BLEND_RADIUS : 0);
+}
+
+size_t ew_harm_held_bytes(const ew_op *op) {
+    const ew_harm_state *s = (const ew_harm_state *)op->harm;
+    return s && s->pilot ? (size_t)s->w * (size_t)s->h * 3 * sizeof *s->pilot : 0;
 }
 
 float *ew_harm_clamp_removed(const ew_op *op) {
@@ -696,8 +704,28 @@ static int span_report(void *user, double f) {
  * as nbg and bgrid together at 4K) */
 #define HARM_PILOT_PROGRESS 0.5
 
-/* The pilot's output (3 floats a pixel, host memory: `into` when given,
- * else a buffer of its own, *owned 1) on the colour the method reads and
+/* What the stage keeps of the pilot's output p: T(p) (kernels/harm.h),
+ * all its estimate reads of p, rounded to halves. Their 11 bits are far
+ * below what the estimate measures in T (on a frame quiet enough for a
+ * pilot the input's distance from p is ~1e-2, a half's step at most 5e-4),
+ * and T is below 41 for every float, so no value overflows. The floats in
+ * place become those halves, packed at the front (halves 1: a frame held
+ * through the method, at 6 bytes a pixel), or the floats they hold
+ * (halves 0: the same values wherever the estimate runs). One pass front
+ * to back: a half's two bytes never reach a float not yet read. */
+static void pilot_tone(float *p, size_t values, int halves) {
+    for (size_t i = 0; i < values; i++) {
+        const unsigned short t = ew_float_to_half(ew_harm_tone(p[i]));
+        if (halves)
+            memcpy((char *)p + i * sizeof t, &t, sizeof t);
+        else
+            p[i] = ew_half_to_float(t);
+    }
+}
+
+/* The pilot's output in T (pilot_tone; 3 floats a pixel, or 3 halves
+ * with `halves`; host memory: `into` when given, else a buffer of its own,
+ * *owned 1) on the colour the method reads and
  * the op's features: kpcn's default model, built for this frame and freed
  * after it, so that its tiles are not held while the method runs. Its
  * stage blends (kpcn blurs detail of a converged frame too, and the
@@ -708,7 +736,7 @@ static int span_report(void *user, double f) {
  * against the pilot without it. Its progress is the op's span `ps` (fn
  * NULL: none). NULL in *out when it could not run (the stage then blends
  * as without it). */
-static ew_result run_pilot(ew_op *op, float *into, progress_span *ps, float **out, int *owned) {
+static ew_result run_pilot(ew_op *op, float *into, int halves, progress_span *ps, float **out, int *owned) {
     *out = NULL;
     *owned = 0;
     const ew_image *c = ew_op_image(op, "color");
@@ -730,6 +758,12 @@ static ew_result run_pilot(ew_op *op, float *into, progress_span *ps, float **ou
     if (r != EW_OK) {
         if (buf != into) free(buf);
         return r == EW_ERR_CANCELLED ? r : EW_OK;
+    }
+    halves = halves && !into;
+    pilot_tone(buf, n * 3, halves);
+    if (halves) { /* the floats' second half goes back (a shrink does not move or fail in glibc) */
+        float *shrunk = (float *)realloc(buf, n * 3 * sizeof(unsigned short));
+        if (shrunk) buf = shrunk;
     }
     *out = buf;
     *owned = buf != into;
@@ -842,10 +876,6 @@ ew_result ew_harm_execute(ew_op *op) {
         ew_dev_release_pages(dev, s->band, (char *)s->dmem + s->dmem_bytes);
     } else
         ew_dev_release_pages(dev, s->a, s->b + (size_t)s->w * s->h * EW_HARM_STATS_FLOATS);
-    if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
-        r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * sizeof(float));
-        if (r != EW_OK) return r;
-    }
     /* the pilot reads what the method reads. Where that is the stage's
      * clamped colour (a rejection, around the method), which the method's
      * output cannot overwrite, it runs after the method, so that its output
@@ -863,8 +893,18 @@ ew_result ew_harm_execute(ew_op *op) {
     progress_span method_span = {fn, user, want_pilot && !pilot_after ? HARM_PILOT_PROGRESS : 0.0,
                                  want_pilot ? 1.0 - HARM_PILOT_PROGRESS : 1.0};
     if (want_pilot && !pilot_after) {
-        r = run_pilot(op, NULL, &pilot_span, &pilot, &pilot_owned);
+        r = run_pilot(op, NULL, fuse, &pilot_span, &pilot, &pilot_owned);
         if (r != EW_OK) {
+            op->images[ci] = saved;
+            return r;
+        }
+    }
+    /* the method's clamp's plane, zeroed after a pilot that runs first, so
+     * that it is not resident beside the pilot's own */
+    if (s->pre != 2) { /* pre 2: the stage's firefly clamp wrote it */
+        r = ew_dev_zero(dev, s->removed, (size_t)s->w * s->h * sizeof(float));
+        if (r != EW_OK) {
+            if (pilot_owned) free(pilot);
             op->images[ci] = saved;
             return r;
         }
@@ -872,7 +912,7 @@ ew_result ew_harm_execute(ew_op *op) {
     s->region = ha;
     s->blend = post;
     s->fused = fuse;
-    s->pilot = fuse ? pilot : NULL;
+    s->pilot = fuse ? (const unsigned short *)(void *)pilot : NULL;
     s->pilot_share = pilot_share;
     if (want_pilot && fn) {
         op->progress = span_report;
@@ -892,7 +932,7 @@ ew_result ew_harm_execute(ew_op *op) {
         const ew_image va = ew_image_packed(s->a, s->w, s->h, 3);
         const int a_free = ew_dev_view_in_place(dev, ew_op_image(op, "output"), 3, NULL) &&
                            ew_dev_view_in_place(dev, &va, 3, NULL) == s->a;
-        r = run_pilot(op, a_free ? s->a : NULL, &pilot_span, &pilot, &pilot_owned);
+        r = run_pilot(op, a_free ? s->a : NULL, 0, &pilot_span, &pilot, &pilot_owned);
     }
     op->images[ci] = saved;
     if (r != EW_OK) {

@@ -102,6 +102,12 @@ static inline float *ew__pixel(const ew_image *img, int x, int y) {
 
 /* n halves to floats, exactly (half_rows.c: in hardware where the CPU can). */
 void ew__halves_to_floats(const unsigned short *s, float *d, size_t n);
+/* Host scratch mapped by itself and unmapped by ew__scratch_free (given
+ * the same size), whatever its size: a heap keeps what is freed below its
+ * mmap threshold (the CLI's is 32 MiB, never trimmed by itself), where
+ * scratch of one step would still count at a later step's peak. */
+void *ew__scratch_alloc(size_t bytes);
+void ew__scratch_free(void *p, size_t bytes);
 
 /* Channel k of pixel (x, y) of a float or half view, as a float. */
 static inline float ew__channel(const ew_image *img, int x, int y, int k) {

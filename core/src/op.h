@@ -216,6 +216,10 @@ ew_result ew_harm_region_done(ew_op *op, int x, int y, int rw, int rh, const flo
  * a region that is the core and this margin (clipped to the frame) gives
  * the core's pixels exactly. */
 int ew_harm_region_margin(const ew_op *op);
+/* Host bytes the stage holds through the method in this execute (the
+ * pilot's estimate ahead of the regions), 0 else: a method that plans its
+ * tiles at execute leaves them out of its budget. */
+size_t ew_harm_held_bytes(const ew_op *op);
 /* The stage's allocations for images of w x h (ew_op_memory adds them). */
 uint64_t ew_harm_memory(const ew_op *op, int w, int h);
 /* Copy the stage's parameters of one op to another (auto -> its method). */

@@ -29,6 +29,35 @@ TEST(every_half_converts_as_the_compilers_float16) {
     CHECK(ew_half_to_float(0x7bffu) == 65504.0f && ew_half_to_float(0x0001u) == 5.9604644775390625e-8f);
 }
 
+/* float to half against the compiler's conversion: every half's float and
+ * the floats between and around neighbours (ties both ways), and a sweep of
+ * every 4099th float bit pattern (NaNs as NaNs) */
+static int half_differs(float f) {
+    const _Float16 want = (_Float16)f;
+    const uint16_t got = ew_float_to_half(f);
+    uint16_t wb;
+    memcpy(&wb, &want, sizeof wb);
+    return isnan(f) ? (got & 0x7c00u) != 0x7c00u || !(got & 0x3ffu) : got != wb;
+}
+
+TEST(every_float_rounds_to_half_as_the_compilers_float16) {
+    int bad = 0;
+    for (uint32_t u = 0; u < 65536u; u++) {
+        const float a = ew_half_to_float((uint16_t)u), b = ew_half_to_float((uint16_t)(u + 1u));
+        bad += half_differs(a) + half_differs(nextafterf(a, INFINITY)) + half_differs(nextafterf(a, -INFINITY));
+        if (isfinite(a) && isfinite(b) && (u & 0x7fffu) != 0x7fffu) bad += half_differs(a + (b - a) * 0.5f);
+    }
+    for (uint64_t u = 0; u < 0x100000000ull; u += 4099u) {
+        const uint32_t bits = (uint32_t)u;
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        bad += half_differs(f);
+    }
+    CHECK_EQ_INT(bad, 0);
+    CHECK(ew_float_to_half(65519.0f) == 0x7bffu && ew_float_to_half(65520.0f) == 0x7c00u);
+    CHECK(ew_float_to_half(1.0f + 1.0f / 2048.0f) == 0x3c00u && ew_float_to_half(1.0f + 3.0f / 2048.0f) == 0x3c02u);
+}
+
 /* the run converter (in hardware where the CPU can) against the value by
  * value one, on every half, from an odd offset and length (its tail) */
 TEST(halves_to_floats_in_runs_as_value_by_value) {

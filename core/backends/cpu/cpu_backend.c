@@ -874,15 +874,16 @@ static void harm_sweep_bands(void *ctx, int64_t begin, int64_t end, int tid) {
 static int harm_sweeps(ew_device *dev, int step, const ew_harm_args *a) {
     const int threads = ew_pool_threads(dev->pool), w = a->width, h = a->height;
     const int r = step == EW_HARM_RETURN ? a->give_radius : a->radius;
-    /* two bands a thread, of at least 4 windows' rows (the margins' sums
-     * are computed twice). Smaller bands measured worse at 4K: scratch
-     * below the CLI's mmap threshold (32 MiB) stays in its heap after the
-     * pilot's stage and counts at the method's peak (+9 MiB) */
-    int rows = a->band_rows > 0 ? a->band_rows : ew_maxi((h + 2 * threads - 1) / (2 * threads), 4 * (2 * r + 1));
+    /* bands of 4 windows' rows, at least 64 (the margins' sums are computed
+     * twice: a fifth to a quarter more of them), so that a thread's scratch
+     * stays a few MiB at 4K: two bands a thread took 36 MiB there, at the
+     * peak of a pilot's own stage */
+    int rows = a->band_rows > 0 ? a->band_rows : ew_maxi(4 * (2 * r + 1), 64);
     rows = ew_maxi(ew_mini(rows, h), 1);
     const int bands = (h + rows - 1) / rows;
     harm_sweep_job j = {a, 0, rows, r, harm_sweep_floats(w, rows, r), NULL};
-    j.mem = (float *)malloc(j.per_thread * (size_t)threads * sizeof(float));
+    const size_t floats = j.per_thread * (size_t)threads;
+    j.mem = (float *)ew__scratch_alloc(floats * sizeof(float));
     if (!j.mem) return 0;
     if (step == EW_HARM_RETURN) {
         j.step = EW_HARM_SUM_H;
@@ -892,7 +893,7 @@ static int harm_sweeps(ew_device *dev, int step, const ew_harm_args *a) {
         j.step = EW_HARM_PILOT_H;
     }
     ew_pool_run(dev->pool, bands, 1, harm_sweep_bands, &j);
-    free(j.mem);
+    ew__scratch_free(j.mem, floats * sizeof(float));
     return 1;
 }
 
