@@ -605,3 +605,46 @@ TEST(output_over_the_colour_runs_the_stage_in_the_tiles) {
     free(keep);
     ew_device_destroy(dev);
 }
+
+/* The tiles of a run, from what it ran ("..., 3x2 tiles"; none: 1) */
+static int tiles_of(const char *what) {
+    const char *t = strrchr(what, ',');
+    int nx, ny;
+    return t && sscanf(t, ", %dx%d tiles", &nx, &ny) == 2 ? nx * ny : 1;
+}
+
+/* While the stage holds the pilot's estimate through the method (the
+ * output over the colour, a frame quiet enough for the pilot: halves of
+ * T, 6 bytes a pixel), nbg plans its tiles at execute under max_memory_mb
+ * less that: at some budget more tiles than with the output apart (where
+ * nothing is held through the method), and the same bits. */
+TEST(tiles_leave_room_for_the_pilots_estimate) {
+    enum { W = 600, H = 640 };
+    const long n3 = (long)W * H * 3;
+    ew_device *dev = make_device(2);
+    float *apart = malloc(sizeof(float) * n3), *keep = malloc(sizeof(float) * n3);
+    images im;
+    smooth_images(&im, W, H, 0.05f, 40);
+    memcpy(keep, im.color, sizeof(float) * n3);
+    int more = 0;
+    for (int budget = 2; budget <= 64 && !more; budget += 2) {
+        char what_apart[128];
+        CHECK_EQ_INT(run_opts(dev, &im, apart, budget, 1, NULL), EW_OK);
+        snprintf(what_apart, sizeof what_apart, "%s", opts_what);
+        CHECK_EQ_INT(run_opts(dev, &im, im.color, budget, 1, NULL), EW_OK);
+        if (tiles_of(opts_what) > tiles_of(what_apart)) {
+            long differ = 0;
+            for (long i = 0; i < n3; i++) differ += memcmp(&apart[i], &im.color[i], sizeof(float)) != 0;
+            fprintf(stderr, "  %d MiB: output apart %s, over the colour %s; %ld values differ\n", budget, what_apart,
+                    opts_what, differ);
+            CHECK(differ == 0);
+            more = 1;
+        }
+        memcpy(im.color, keep, sizeof(float) * n3);
+    }
+    CHECK(more);
+    images_free(&im);
+    free(apart);
+    free(keep);
+    ew_device_destroy(dev);
+}
