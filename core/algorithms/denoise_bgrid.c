@@ -15,6 +15,7 @@
 #include "kernels/reduce.h"
 #include "src/backend.h"
 #include "src/op.h"
+#include "src/tile_writer.h"
 
 static const ew_image_desc images[] = {
     {"color", 3, 1, "noisy colour (RGB, linear)"},
@@ -67,11 +68,18 @@ typedef struct {
     double *rows;           /* host: row_out read back */
     float *stage;           /* host staging, or NULL when views need none */
     /* bands (1: the whole frame, the buffers above frame-sized) */
-    int bands, core, halo;
+    int bands, core, halo;      /* this execute's (plan_execute) */
+    int planned_bands;          /* the commit's */
     const float *frame_in[4];   /* colour, albedo, normal, depth read from a frame: the view in place or frame_own */
     float *frame_own[4];        /* a frame copy the op packs at execute (an input the output overlaps) */
     float *band_in[4];          /* a region's packed input, for those not read from a frame */
     float *removed;             /* a region's light removed by the clamp */
+    /* the do-no-harm stage in the bands (ew_harm_fused): the colour the
+     * output overlaps read where it is (inplace), what the next band reads
+     * of a core going out after it (tw.pend NULL: the commit could not
+     * have that, and the colour is copied whole) */
+    int inplace;
+    ew_tile_writer tw;
     char choice[64];
     double host[];          /* rows, then stage */
 } state;
@@ -96,10 +104,28 @@ static band band_at(int core, int halo, int h, int i) {
     return b;
 }
 
+/* What a core row reads around it: the grids' reach and the clamp's, and
+ * where the do-no-harm stage may run in the bands, the rows its blend of
+ * the core reads beyond it (whose output must be exact too) */
 static int band_halo(const ew_op *op) {
     return ew_bgrid_reach(ew_op_param(op, "spatial_rate")) +
            (ew_op_param(op, "color_weight") > 0.0f ? ew_bgrid_reach(ew_op_param(op, "prepass_rate")) : 0) +
-           (ew_op_param(op, "firefly_k") > 0.0f ? 2 : 0);
+           (ew_op_param(op, "firefly_k") > 0.0f ? 2 : 0) + (ew_harm_may_fuse(op) ? ew_harm_region_margin_most(op) : 0);
+}
+
+/* The bands as tiles of the frame's width, for the tile writer */
+static ew_tiling bands_tiling(int w, int h, int bands, int core, int halo) {
+    ew_tiling t;
+    memset(&t, 0, sizeof t);
+    t.width = t.tw = t.rw = w;
+    t.height = h;
+    t.th = core;
+    t.halo = halo;
+    t.align = 1;
+    t.nx = 1;
+    t.ny = bands;
+    t.rh = core + 2 * halo < h ? core + 2 * halo : h;
+    return t;
 }
 
 /* Where each input comes from when the frame runs in bands: read in place
@@ -119,8 +145,9 @@ static void band_inputs(const ew_op *op, const float *in[4], int own[4]) {
 
 /* Device floats of `bands` bands of a w x h frame (bands > 1): the frame
  * copies, a region's buffers (the inputs packed per region, radiance,
- * guide, sliced, out, clamped, the removed light) and the largest band
- * grid of the two passes. */
+ * guide, sliced, out, clamped, the removed light), the tile writer's where
+ * the stage may run in the bands, and the largest band grid of the two
+ * passes. */
 static size_t band_floats(const ew_op *op, int w, int h, int bands, int halo, const ew_bgrid_params *gp,
                           const ew_bgrid_params *pre) {
     const float *in[4];
@@ -133,6 +160,7 @@ static size_t band_floats(const ew_op *op, int w, int h, int bands, int halo, co
         if (own[i]) frame += (size_t)w * (size_t)h * (size_t)input_channels[i];
         else if (!in[i] || i == 0) px += (size_t)input_channels[i];
     }
+    if (ew_harm_may_fuse(op)) frame += ew_tile_writer_floats(w, h, halo);
     size_t grid = 0;
     int rows = 0;
     for (int i = 0; i * core < h; i++) {
@@ -168,14 +196,16 @@ static size_t device_floats(const ew_op *op, int w, int h, int has_a, int has_n,
     return n * 3 * 5 + n + (has_a ? n * 3 : 0) + (has_n ? n * 3 : 0) + (has_d ? n : 0) + grid_floats;
 }
 
-/* The bands of a w x h frame under max_memory_mb and the device floats of
- * the commit (0: invalid grid parameters): one band when the whole frame's
- * buffers fit, else the fewest bands that fit (bands of MIN_BAND_CORE rows
- * when none do). */
-static size_t plan(const ew_op *op, int w, int h, int has_a, int has_n, int has_d, ew_bgrid_params *gp,
+/* The bands of a w x h frame under max_memory_mb less `held` floats (the
+ * do-no-harm stage's, plan_execute) and the device floats of the commit
+ * (0: invalid grid parameters): one band when the whole frame's buffers
+ * fit, else the fewest bands that fit (bands of MIN_BAND_CORE rows when
+ * none do). */
+static size_t plan(const ew_op *op, int w, int h, int has_a, int has_n, int has_d, size_t held, ew_bgrid_params *gp,
                    ew_bgrid_params *pre, int *bands, int *halo) {
     const size_t whole = device_floats(op, w, h, has_a, has_n, has_d, gp, pre);
-    const size_t budget = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
+    const size_t max = (size_t)ew_op_param(op, "max_memory_mb") * (1048576 / sizeof(float));
+    const size_t budget = max > held ? max - held : 0;
     *bands = 1;
     *halo = band_halo(op);
     if (!whole || whole <= budget || h <= MIN_BAND_CORE) return whole;
@@ -216,7 +246,7 @@ static size_t stage_floats(const ew_op *op, int w, int h, int bands, int halo) {
 static uint64_t memory(const ew_op *op, int w, int h) {
     ew_bgrid_params gp, pre;
     int bands, halo;
-    const size_t need = plan(op, w, h, 1, 1, 1, &gp, &pre, &bands, &halo);
+    const size_t need = plan(op, w, h, 1, 1, 1, 0, &gp, &pre, &bands, &halo);
     if (!need) return 0;
     return (uint64_t)need * sizeof(float) + (uint64_t)h * 4 * sizeof(double) +
            (uint64_t)stage_floats(op, w, h, bands, halo) * sizeof(float);
@@ -230,7 +260,7 @@ static ew_result commit(ew_op *op) {
               has_d = ew_op_image(op, "depth") != NULL;
     ew_bgrid_params gp, pre;
     int bands, halo;
-    const size_t need = plan(op, w, h, has_a, has_n, has_d, &gp, &pre, &bands, &halo);
+    const size_t need = plan(op, w, h, has_a, has_n, has_d, 0, &gp, &pre, &bands, &halo);
     if (!need) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "invalid grid parameters");
     const size_t n = (size_t)w * (size_t)h;
     const size_t row_bytes = (size_t)h * 2 * sizeof(double);
@@ -252,7 +282,7 @@ static ew_result commit(ew_op *op) {
     b->height = h;
     s->grid_params = gp;
     s->prepass_params = pre;
-    s->bands = bands;
+    s->bands = s->planned_bands = bands;
     s->halo = halo;
     if (bands > 1) {
         s->core = (h + bands - 1) / bands;
@@ -287,6 +317,12 @@ static ew_result commit(ew_op *op) {
         b->out = m; m += rn * 3;
         s->clamped = m; m += rn * 3;
         s->removed = m; m += rn;
+        const ew_tiling t = bands_tiling(w, h, bands, s->core, halo);
+        if (ew_harm_may_fuse(op) && ew_tile_writer_fits(&t, halo)) {
+            s->tw.keep = halo; /* what a band reads of the core before it */
+            s->tw.strip = m; m += (size_t)h * halo * 3; /* (bands span the width: never written) */
+            s->tw.pend = m; m += 2 * (size_t)w * halo * 3;
+        }
         s->grid = m;
         return EW_OK;
     }
@@ -342,7 +378,9 @@ static ew_result band_input(ew_op *op, int i, const band *bb, const float **dst)
 
 /* The region of band bb up to the grids: its inputs, radiance and guide,
  * and the firefly clamp (the removed light of its core into the stage's
- * frame when `removed`); *radiance is what the grids splat. */
+ * frame when `removed`, but in the band's buffer only while the stage runs
+ * in the bands, which rewrites it first); *radiance is what the grids
+ * splat. */
 static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const float **radiance) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -361,7 +399,7 @@ static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const f
         const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, removed ? s->removed : NULL};
         dev->backend->outlier_guided(dev, &fp, &fb);
         *radiance = s->clamped;
-        if (removed) {
+        if (removed && !ew_harm_fused(op)) {
             const size_t w = (size_t)b->width;
             r = dev->backend->mem_copy(dev, removed + (size_t)bb->cy * w, s->removed + (size_t)(bb->cy - bb->ry) * w,
                                        (size_t)bb->ch * w * sizeof(float));
@@ -379,16 +417,55 @@ static void band_first_pass(ew_op *op, const band *bb, const float *radiance) {
     ew_bgrid_slice(op->dev, &g, s->grid, s->buf.guide, s->buf.sliced);
 }
 
+/* This execute's bands: the commit's, or more while the do-no-harm stage
+ * holds a frame of its own through the method (the pilot's estimate, on
+ * the host), so that the two stay within max_memory_mb together. A smaller
+ * region takes less of each buffer, from its start (the pages past that
+ * are not touched); more bands keep the colour in place where the commit's
+ * did (cores no shorter than the halo). The same bits in any bands. */
+static void plan_execute(ew_op *op) {
+    state *s = (state *)op->state;
+    const int h = s->grid_params.height;
+    s->bands = s->planned_bands;
+    s->core = (h + s->bands - 1) / s->bands;
+    const size_t held = op->dev->device_memory ? 0 : ew_harm_held_bytes(op) / sizeof(float);
+    if (held) {
+        ew_bgrid_params gp, pre;
+        int bands, halo;
+        plan(op, s->buf.width, h, ew_op_image(op, "albedo") != NULL, ew_op_image(op, "normal") != NULL,
+             ew_op_image(op, "depth") != NULL, held, &gp, &pre, &bands, &halo);
+        const int core = (h + bands - 1) / bands;
+        if (bands > s->bands && (!s->tw.pend || core >= s->halo)) {
+            s->bands = (h + core - 1) / core;
+            s->core = core;
+        }
+    }
+    snprintf(s->choice, sizeof s->choice, "bgrid, %d bands", s->bands);
+}
+
 static ew_result execute_bands(ew_op *op) {
     state *s = (state *)op->state;
+    plan_execute(op);
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
     const int w = b->width, h = s->grid_params.height;
     const size_t w3 = (size_t)w * 3;
     ew_result r = EW_OK;
-    /* the colour of this execute (the stage's clamped colour, or the caller's) */
+    /* the colour of this execute (the stage's clamped colour, or the
+     * caller's; the stage in the bands: the caller's holds the clamped
+     * colour, read where it is while what later bands read of a core waits) */
     const ew_image *cv = ew_op_image(op, "color");
     s->frame_in[0] = ew_dev_view_in_place(dev, cv, 3, ew_op_image(op, "output"));
+    s->inplace = 0;
+    const ew_tiling tiling = bands_tiling(w, h, s->bands, s->core, s->halo);
+    s->tw.dev = dev;
+    s->tw.out = ew_op_image(op, "output");
+    s->tw.stage = s->stage;
+    s->tw.held.cw = 0;
+    if (!s->frame_in[0] && ew_harm_fused(op) && s->tw.pend) {
+        s->frame_in[0] = ew_dev_view_in_place(dev, cv, 3, NULL);
+        s->inplace = s->frame_in[0] != NULL;
+    }
     if (!s->frame_in[0] && ew_images_overlap(cv, ew_op_image(op, "output"))) {
         if (!s->frame_own[0]) return ew__fail(dev, EW_ERR_INVALID_ARGUMENT, "bgrid: the colour overlaps the output");
         s->frame_in[0] = s->frame_own[0];
@@ -455,8 +532,27 @@ static ew_result execute_bands(ew_op *op) {
         ew_bgrid_splat(dev, &g, radiance, b->guide, s->grid);
         ew_bgrid_slice(dev, &g, s->grid, b->guide, b->sliced);
         dev->backend->denoise_finish(dev, b);
-        const ew_image core = view_rows(o, bb.cy, bb.ch);
-        r = ew_dev_get_view(dev, b->out + (size_t)(bb.cy - bb.ry) * w3, 3, &core, s->stage);
+        if (ew_harm_fused(op)) {
+            /* the stage's blend of the core and the rows its window reads
+             * around it (exact: the halo holds them), over the clamped
+             * colour where it lies; then the core's light the clamp took */
+            const int m = ew_harm_region_margin(op);
+            const int y0 = ew_maxi(bb.cy - m, 0), y1 = ew_mini(bb.cy + bb.ch + m, h);
+            float *give = removed && ew_op_param(op, "firefly_k") > 0.0f ? s->removed + (size_t)(y0 - bb.ry) * w : NULL;
+            r = ew_harm_region_done(op, 0, y0, w, y1 - y0, s->frame_in[0] + (size_t)y0 * w3,
+                                    b->out + (size_t)(y0 - bb.ry) * w3, give);
+            if (r == EW_OK && give)
+                r = dev->backend->mem_copy(dev, removed + (size_t)bb.cy * w, s->removed + (size_t)(bb.cy - bb.ry) * w,
+                                           (size_t)bb.ch * w * sizeof(float));
+            if (r != EW_OK) return r;
+        }
+        if (s->inplace) {
+            const ew_tile t = {0, bb.cy, w, bb.ch, 0, bb.ry, w, bb.rh};
+            r = ew_tile_writer_core(&s->tw, &tiling, &t, b->out, b->radiance);
+        } else {
+            const ew_image core = view_rows(o, bb.cy, bb.ch);
+            r = ew_dev_get_view(dev, b->out + (size_t)(bb.cy - bb.ry) * w3, 3, &core, s->stage);
+        }
         if (r == EW_OK && !ew_op_report(op, (cw > 0.0f ? 0.4 : 0.0) + (cw > 0.0f ? 0.6 : 1.0) * (i + 1) / s->bands))
             r = ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
@@ -512,6 +608,13 @@ static ew_result execute(ew_op *op) {
     if (!ew_op_report(op, 0.6)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     ew_bgrid_slice(dev, &s->grid_params, s->grid, b->guide, b->sliced);
     dev->backend->denoise_finish(dev, b);
+    /* the stage's blend of the frame, in place (ew_harm_fused: the colour
+     * packed is the clamped colour the caller's view holds) */
+    if (ew_harm_fused(op)) {
+        r = ew_harm_region_done(op, 0, 0, b->width, b->height, b->color, b->out,
+                                k > 0.0f ? ew_harm_clamp_removed(op) : NULL);
+        if (r != EW_OK) return r;
+    }
     /* every buffer is written again before it is read at the next execute
      * (the grid comes back as zeros, as a fresh block): with the device's
      * release_scratch, all but the output go before it is copied out, and
@@ -544,6 +647,7 @@ const ew_op_type ew_denoise_bgrid = {
     .release = release,
     .memory = memory,
     .describe = describe,
+    .stage_in_tiles = 1,
     .device_memory = 1, /* runs on CUDA */
     .pixel_params = (const char *const[]){"spatial_rate", "prepass_rate", NULL},
     .inplace_inputs = (const char *const[]){"color", NULL},

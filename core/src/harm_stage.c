@@ -678,6 +678,10 @@ int ew_harm_region_margin(const ew_op *op) {
     return HARM_BLEND_RADIUS + 1 + (s && s->pilot ? HARM_BLEND_RADIUS : 0);
 }
 
+int ew_harm_region_margin_most(const ew_op *op) {
+    return HARM_BLEND_RADIUS + 1 + (pilot_possible(op) ? HARM_BLEND_RADIUS : 0);
+}
+
 size_t ew_harm_held_bytes(const ew_op *op) {
     const ew_harm_state *s = (const ew_harm_state *)op->harm;
     return s && s->pilot ? (size_t)s->w * (size_t)s->h * 3 * sizeof *s->pilot : 0;

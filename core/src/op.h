@@ -216,6 +216,10 @@ ew_result ew_harm_region_done(ew_op *op, int x, int y, int rw, int rh, const flo
  * a region that is the core and this margin (clipped to the frame) gives
  * the core's pixels exactly. */
 int ew_harm_region_margin(const ew_op *op);
+/* The most ew_harm_region_margin may be at any execute of the op as it is
+ * (with the pilot's estimate where a pilot may run): for a method whose
+ * halo is fixed at commit. */
+int ew_harm_region_margin_most(const ew_op *op);
 /* Host bytes the stage holds through the method in this execute (the
  * pilot's estimate ahead of the regions), 0 else: a method that plans its
  * tiles at execute leaves them out of its budget. */

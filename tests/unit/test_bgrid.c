@@ -280,10 +280,10 @@ typedef struct {
 } frame;
 
 /* An odd-sized frame with edges across the bands (a lit region whose
- * albedo and normal change at x = w / 2 and at y = h / 3), a far
- * background (depth 1e10) in one corner, fireflies near band seams and a
- * NaN sample. */
-static void frame_make(frame *f, int w, int h, int stride, unsigned seed) {
+ * albedo and normal change at x = w / 2 and at y = h / 3), noise of
+ * relative amplitude amp, a far background (depth 1e10) in one corner,
+ * fireflies near band seams and a NaN sample. */
+static void frame_make_amp(frame *f, int w, int h, int stride, unsigned seed, float amp) {
     const long n = (long)w * h;
     f->w = w;
     f->h = h;
@@ -301,7 +301,7 @@ static void frame_make(frame *f, int w, int h, int stride, unsigned seed) {
                 const float alb = right ? 0.2f + 0.2f * k : 0.8f - 0.1f * k;
                 const float light = (low ? 0.3f : 1.5f) + 0.7f * (float)y / (float)h;
                 f->albedo[j * stride + k] = alb;
-                f->color[j * stride + k] = alb * light * (0.2f + 1.6f * urand(&seed));
+                f->color[j * stride + k] = alb * light * (1.0f + amp * (2.0f * urand(&seed) - 1.0f));
             }
             f->normal[j * stride + 0] = right ? 1.0f : 0.0f;
             f->normal[j * stride + 1] = low ? 0.3f : 0.0f;
@@ -313,6 +313,8 @@ static void frame_make(frame *f, int w, int h, int stride, unsigned seed) {
     f->color[(33L * w + 300) * stride + 2] = NAN;
 }
 
+static void frame_make(frame *f, int w, int h, int stride, unsigned seed) { frame_make_amp(f, w, h, stride, seed, 0.8f); }
+
 static void frame_free(frame *f) {
     if (f->out != f->color) free(f->out);
     free(f->color); free(f->albedo); free(f->normal); free(f->depth);
@@ -323,6 +325,13 @@ static ew_image view_of(float *data, const frame *f, int channels, int stride) {
     v.pixel_stride = (int64_t)stride * (int64_t)sizeof(float);
     v.row_stride = v.pixel_stride * f->w;
     return v;
+}
+
+static ew_progress_fn run_progress; /* run_bgrid's progress callback, or NULL */
+
+static int cancel_at_half(void *user, double f) {
+    (void)user;
+    return f < 0.5;
 }
 
 /* One denoise of f under a budget; what it ran (ew_denoiser_describe). */
@@ -347,6 +356,7 @@ static ew_result run_bgrid(ew_device *dev, frame *f, int features, const float r
     if (r == EW_OK) r = ew_denoiser_set_int(d, "max_memory_mb", budget_mb);
     if (r == EW_OK && !stage) r = ew_denoiser_set_float(d, "outlier_k", 0.0f); /* the method reads the caller's colour */
     if (r == EW_OK && !stage) r = ew_denoiser_set_int(d, "do_no_harm", 0);
+    if (r == EW_OK && run_progress) r = ew_denoiser_set_progress(d, run_progress, NULL);
     if (r == EW_OK) r = ew_denoiser_commit(d);
     if (r == EW_OK) r = ew_denoiser_execute(d);
     const char *dsc = r == EW_OK ? ew_denoiser_describe(d) : NULL;
@@ -412,4 +422,107 @@ TEST(bands_give_the_whole_frame_output) {
     bands_case("no stage, packed views", 3, 1, finest, 3.0f, 0, 0);
     bands_case("no stage, 4-float views", 4, 1, defaults, 3.0f, 0, 0);
     bands_case("no stage, output over the colour", 3, 1, finest, 3.0f, 1, 0);
+}
+
+/* With the output written over the colour (the CLI's denoise), the
+ * do-no-harm stage runs in bgrid's bands (or over its whole frame): it
+ * clamps the caller's colour in place, the bands read it where it is (what
+ * the next band reads of a core goes out after it) and each band is blended
+ * before it goes out. The same bits as with the output apart (the stage
+ * around the method), whole and in bands (more rows than the halo: the
+ * colour read in place; fewer: a copy of it), on a noisy frame and on
+ * frames quiet enough for the blend and for the pilot (whose estimate each
+ * band takes over a margin the halo holds). That it ran in the bands shows
+ * in a run cancelled half way: a firefly in rows the bands had not reached
+ * is clamped in the caller's colour (around the method it is read only). */
+TEST(output_over_the_colour_runs_the_stage_in_the_bands) {
+    const float defaults[4] = {8.0f, 8.0f, 8.0f, 0.7f}, finest[4] = {2.0f, 4.0f, 4.0f, 0.9f};
+    const float amps[3] = {0.8f, 0.1f, 0.02f};
+    const long n3 = 613L * 587 * 3;
+    ew_device *dev = make_device(2);
+    float *apart = malloc(sizeof(float) * n3), *color0 = malloc(sizeof(float) * n3);
+    const int budgets[] = {1024, 12, 1};
+    for (int a = 0; a < 3; a++)
+        for (int bi = 0; bi < 3; bi++) {
+            const int budget = budgets[bi];
+            const float *rates = a == 1 ? finest : defaults;
+            frame f;
+            frame_make_amp(&f, 613, 587, 3, 31 + a, amps[a]);
+            const long fly = (570L * 613 + 300) * 3 + 1;
+            f.color[fly] = 900.0f;
+            memcpy(color0, f.color, sizeof(float) * n3);
+            char what_apart[96], what_over[96];
+            CHECK_EQ_INT(run_bgrid(dev, &f, 1, rates, 3.0f, 1, budget, what_apart, sizeof what_apart), EW_OK);
+            memcpy(apart, f.out, sizeof(float) * n3);
+            free(f.out);
+            f.out = f.color;
+            run_progress = cancel_at_half;
+            CHECK_EQ_INT(run_bgrid(dev, &f, 1, rates, 3.0f, 1, budget, what_over, sizeof what_over), EW_ERR_CANCELLED);
+            run_progress = NULL;
+            CHECK(f.color[fly] < 900.0f);
+            memcpy(f.color, color0, sizeof(float) * n3);
+            CHECK_EQ_INT(run_bgrid(dev, &f, 1, rates, 3.0f, 1, budget, what_over, sizeof what_over), EW_OK);
+            long differ = 0, moved = 0;
+            for (long i = 0; i < n3; i++) {
+                differ += memcmp(&apart[i], &f.out[i], sizeof(float)) != 0;
+                moved += memcmp(&color0[i], &f.out[i], sizeof(float)) != 0;
+            }
+            fprintf(stderr, "  amplitude %.2f, %s (output apart: %s): %ld values differ (%ld changed)\n",
+                    (double)amps[a], what_over[0] ? what_over : "whole", what_apart[0] ? what_apart : "whole", differ,
+                    moved);
+            CHECK(differ == 0);
+            CHECK(moved > n3 / 2);
+            CHECK(budget < 1024 ? strstr(what_over, "bands") != NULL : strstr(what_over, "bands") == NULL);
+            frame_free(&f);
+        }
+    free(apart);
+    free(color0);
+    ew_device_destroy(dev);
+}
+
+static int bands_of(const char *what) {
+    int bands = 1;
+    sscanf(what, "bgrid, %d bands", &bands);
+    return bands;
+}
+
+/* While the stage holds the pilot's estimate through the method (the
+ * output over the colour, a frame quiet enough for the pilot: halves of
+ * T, 6 bytes a pixel), bgrid plans its bands at execute under
+ * max_memory_mb less that: at some budget more bands than on a noisy frame
+ * (no pilot) of the same size, with cores as tall as the halo or taller
+ * (the colour read in place), and the bits of the output apart. */
+TEST(bands_leave_room_for_the_pilots_estimate) {
+    const float defaults[4] = {8.0f, 8.0f, 8.0f, 0.7f};
+    const int halo = 16 + 16 + 2 + 9; /* the grids' reach, the clamp's, the blend's with the pilot's */
+    const long n3 = 613L * 587 * 3;
+    ew_device *dev = make_device(2);
+    float *apart = malloc(sizeof(float) * n3);
+    int more = 0;
+    for (int budget = 6; budget <= 64 && !more; budget++) {
+        char what[2][96], what_apart[96];
+        for (int q = 0; q < 2; q++) {
+            frame f;
+            frame_make_amp(&f, 613, 587, 3, 33, q ? 0.02f : 0.8f);
+            if (q) {
+                CHECK_EQ_INT(run_bgrid(dev, &f, 1, defaults, 3.0f, 1, budget, what_apart, sizeof what_apart), EW_OK);
+                memcpy(apart, f.out, sizeof(float) * n3);
+            }
+            free(f.out);
+            f.out = f.color;
+            CHECK_EQ_INT(run_bgrid(dev, &f, 1, defaults, 3.0f, 1, budget, what[q], sizeof what[q]), EW_OK);
+            if (q && bands_of(what[1]) > bands_of(what[0]) && 587 / bands_of(what[1]) >= halo) {
+                long differ = 0;
+                for (long i = 0; i < n3; i++) differ += memcmp(&apart[i], &f.out[i], sizeof(float)) != 0;
+                fprintf(stderr, "  %d MiB: noisy '%s', quiet '%s'; %ld values differ from the output apart\n", budget,
+                        what[0], what[1], differ);
+                CHECK(differ == 0);
+                more = 1;
+            }
+            frame_free(&f);
+        }
+    }
+    CHECK(more);
+    free(apart);
+    ew_device_destroy(dev);
 }
