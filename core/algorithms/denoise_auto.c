@@ -72,7 +72,7 @@ static const ew_param_desc params[] = {
      "frame-to-frame flicker at 4 spp on animated test scenes); kpcn needs albedo, normal and depth"},
     {"max_memory_mb", EW_PARAM_INT, 0.0f, 0.0f, 1048576.0f,
      "memory the method auto picks may allocate, in MiB (that method's max_memory_mb: a frame above it runs in "
-     "tiles or bands of rows, with the same output); 0: the method's own default (kpcn 768, nbg 192, bgrid 256)"},
+     "tiles or bands of rows, with the same output); 0: the method's own default (kpcn 768, nbg 192, bgrid 192)"},
 };
 
 static const char *const quality_names[] = {"fast", "balanced", "high", NULL};

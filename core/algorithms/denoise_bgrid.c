@@ -31,12 +31,14 @@ static const ew_param_desc params[] = {
     {"color_weight", EW_PARAM_FLOAT, 0.7f, 0.0f, 1.0f, "share of a first-pass radiance estimate in the guide (0: features only, one pass)"},
     {"prepass_rate", EW_PARAM_FLOAT, 8.0f, 1.0f, 256.0f, "spatial rate of the first pass that feeds color_weight"},
     {"firefly_k", EW_PARAM_FLOAT, 3.0f, 0.0f, 100.0f, "clamp pixels brighter than the 5x5 mean + k standard deviations before filtering; 0 turns it off"},
-    {"max_memory_mb", EW_PARAM_INT, 256.0f, 1.0f, 1048576.0f,
+    {"max_memory_mb", EW_PARAM_INT, 192.0f, 1.0f, 1048576.0f,
      "memory the op may allocate, in MiB (as OIDN's maxMemoryMB): a frame whose buffers and grid would exceed it "
      "runs in bands of rows with a halo of what a pixel's grid cells read (2 x rate rows for each grid, the "
-     "first pass's and the second's, and 2 for the firefly clamp), giving the same output; the first pass then runs "
-     "twice (once for the frame's mean luminance). Inputs that overlap the output are copied whole first (12 bytes "
-     "a pixel for the colour), and a band of 16 rows comes first, so a small budget can be exceeded"},
+     "first pass's and the second's, 2 for the firefly clamp, and the do-no-harm stage's blend margin where it runs "
+     "in the bands), giving the same output; the first pass then runs twice (once for the frame's mean luminance). "
+     "Inputs that overlap the output are copied whole first (12 bytes a pixel for the colour; not the colour "
+     "the stage clamps in place on the CPU, read where it is), and a band of 16 rows comes first, so a small "
+     "budget can be exceeded. 192: under 5x the float RGB frame at 3840x2160 for the same time as 256"},
 };
 
 /*
