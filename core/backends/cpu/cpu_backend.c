@@ -875,7 +875,7 @@ static int harm_sweeps(ew_device *dev, int step, const ew_harm_args *a) {
     const int threads = ew_pool_threads(dev->pool), w = a->width, h = a->height;
     const int r = step == EW_HARM_RETURN ? a->give_radius : a->radius;
     /* bands of 4 windows' rows, at least 64 (the margins' sums are computed
-     * twice: a fifth to a quarter more of them), so that a thread's scratch
+     * twice: an eighth to a quarter more of them), so that a thread's scratch
      * stays a few MiB at 4K: two bands a thread took 36 MiB there, at the
      * peak of a pilot's own stage */
     int rows = a->band_rows > 0 ? a->band_rows : ew_maxi(4 * (2 * r + 1), 64);
