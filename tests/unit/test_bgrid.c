@@ -441,10 +441,13 @@ TEST(output_over_the_colour_runs_the_stage_in_the_bands) {
     const long n3 = 613L * 587 * 3;
     ew_device *dev = make_device(2);
     float *apart = malloc(sizeof(float) * n3), *color0 = malloc(sizeof(float) * n3);
-    const int budgets[] = {1024, 12, 1};
+    /* each frame whole, in bands longer than the halo (12 MiB) and shorter
+     * (1 MiB), but for the quiet ones, where the pilot's run is most of the
+     * time (several seconds a run under the sanitizers), two of those */
+    const int budgets[3][3] = {{1024, 12, 1}, {12, 1, 0}, {1024, 12, 0}};
     for (int a = 0; a < 3; a++)
-        for (int bi = 0; bi < 3; bi++) {
-            const int budget = budgets[bi];
+        for (int bi = 0; bi < 3 && budgets[a][bi]; bi++) {
+            const int budget = budgets[a][bi];
             const float *rates = a == 1 ? finest : defaults;
             frame f;
             frame_make_amp(&f, 613, 587, 3, 31 + a, amps[a]);
@@ -456,11 +459,14 @@ TEST(output_over_the_colour_runs_the_stage_in_the_bands) {
             memcpy(apart, f.out, sizeof(float) * n3);
             free(f.out);
             f.out = f.color;
-            run_progress = cancel_at_half;
-            CHECK_EQ_INT(run_bgrid(dev, &f, 1, rates, 3.0f, 1, budget, what_over, sizeof what_over), EW_ERR_CANCELLED);
-            run_progress = NULL;
-            CHECK(f.color[fly] < 900.0f);
-            memcpy(f.color, color0, sizeof(float) * n3);
+            if (budget == 12) {
+                run_progress = cancel_at_half;
+                CHECK_EQ_INT(run_bgrid(dev, &f, 1, rates, 3.0f, 1, budget, what_over, sizeof what_over),
+                             EW_ERR_CANCELLED);
+                run_progress = NULL;
+                CHECK(f.color[fly] < 900.0f);
+                memcpy(f.color, color0, sizeof(float) * n3);
+            }
             CHECK_EQ_INT(run_bgrid(dev, &f, 1, rates, 3.0f, 1, budget, what_over, sizeof what_over), EW_OK);
             long differ = 0, moved = 0;
             for (long i = 0; i < n3; i++) {
@@ -499,7 +505,7 @@ TEST(bands_leave_room_for_the_pilots_estimate) {
     ew_device *dev = make_device(2);
     float *apart = malloc(sizeof(float) * n3);
     int more = 0;
-    for (int budget = 6; budget <= 64 && !more; budget++) {
+    for (int budget = 13; budget <= 64 && !more; budget++) { /* 13: 5 bands, 9 beside the estimate */
         char what[2][96], what_apart[96];
         for (int q = 0; q < 2; q++) {
             frame f;
