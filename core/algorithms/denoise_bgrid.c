@@ -383,6 +383,15 @@ static ew_result band_input(ew_op *op, int i, const band *bb, const float **dst)
  * frame when `removed`, but in the band's buffer only while the stage runs
  * in the bands, which rewrites it first); *radiance is what the grids
  * splat. */
+/* The band's core rows of the light the clamp took into the stage's frame
+ * plane `removed` (sparse: a quiet frame's clamp takes a few pixels) */
+static ew_result core_removed_out(ew_op *op, const band *bb, float *removed) {
+    const state *s = (const state *)op->state;
+    const size_t w = (size_t)s->buf.width;
+    return ew_dev_copy_sparse(op->dev, removed + (size_t)bb->cy * w, s->removed + (size_t)(bb->cy - bb->ry) * w,
+                              (size_t)bb->ch * w);
+}
+
 static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const float **radiance) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
@@ -401,11 +410,7 @@ static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const f
         const ew_outlier_buffers fb = {b->radiance, NULL, NULL, s->clamped, 3, removed ? s->removed : NULL};
         dev->backend->outlier_guided(dev, &fp, &fb);
         *radiance = s->clamped;
-        if (removed && !ew_harm_fused(op)) {
-            const size_t w = (size_t)b->width;
-            r = dev->backend->mem_copy(dev, removed + (size_t)bb->cy * w, s->removed + (size_t)(bb->cy - bb->ry) * w,
-                                       (size_t)bb->ch * w * sizeof(float));
-        }
+        if (removed && !ew_harm_fused(op)) r = core_removed_out(op, bb, removed);
     }
     return r;
 }
@@ -543,9 +548,7 @@ static ew_result execute_bands(ew_op *op) {
             float *give = removed && ew_op_param(op, "firefly_k") > 0.0f ? s->removed + (size_t)(y0 - bb.ry) * w : NULL;
             r = ew_harm_region_done(op, 0, y0, w, y1 - y0, s->frame_in[0] + (size_t)y0 * w3,
                                     b->out + (size_t)(y0 - bb.ry) * w3, give);
-            if (r == EW_OK && give)
-                r = dev->backend->mem_copy(dev, removed + (size_t)bb.cy * w, s->removed + (size_t)(bb.cy - bb.ry) * w,
-                                           (size_t)bb.ch * w * sizeof(float));
+            if (r == EW_OK && give) r = core_removed_out(op, &bb, removed);
             if (r != EW_OK) return r;
         }
         if (s->inplace) {

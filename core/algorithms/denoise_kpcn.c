@@ -815,7 +815,7 @@ static ew_result fused_core(ew_op *op, const ew_tile *tile) {
     ew_result r = ew_dev_copy_rect(dev, s->clamped, rw, 0, 0, color, W, tile->rx, tile->ry, rw, rh, 3);
     if (r == EW_OK) r = ew_dev_copy_rect(dev, share, rw, 0, 0, removed, W, tile->rx, tile->ry, rw, rh, 1);
     if (r == EW_OK) r = ew_harm_region_done(op, tile->rx, tile->ry, rw, rh, s->clamped, s->tile_out, share);
-    if (r == EW_OK) r = ew_dev_copy_rect(dev, removed, W, tile->cx, tile->cy, share, rw, ox, oy, tile->cw, tile->ch, 1);
+    if (r == EW_OK) r = ew_dev_copy_rect_sparse(dev, removed, W, tile->cx, tile->cy, share, rw, ox, oy, tile->cw, tile->ch);
     return r == EW_OK ? ew_tile_writer_core(&s->tw, &s->tiling, tile, s->tile_out, s->clamped) : r;
 }
 
@@ -1009,8 +1009,8 @@ static ew_result clamp_rect(ew_op *op, const float *color, int x_begin, int x_en
         /* a sweep's bands are the frame's whole rows */
         float *core = s->band_clamped + (size_t)(y0 - e0) * w3;
         if (r == EW_OK && removed)
-            r = dev->backend->mem_copy(dev, removed + (size_t)y0 * w, s->band_removed + (size_t)(y0 - e0) * w,
-                                       (size_t)(y1 - y0) * w * sizeof(float));
+            r = ew_dev_copy_sparse(dev, removed + (size_t)y0 * w, s->band_removed + (size_t)(y0 - e0) * w,
+                                   (size_t)(y1 - y0) * w);
         if (r == EW_OK && sweep && s->net.noise) {
             /* the row above the band's first (which gives nothing itself)
              * is the band above's, exact there and not in this band's

@@ -411,7 +411,7 @@ static ew_result run_tile(ew_op *op, const ew_tile *t, double p0, double dp) {
         if (r != EW_OK) return r;
     }
     if (tiled && give) {
-        r = ew_dev_copy_rect(dev, removed, W, t->cx, t->cy, give, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch, 1);
+        r = ew_dev_copy_rect_sparse(dev, removed, W, t->cx, t->cy, give, t->rw, t->cx - t->rx, t->cy - t->ry, t->cw, t->ch);
         if (r != EW_OK) return r;
     }
     const ew_image *o = ew_op_image(op, "output");

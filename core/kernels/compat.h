@@ -26,4 +26,12 @@ EW_HD int ew_finitef(float v) { return isfinite(v) ? 1 : 0; }
 /* The filters' finite-output rule for one value: NaN as 0, +-Inf as +-FLT_MAX. */
 EW_HD float ew_finite_orf(float v) { return isnan(v) ? 0.0f : isinf(v) ? (v > 0.0f ? 3.40282347e+38f : -3.40282347e+38f) : v; }
 
+/* *p = v, except a zero over a zero, which is not written: a plane zeroed
+ * by dropping its pages (ew_dev_zero) keeps unmapped every page where only
+ * zeros land, so a sparse plane (what a clamp took: a few pixels of a quiet
+ * frame) holds the pages of its non-zeros, not a frame's */
+EW_HD void ew_store_sparse(float *p, float v) {
+    if (v != 0.0f || *p != 0.0f) *p = v;
+}
+
 #endif

@@ -340,7 +340,7 @@ EW_HD void ew_harm_blend_mix(long j, const ew_harm_args *a, float alpha) {
     if (alpha >= 1.0f || !ew_harm_finite3(in)) return;
     /* the blend gives the pixel 1 - alpha of the input back, and with it
      * that share of what the method's own clamp took there */
-    if (a->give) a->give[j] *= alpha;
+    if (a->give) ew_store_sparse(a->give + j, a->give[j] * alpha);
     for (int c = 0; c < 3; c++) o[c] = in[c] + alpha * (o[c] - in[c]);
 }
 
@@ -470,7 +470,7 @@ EW_HD float ew_harm_clamp_light(long j, const ew_harm_args *a) {
 }
 
 /* LIGHT (fused): that luminance into give[j] */
-EW_HD void ew_harm_light_px(long j, const ew_harm_args *a) { a->give[j] = ew_harm_clamp_light(j, a); }
+EW_HD void ew_harm_light_px(long j, const ew_harm_args *a) { ew_store_sparse(a->give + j, ew_harm_clamp_light(j, a)); }
 
 /* GIVE: g / S into give[j], g the luminance of what the method's clamp
  * took: its share of the colour it was given (the clamped colour; negative
@@ -480,7 +480,7 @@ EW_HD void ew_harm_light_px(long j, const ew_harm_args *a) { a->give[j] = ew_har
 EW_HD void ew_harm_give_at(long j, const ew_harm_args *a, float sum) {
     const float m = a->fused ? a->give[j] : ew_harm_clamp_light(j, a);
     const float lg = ew_minf(ew_finitef(m) && m > 0.0f ? m : 0.0f, a->give_limit);
-    a->give[j] = sum > 0.0f ? lg / sum : 0.0f;
+    ew_store_sparse(a->give + j, sum > 0.0f ? lg / sum : 0.0f);
 }
 
 /* ... S from spread's second plane (SUM_V) */
@@ -525,7 +525,7 @@ EW_HD void ew_harm_take_px(long j, const ew_harm_args *a) {
         const float le = a->excess ? a->excess[j] : ew_harm_excess_lum(j, a);
         lr = ew_minf(ew_minf(le, a->give_cap * ew_harm_left_lum(j, a)), a->take_limit);
     }
-    a->give[j] = lr > 0.0f ? lr : 0.0f;
+    ew_store_sparse(a->give + j, lr > 0.0f ? lr : 0.0f);
 }
 
 /* SCALE: the output scaled by 1 + the frame's gain (finite pixels) */

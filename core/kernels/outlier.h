@@ -254,7 +254,7 @@ EW_HD void ew_outlier_guided_px(int x, int y, const ew_outlier_params *p, const 
     const float *c0 = b->color + j * cc;
     float *o = b->out + j * cc;
     const int finite = ew_outlier_finite3(c0);
-    if (b->removed) b->removed[j] = 0.0f;
+    if (b->removed) ew_store_sparse(b->removed + j, 0.0f);
     const float lum = finite ? ew_luminance(c0) : 0.0f;
     for (int c = 0; c < cc; c++) o[c] = c0[c];
     if (finite && (p->k <= 0.0f || lum <= 0.0f)) return; /* nothing to judge */

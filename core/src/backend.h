@@ -171,6 +171,11 @@ void ew_dev_release_pages(ew_device *dev, void *from, void *to);
  * writes in full, or it would make resident what it never touches. Nothing
  * on device memory or where the system cannot do it. */
 void ew_dev_prefault(ew_device *dev, void *from, void *to);
+/* The whole pages of [from, to), a range written sparsely (ew_store_sparse,
+ * ew_dev_copy_sparse: what a clamp took), kept out of transparent huge
+ * pages (a large block is advised into them, ew_host_alloc), where one
+ * value written would hold 2 MiB. Nothing on device memory. */
+void ew_dev_sparse_pages(ew_device *dev, void *from, void *to);
 /* bytes of a block from ew_dev_alloc set to zero: on host memory its whole
  * pages are dropped instead of written (whatever release_scratch says), so
  * a buffer written sparsely afterwards holds only the pages written; the
@@ -181,6 +186,15 @@ ew_result ew_dev_zero(ew_device *dev, void *ptr, size_t bytes);
  * region and the frame, or a rect and its packed copy). */
 ew_result ew_dev_copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx, int sy,
                            int w, int h, int c);
+/* As a copy of `floats` floats from src to dst (mem_copy) and of w x h
+ * pixels of one float (ew_dev_copy_rect), for a sparse plane (what a clamp
+ * took): on host memory a span of zeros over zeros is not written (the
+ * rule of ew_store_sparse, kernels/compat.h, a page's floats at a time),
+ * so the pages of a plane zeroed by ew_dev_zero stay unmapped where only
+ * zeros land. */
+ew_result ew_dev_copy_sparse(ew_device *dev, float *dst, const float *src, size_t floats);
+ew_result ew_dev_copy_rect_sparse(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx,
+                                  int sy, int w, int h);
 /* A device block an op keeps from one commit to the next: a graph commits
  * its ops again every frame with the same images, and a new block would be
  * mapped and faulted in again. */

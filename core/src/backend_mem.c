@@ -142,6 +142,18 @@ void ew_dev_prefault(ew_device *dev, void *from, void *to) {
 #endif
 }
 
+void ew_dev_sparse_pages(ew_device *dev, void *from, void *to) {
+#if defined(__linux__) && defined(MADV_NOHUGEPAGE)
+    uintptr_t a, b;
+    if (!dev->device_memory && from && to && inner_pages((uintptr_t)from, (uintptr_t)to, &a, &b))
+        (void)madvise((void *)a, (size_t)(b - a), MADV_NOHUGEPAGE); /* a failure leaves huge pages: more held */
+#else
+    (void)dev;
+    (void)from;
+    (void)to;
+#endif
+}
+
 void *ew_host_alloc(size_t bytes) {
     void *p = NULL;
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE) && defined(MADV_HUGEPAGE)
@@ -183,6 +195,28 @@ ew_result ew_dev_copy_rect(ew_device *dev, float *dst, int dw, int dx, int dy, c
     for (int y = 0; y < h && r == EW_OK; y++)
         r = dev->backend->mem_copy(dev, dst + ((long)(dy + y) * dw + dx) * c, src + ((long)(sy + y) * sw + sx) * c,
                                    (size_t)w * (size_t)c * sizeof(float));
+    return r;
+}
+
+/* the floats compared (and written) at a time: a page's */
+#define SPARSE_SPAN 1024
+
+ew_result ew_dev_copy_sparse(ew_device *dev, float *dst, const float *src, size_t floats) {
+    if (dev->device_memory) return dev->backend->mem_copy(dev, dst, src, floats * sizeof(float));
+    for (size_t i = 0; i < floats; i += SPARSE_SPAN) {
+        const size_t n = floats - i < SPARSE_SPAN ? floats - i : SPARSE_SPAN;
+        int nonzero = 0;
+        for (size_t k = 0; k < n; k++) nonzero |= (src[i + k] != 0.0f) | (dst[i + k] != 0.0f);
+        if (nonzero) memcpy(dst + i, src + i, n * sizeof(float));
+    }
+    return EW_OK;
+}
+
+ew_result ew_dev_copy_rect_sparse(ew_device *dev, float *dst, int dw, int dx, int dy, const float *src, int sw, int sx,
+                                  int sy, int w, int h) {
+    ew_result r = EW_OK;
+    for (int y = 0; y < h && r == EW_OK; y++)
+        r = ew_dev_copy_sparse(dev, dst + (long)(dy + y) * dw + dx, src + (long)(sy + y) * sw + sx, (size_t)w);
     return r;
 }
 

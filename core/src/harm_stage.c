@@ -348,6 +348,8 @@ ew_result ew_harm_commit(ew_op *op) {
     s->removed = m; m += n;
     s->excess = kept ? m : NULL; /* past b: not among the pages released while the method runs */
     m += kept ? n : 0;
+    /* both hold a few pixels of a quiet frame (what the clamps took) */
+    ew_dev_sparse_pages(dev, s->removed, m);
     s->band = fuse ? m : NULL;
     m += fuse ? 2 * band_floats(w) : 0;
     for (int f = 0; f < 2; f++) {

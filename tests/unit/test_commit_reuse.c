@@ -4,6 +4,7 @@
  * block is mapped and faulted in afresh every frame — and the second run's
  * output is the first's. Device allocations are counted through a copy of
  * the CPU backend's table whose mem_alloc counts. */
+#define _DEFAULT_SOURCE /* MAP_ANONYMOUS */
 #include "ew_test.h"
 
 #include <stdlib.h>
@@ -246,3 +247,48 @@ static void pyramid_release_scratch_keeps_output(const char *method, int model) 
 TEST(pyramid_release_scratch_keeps_output) { pyramid_release_scratch_keeps_output("pyramid", 0); }
 TEST(pyramid_gi_release_scratch_keeps_output) { pyramid_release_scratch_keeps_output("pyramid", 1); }
 TEST(dof_release_scratch_keeps_output) { pyramid_release_scratch_keeps_output("dof", -1); }
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include "kernels/compat.h"
+
+/* A sparse plane (what a clamp took) is copied without writing a page of
+ * zeros over a page of zeros: pages 0 and 2 of the destination are made
+ * read-only, so a write there would fault; the nonzeros and the stale
+ * values of page 1 are copied exactly. ew_store_sparse the same, value by
+ * value. */
+TEST(sparse_copies_leave_pages_of_zeros_unwritten) {
+    const long ps = sysconf(_SC_PAGESIZE);
+    CHECK(ps >= 4096);
+    const size_t per = (size_t)ps / sizeof(float), n = 3 * per;
+    float *dst = (float *)mmap(NULL, 3 * (size_t)ps, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    CHECK(dst != MAP_FAILED);
+    float *src = (float *)calloc(n, sizeof(float));
+    CHECK(src != NULL);
+    src[per + 3] = 2.5f;     /* a value the clamp took */
+    dst[per + 10] = 7.0f;    /* a stale value, to be overwritten by 0 */
+    src[per + per - 1] = -1.0f;
+    CHECK(mprotect(dst, (size_t)ps, PROT_READ) == 0);
+    CHECK(mprotect(dst + 2 * per, (size_t)ps, PROT_READ) == 0);
+    ew_device_desc desc = EW_DEVICE_DESC_INIT;
+    desc.num_threads = 1;
+    ew_device *dev = NULL;
+    CHECK(ew_device_create(&desc, &dev) == EW_OK);
+    CHECK_EQ_INT(ew_dev_copy_sparse(dev, dst, src, n), EW_OK);
+    CHECK(memcmp(dst, src, n * sizeof(float)) == 0);
+    /* as rows of a rect: a 2-row rect whose rows are the first and last pages */
+    CHECK_EQ_INT(ew_dev_copy_rect_sparse(dev, dst, (int)per, 0, 0, src, (int)per, 0, 0, (int)per, 3), EW_OK);
+    CHECK(memcmp(dst, src, n * sizeof(float)) == 0);
+    /* value by value: zero over zero unwritten (page 0 is read-only), a zero over a value written */
+    for (size_t i = 0; i < per; i++) ew_store_sparse(dst + i, 0.0f);
+    ew_store_sparse(dst + per + 3, 0.0f);
+    CHECK(dst[per + 3] == 0.0f);
+    ew_store_sparse(dst + per + 4, 1.5f);
+    CHECK(dst[per + 4] == 1.5f);
+    ew_device_destroy(dev);
+    free(src);
+    munmap(dst, 3 * (size_t)ps);
+}
+#endif

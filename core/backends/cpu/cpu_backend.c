@@ -124,7 +124,7 @@ static int outlier_plain_rows(const ew_outlier_params *p, const ew_outlier_buffe
             }
             float *o = b->out + j * cc;
             float *removed = b->removed ? b->removed + j : NULL;
-            if (removed) *removed = 0.0f;
+            if (removed) ew_store_sparse(removed, 0.0f);
             for (int c = 0; c < cc; c++) o[c] = c0[c];
             const float lum = ew_luminance(c0);
             const int n = (int)cnt[x];
@@ -234,7 +234,7 @@ static int outlier_robust_rows(const ew_outlier_params *p, const ew_outlier_buff
             const float *c0 = b->color + j * cc;
             float *o = b->out + j * cc;
             for (int c = 0; c < cc; c++) o[c] = c0[c];
-            if (b->removed) b->removed[j] = 0.0f;
+            if (b->removed) ew_store_sparse(b->removed + j, 0.0f);
             n[x] = below[x] = 0;
             keep[x] = 0.0f;
             use_a[x] = b->albedo != 0 && ew_outlier_finite3(b->albedo + j * 3);
@@ -531,18 +531,29 @@ static EW_MULTIVERSION void harm_alpha_span(float *EW_RESTRICT alpha, const floa
 
 /* ew_harm_blend_mix for w pixels of RGB (colour of 3 channels, give set):
  * the pixels it leaves alone selected by masks, the others mixed, so that
- * the loop vectorises; the same bits */
+ * the loop vectorises; the same bits. give is stored as ew_store_sparse
+ * does, a span of HARM_MIX_SPAN pixels at a time: not at all where it held
+ * zeros and still does */
+#define HARM_MIX_SPAN 256
 static EW_MULTIVERSION void harm_mix_span(float *EW_RESTRICT out, float *EW_RESTRICT give,
                                           const float *EW_RESTRICT in, const float *EW_RESTRICT alpha, long w) {
-    for (long x = 0; x < w; x++) {
-        const float al = alpha[x];
-        const int mix = -((!(al >= 1.0f)) & ew_harm_finite_bits(in[3 * x]) & ew_harm_finite_bits(in[3 * x + 1]) &
-                          ew_harm_finite_bits(in[3 * x + 2]));
-        give[x] = ew_harm_sel(mix, give[x] * al, give[x]);
-        for (int c = 0; c < 3; c++) {
-            const long i = 3 * x + c;
-            out[i] = ew_harm_sel(mix, in[i] + al * (out[i] - in[i]), out[i]);
+    for (long x0 = 0; x0 < w; x0 += HARM_MIX_SPAN) {
+        const long n = w - x0 < HARM_MIX_SPAN ? w - x0 : HARM_MIX_SPAN;
+        float g[HARM_MIX_SPAN];
+        int nonzero = 0;
+        for (long k = 0; k < n; k++) {
+            const long x = x0 + k;
+            const float al = alpha[x];
+            const int mix = -((!(al >= 1.0f)) & ew_harm_finite_bits(in[3 * x]) & ew_harm_finite_bits(in[3 * x + 1]) &
+                              ew_harm_finite_bits(in[3 * x + 2]));
+            g[k] = ew_harm_sel(mix, give[x] * al, give[x]);
+            nonzero |= (g[k] != 0.0f) | (give[x] != 0.0f);
+            for (int c = 0; c < 3; c++) {
+                const long i = 3 * x + c;
+                out[i] = ew_harm_sel(mix, in[i] + al * (out[i] - in[i]), out[i]);
+            }
         }
+        if (nonzero) memcpy(give + x0, g, (size_t)n * sizeof *g);
     }
 }
 
