@@ -435,7 +435,7 @@ static void plan_execute(ew_op *op) {
     const int h = s->grid_params.height;
     s->bands = s->planned_bands;
     s->core = (h + s->bands - 1) / s->bands;
-    const size_t held = op->dev->device_memory ? 0 : ew_harm_held_bytes(op) / sizeof(float);
+    const size_t held = ew_harm_held_bytes(op) / sizeof(float);
     if (held) {
         ew_bgrid_params gp, pre;
         int bands, halo;

@@ -290,7 +290,7 @@ static void lay_out(ew_op *op, const ew_tiling *t) {
  * (tiling.h). */
 static void plan_execute(ew_op *op) {
     state *s = (state *)op->state;
-    const size_t held = op->dev->device_memory ? 0 : ew_harm_held_bytes(op) / sizeof(float);
+    const size_t held = ew_harm_held_bytes(op) / sizeof(float);
     ew_tiling t = s->planned;
     if (held) {
         ew_tiling u;

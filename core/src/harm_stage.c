@@ -686,7 +686,7 @@ int ew_harm_region_margin_most(const ew_op *op) {
 
 size_t ew_harm_held_bytes(const ew_op *op) {
     const ew_harm_state *s = (const ew_harm_state *)op->harm;
-    return s && s->pilot ? (size_t)s->w * (size_t)s->h * 3 * sizeof *s->pilot : 0;
+    return s && s->pilot && !op->dev->device_memory ? (size_t)s->w * (size_t)s->h * 3 * sizeof *s->pilot : 0;
 }
 
 float *ew_harm_clamp_removed(const ew_op *op) {
@@ -730,8 +730,8 @@ static void pilot_tone(float *p, size_t values, int halves) {
 }
 
 /* The pilot's output in T (pilot_tone; 3 floats a pixel, or 3 halves
- * with `halves`; host memory: `into` when given, else a buffer of its own,
- * *owned 1) on the colour the method reads and
+ * with `halves`, in a buffer of its own then; host memory: `into` when
+ * given, else a buffer of its own, *owned 1) on the colour the method reads and
  * the op's features: kpcn's default model, built for this frame and freed
  * after it, so that its tiles are not held while the method runs. Its
  * stage blends (kpcn blurs detail of a converged frame too, and the
@@ -765,7 +765,6 @@ static ew_result run_pilot(ew_op *op, float *into, int halves, progress_span *ps
         if (buf != into) free(buf);
         return r == EW_ERR_CANCELLED ? r : EW_OK;
     }
-    halves = halves && !into;
     pilot_tone(buf, n * 3, halves);
     if (halves) { /* the floats' second half goes back (a shrink does not move or fail in glibc) */
         float *shrunk = (float *)realloc(buf, n * 3 * sizeof(unsigned short));

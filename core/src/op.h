@@ -221,8 +221,9 @@ int ew_harm_region_margin(const ew_op *op);
  * halo is fixed at commit. */
 int ew_harm_region_margin_most(const ew_op *op);
 /* Host bytes the stage holds through the method in this execute (the
- * pilot's estimate ahead of the regions), 0 else: a method that plans its
- * tiles at execute leaves them out of its budget. */
+ * pilot's estimate ahead of the regions), 0 else, and 0 on a device whose
+ * memory is not the host's (its budget is the device's): a method that
+ * plans its tiles at execute leaves them out of its budget. */
 size_t ew_harm_held_bytes(const ew_op *op);
 /* The stage's allocations for images of w x h (ew_op_memory adds them). */
 uint64_t ew_harm_memory(const ew_op *op, int w, int h);
