@@ -70,7 +70,7 @@ typedef struct {
     double *rows;           /* host: row_out read back */
     float *stage;           /* host staging, or NULL when views need none */
     /* bands (1: the whole frame, the buffers above frame-sized) */
-    int bands, core, halo;      /* this execute's (plan_execute) */
+    ew_tiling bands;            /* this execute's (plan_execute): one column of tiles, ny bands */
     int planned_bands;          /* the commit's */
     const float *frame_in[4];   /* colour, albedo, normal, depth read from a frame: the view in place or frame_own */
     float *frame_own[4];        /* a frame copy the op packs at execute (an input the output overlaps) */
@@ -91,20 +91,6 @@ static const int input_channels[4] = {3, 3, 3, 1};
 
 #define MIN_BAND_CORE 16 /* rows: below it the halos would be nearly all the work */
 
-/* A band's core rows and its region, clipped to the frame. */
-typedef struct {
-    int cy, ch, ry, rh;
-} band;
-
-static band band_at(int core, int halo, int h, int i) {
-    band b;
-    b.cy = i * core;
-    b.ch = h - b.cy < core ? h - b.cy : core;
-    b.ry = b.cy - halo > 0 ? b.cy - halo : 0;
-    const int end = b.cy + b.ch + halo < h ? b.cy + b.ch + halo : h;
-    b.rh = end - b.ry;
-    return b;
-}
 
 /* What a core row reads around it: the grids' reach and the clamp's, and
  * where the do-no-harm stage may run in the bands, the rows its blend of
@@ -115,8 +101,10 @@ static int band_halo(const ew_op *op) {
            (ew_op_param(op, "firefly_k") > 0.0f ? 2 : 0) + (ew_harm_may_fuse(op) ? ew_harm_region_margin_most(op) : 0);
 }
 
-/* The bands as tiles of the frame's width, for the tile writer */
-static ew_tiling bands_tiling(int w, int h, int bands, int core, int halo) {
+/* A w x h frame in bands of `core` rows (the last the rest), each read
+ * over a region `halo` rows beyond its core: tiles of the frame's width
+ * (ew_tile_at gives band i's core cy, ch and region ry, rh) */
+static ew_tiling bands_tiling(int w, int h, int core, int halo) {
     ew_tiling t;
     memset(&t, 0, sizeof t);
     t.width = t.tw = t.rw = w;
@@ -125,9 +113,15 @@ static ew_tiling bands_tiling(int w, int h, int bands, int core, int halo) {
     t.halo = halo;
     t.align = 1;
     t.nx = 1;
-    t.ny = bands;
+    t.ny = (h + core - 1) / core;
     t.rh = core + 2 * halo < h ? core + 2 * halo : h;
     return t;
+}
+
+static ew_tile band_at(const ew_tiling *t, int i) {
+    ew_tile b;
+    ew_tile_at(t, i, &b);
+    return b;
 }
 
 /* Where each input comes from when the frame runs in bands: read in place
@@ -165,8 +159,9 @@ static size_t band_floats(const ew_op *op, int w, int h, int bands, int halo, co
     if (ew_harm_may_fuse(op)) frame += ew_tile_writer_floats(w, h, halo);
     size_t grid = 0;
     int rows = 0;
-    for (int i = 0; i * core < h; i++) {
-        const band b = band_at(core, halo, h, i);
+    const ew_tiling t = bands_tiling(w, h, core, halo);
+    for (int i = 0; i < t.ny; i++) {
+        const ew_tile b = band_at(&t, i);
         ew_bgrid_params g;
         ew_bgrid_params_band(gp, b.ry, b.rh, &g);
         if (ew_bgrid_floats(&g) > grid) grid = ew_bgrid_floats(&g);
@@ -284,17 +279,16 @@ static ew_result commit(ew_op *op) {
     b->height = h;
     s->grid_params = gp;
     s->prepass_params = pre;
-    s->bands = s->planned_bands = bands;
-    s->halo = halo;
+    s->planned_bands = bands;
+    s->bands = bands_tiling(w, h, (h + bands - 1) / bands, halo);
     if (bands > 1) {
-        s->core = (h + bands - 1) / bands;
         snprintf(s->choice, sizeof s->choice, "bgrid, %d bands", bands);
         const float *in[4];
         int own[4];
         band_inputs(op, in, own);
         int rows = 0;
-        for (int i = 0; i < bands; i++) {
-            const band bb = band_at(s->core, halo, h, i);
+        for (int i = 0; i < s->bands.ny; i++) {
+            const ew_tile bb = band_at(&s->bands, i);
             if (bb.rh > rows) rows = bb.rh;
         }
         const size_t rn = (size_t)w * (size_t)rows;
@@ -319,8 +313,7 @@ static ew_result commit(ew_op *op) {
         b->out = m; m += rn * 3;
         s->clamped = m; m += rn * 3;
         s->removed = m; m += rn;
-        const ew_tiling t = bands_tiling(w, h, bands, s->core, halo);
-        if (ew_harm_may_fuse(op) && ew_tile_writer_fits(&t, halo)) {
+        if (ew_harm_may_fuse(op) && ew_tile_writer_fits(&s->bands, halo)) {
             s->tw.keep = halo; /* what a band reads of the core before it */
             s->tw.strip = m; m += (size_t)h * halo * 3; /* (bands span the width: never written) */
             s->tw.pend = m; m += 2 * (size_t)w * halo * 3;
@@ -366,7 +359,7 @@ static ew_image view_rows(const ew_image *v, int y, int n) { return ew__image_cr
 
 /* Input i's rows of region bb, packed: in the frame it is read from, or
  * packed into the region's buffer. */
-static ew_result band_input(ew_op *op, int i, const band *bb, const float **dst) {
+static ew_result band_input(ew_op *op, int i, const ew_tile *bb, const float **dst) {
     state *s = (state *)op->state;
     const int w = s->buf.width, c = input_channels[i];
     if (s->frame_in[i]) {
@@ -385,14 +378,14 @@ static ew_result band_input(ew_op *op, int i, const band *bb, const float **dst)
  * splat. */
 /* The band's core rows of the light the clamp took into the stage's frame
  * plane `removed` (sparse: a quiet frame's clamp takes a few pixels) */
-static ew_result core_removed_out(ew_op *op, const band *bb, float *removed) {
+static ew_result core_removed_out(ew_op *op, const ew_tile *bb, float *removed) {
     const state *s = (const state *)op->state;
     const size_t w = (size_t)s->buf.width;
     return ew_dev_copy_sparse(op->dev, removed + (size_t)bb->cy * w, s->removed + (size_t)(bb->cy - bb->ry) * w,
                               (size_t)bb->ch * w);
 }
 
-static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const float **radiance) {
+static ew_result band_prepare(ew_op *op, const ew_tile *bb, float *removed, const float **radiance) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
@@ -416,7 +409,7 @@ static ew_result band_prepare(ew_op *op, const band *bb, float *removed, const f
 }
 
 /* The first pass on band bb's region, into b->sliced. */
-static void band_first_pass(ew_op *op, const band *bb, const float *radiance) {
+static void band_first_pass(ew_op *op, const ew_tile *bb, const float *radiance) {
     state *s = (state *)op->state;
     ew_bgrid_params g;
     ew_bgrid_params_band(&s->prepass_params, bb->ry, bb->rh, &g);
@@ -432,22 +425,18 @@ static void band_first_pass(ew_op *op, const band *bb, const float *radiance) {
  * did (cores no shorter than the halo). The same bits in any bands. */
 static void plan_execute(ew_op *op) {
     state *s = (state *)op->state;
-    const int h = s->grid_params.height;
-    s->bands = s->planned_bands;
-    s->core = (h + s->bands - 1) / s->bands;
+    const int w = s->buf.width, h = s->grid_params.height, halo = s->bands.halo;
+    s->bands = bands_tiling(w, h, (h + s->planned_bands - 1) / s->planned_bands, halo);
     const size_t held = ew_harm_held_bytes(op) / sizeof(float);
     if (held) {
         ew_bgrid_params gp, pre;
-        int bands, halo;
-        plan(op, s->buf.width, h, ew_op_image(op, "albedo") != NULL, ew_op_image(op, "normal") != NULL,
-             ew_op_image(op, "depth") != NULL, held, &gp, &pre, &bands, &halo);
+        int bands, halo_at;
+        plan(op, w, h, ew_op_image(op, "albedo") != NULL, ew_op_image(op, "normal") != NULL,
+             ew_op_image(op, "depth") != NULL, held, &gp, &pre, &bands, &halo_at);
         const int core = (h + bands - 1) / bands;
-        if (bands > s->bands && (!s->tw.pend || core >= s->halo)) {
-            s->bands = (h + core - 1) / core;
-            s->core = core;
-        }
+        if (bands > s->bands.ny && (!s->tw.pend || core >= halo)) s->bands = bands_tiling(w, h, core, halo);
     }
-    snprintf(s->choice, sizeof s->choice, "bgrid, %d bands", s->bands);
+    snprintf(s->choice, sizeof s->choice, "bgrid, %d bands", s->bands.ny);
 }
 
 static ew_result execute_bands(ew_op *op) {
@@ -464,7 +453,7 @@ static ew_result execute_bands(ew_op *op) {
     const ew_image *cv = ew_op_image(op, "color");
     s->frame_in[0] = ew_dev_view_in_place(dev, cv, 3, ew_op_image(op, "output"));
     s->inplace = 0;
-    const ew_tiling tiling = bands_tiling(w, h, s->bands, s->core, s->halo);
+    const ew_tiling *tiling = &s->bands;
     s->tw.dev = dev;
     s->tw.out = ew_op_image(op, "output");
     s->tw.stage = s->stage;
@@ -487,8 +476,8 @@ static ew_result execute_bands(ew_op *op) {
         if (s->frame_in[3]) {
             dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, h, s->frame_in[3], s->row_out);
         } else {
-            for (int i = 0; i < s->bands && r == EW_OK; i++) {
-                const band bb = band_at(s->core, s->halo, h, i);
+            for (int i = 0; i < tiling->ny && r == EW_OK; i++) {
+                const ew_tile bb = band_at(tiling, i);
                 const ew_image v = view_rows(ew_op_image(op, "depth"), bb.cy, bb.ch);
                 r = ew_dev_put_view(dev, &v, 1, s->band_in[3], s->stage);
                 dev->backend->reduce_rows(dev, EW_REDUCE_DEPTH_MAX, w, bb.ch, s->band_in[3], s->row_out + 2 * (size_t)bb.cy);
@@ -506,14 +495,14 @@ static ew_result execute_bands(ew_op *op) {
     const float *radiance;
     if (cw > 0.0f) {
         /* first sweep: the first pass's luminance sums of every core row */
-        for (int i = 0; i < s->bands; i++) {
-            const band bb = band_at(s->core, s->halo, h, i);
+        for (int i = 0; i < tiling->ny; i++) {
+            const ew_tile bb = band_at(tiling, i);
             r = band_prepare(op, &bb, NULL, &radiance);
             if (r != EW_OK) return r;
             band_first_pass(op, &bb, radiance);
             dev->backend->reduce_rows(dev, EW_REDUCE_LUM_SUM, w, bb.ch, b->sliced + (size_t)(bb.cy - bb.ry) * w3,
                                       s->row_out + 2 * (size_t)bb.cy);
-            if (!ew_op_report(op, 0.4 * (i + 1) / s->bands)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
+            if (!ew_op_report(op, 0.4 * (i + 1) / tiling->ny)) return ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
         }
         r = dev->backend->mem_download(dev, s->rows, s->row_out, (size_t)h * 2 * sizeof(double));
         if (r != EW_OK) return r;
@@ -526,8 +515,8 @@ static ew_result execute_bands(ew_op *op) {
     }
     float *removed = ew_harm_clamp_removed(op);
     const ew_image *o = ew_op_image(op, "output");
-    for (int i = 0; i < s->bands && r == EW_OK; i++) {
-        const band bb = band_at(s->core, s->halo, h, i);
+    for (int i = 0; i < tiling->ny && r == EW_OK; i++) {
+        const ew_tile bb = band_at(tiling, i);
         r = band_prepare(op, &bb, removed, &radiance);
         if (r != EW_OK) return r;
         if (cw > 0.0f) {
@@ -552,13 +541,12 @@ static ew_result execute_bands(ew_op *op) {
             if (r != EW_OK) return r;
         }
         if (s->inplace) {
-            const ew_tile t = {0, bb.cy, w, bb.ch, 0, bb.ry, w, bb.rh};
-            r = ew_tile_writer_core(&s->tw, &tiling, &t, b->out, b->radiance);
+            r = ew_tile_writer_core(&s->tw, tiling, &bb, b->out, b->radiance);
         } else {
             const ew_image core = view_rows(o, bb.cy, bb.ch);
             r = ew_dev_get_view(dev, b->out + (size_t)(bb.cy - bb.ry) * w3, 3, &core, s->stage);
         }
-        if (r == EW_OK && !ew_op_report(op, (cw > 0.0f ? 0.4 : 0.0) + (cw > 0.0f ? 0.6 : 1.0) * (i + 1) / s->bands))
+        if (r == EW_OK && !ew_op_report(op, (cw > 0.0f ? 0.4 : 0.0) + (cw > 0.0f ? 0.6 : 1.0) * (i + 1) / tiling->ny))
             r = ew__fail(dev, EW_ERR_CANCELLED, "cancelled");
     }
     b->height = h;
@@ -569,7 +557,7 @@ static ew_result execute_bands(ew_op *op) {
 
 static ew_result execute(ew_op *op) {
     state *s = (state *)op->state;
-    if (s->bands > 1) return execute_bands(op);
+    if (s->bands.ny > 1) return execute_bands(op);
     ew_device *dev = op->dev;
     ew_denoise_buffers *b = &s->buf;
     ew_result r = ew_dev_put_view(dev, ew_op_image(op, "color"), 3, (float *)b->color, s->stage);
@@ -635,7 +623,7 @@ static ew_result execute(ew_op *op) {
 
 static const char *describe(const ew_op *op) {
     const state *s = (const state *)op->state;
-    return s && s->bands > 1 ? s->choice : NULL;
+    return s && s->bands.ny > 1 ? s->choice : NULL;
 }
 
 const ew_op_type ew_denoise_bgrid = {
