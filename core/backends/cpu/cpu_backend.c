@@ -720,12 +720,16 @@ static int harm_stats_blend_bands(ew_device *dev, const ew_harm_args *a) {
     rows = ew_maxi(ew_mini(rows, h), 1);
     const int bands = (h + rows - 1) / rows;
     const size_t edges = (size_t)bands * (size_t)(2 * r + 1) * EW_HARM_STATS_FLOATS * (size_t)w;
-    float *mem = (float *)malloc((edges + (size_t)bands * harm_band_work_floats(w, r)) * sizeof(float));
+    /* mapped by itself, as the sweeps' scratch: a program that keeps freed
+     * heap blocks for reuse (the CLI) would hold its 8 MB at 4K through the
+     * energy return that follows */
+    const size_t bytes = (edges + (size_t)bands * harm_band_work_floats(w, r)) * sizeof(float);
+    float *mem = (float *)ew__scratch_alloc(bytes);
     if (!mem) return 0;
     harm_band_job j = {a, rows, mem, mem + edges};
     ew_pool_run(dev->pool, bands, 1, harm_band_edges, &j);
     ew_pool_run(dev->pool, bands, 1, harm_band_blend, &j);
-    free(mem);
+    ew__scratch_free(mem, bytes);
     return 1;
 }
 
