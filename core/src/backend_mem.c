@@ -158,10 +158,13 @@ void *ew_host_alloc(size_t bytes) {
     void *p = NULL;
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE) && defined(MADV_HUGEPAGE)
     /* from 2 MiB up the block starts on a huge page, so all of it can be
-     * made of them (glibc maps such a block by itself and unmaps it on free) */
+     * made of them (glibc maps such a block by itself and unmaps it on free)
+     * but the first: an op's block begins with its small parts (row sums,
+     * parameters, a band's buffers), written long before the planes after
+     * them or without them, which in a huge page hold 2 MiB each */
     if (bytes >= PREFAULT_CHUNK) {
         if (posix_memalign(&p, PREFAULT_CHUNK, bytes) != 0) return NULL;
-        advise_huge_pages((uintptr_t)p, (uintptr_t)p + bytes);
+        advise_huge_pages((uintptr_t)p + PREFAULT_CHUNK, (uintptr_t)p + bytes);
         return p;
     }
 #endif
