@@ -91,7 +91,6 @@ static const int input_channels[4] = {3, 3, 3, 1};
 
 #define MIN_BAND_CORE 16 /* rows: below it the halos would be nearly all the work */
 
-
 /* What a core row reads around it: the grids' reach and the clamp's, and
  * where the do-no-harm stage may run in the bands, the rows its blend of
  * the core reads beyond it (whose output must be exact too) */
@@ -231,10 +230,8 @@ static size_t stage_floats(const ew_op *op, int w, int h, int bands, int halo) {
     int own[4];
     band_inputs(op, in, own);
     int rows = h;
-    if (bands > 1 && !own[0] && !own[1] && !own[2] && !own[3]) {
-        const int core = (h + bands - 1) / bands;
-        rows = core + 2 * halo < h ? core + 2 * halo : h;
-    }
+    if (bands > 1 && !own[0] && !own[1] && !own[2] && !own[3])
+        rows = bands_tiling(w, h, (h + bands - 1) / bands, halo).rh;
     return ew_dev_stage_floats(op->dev, (size_t)w * (size_t)rows, 3);
 }
 
@@ -371,11 +368,6 @@ static ew_result band_input(ew_op *op, int i, const ew_tile *bb, const float **d
     return ew_dev_put_view(op->dev, &v, c, s->band_in[i], s->stage);
 }
 
-/* The region of band bb up to the grids: its inputs, radiance and guide,
- * and the firefly clamp (the removed light of its core into the stage's
- * frame when `removed`, but in the band's buffer only while the stage runs
- * in the bands, which rewrites it first); *radiance is what the grids
- * splat. */
 /* The band's core rows of the light the clamp took into the stage's frame
  * plane `removed` (sparse: a quiet frame's clamp takes a few pixels) */
 static ew_result core_removed_out(ew_op *op, const ew_tile *bb, float *removed) {
@@ -385,6 +377,11 @@ static ew_result core_removed_out(ew_op *op, const ew_tile *bb, float *removed) 
                               (size_t)bb->ch * w);
 }
 
+/* The region of band bb up to the grids: its inputs, radiance and guide,
+ * and the firefly clamp (the removed light of its core into the stage's
+ * frame when `removed`, but in the band's buffer only while the stage runs
+ * in the bands, which rewrites it first); *radiance is what the grids
+ * splat. */
 static ew_result band_prepare(ew_op *op, const ew_tile *bb, float *removed, const float **radiance) {
     state *s = (state *)op->state;
     ew_device *dev = op->dev;
